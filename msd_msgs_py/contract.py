@@ -1,0 +1,55 @@
+"""Topic names, ROS type names and QoS settings, free of any rclpy import.
+
+The names here are *relative* (no leading slash) so every plant-like node —
+the emulated plant under ``/msd``, a surrogate under ``/surrogate/plm``, a rig
+driver — speaks the same contract under its own namespace; ``/clock`` is the
+one absolute topic. Bag tooling imports this module without ROS installed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class TopicSpec:
+    """One topic of the contract."""
+
+    name: str
+    """Relative name under the plant-like node's namespace (absolute for /clock)."""
+    ros_type: str
+    """ROS 2 interface name as rosbag2 stores it, e.g. ``std_msgs/msg/Float64``."""
+    depth: int
+    """Keep-last history depth of the reliable QoS profile."""
+    doc: str
+    """What the topic carries."""
+
+    def resolve(self, namespace: str) -> str:
+        """Absolute topic name under ``namespace`` (``/msd`` -> ``/msd/position``)."""
+        if self.name.startswith("/"):
+            return self.name
+        return f"{namespace.rstrip('/')}/{self.name}"
+
+
+PLANT_NAMESPACE = "/msd"
+"""Namespace of the emulated plant (and of a real rig that replaces it)."""
+
+JOINT_NAME = "msd_slider"
+"""The one joint name in ``joint_states``."""
+
+TELEMETRY_DEPTH = 1000
+"""Reliable keep-last depth for telemetry: 10 s at 100 Hz, so bags lose nothing on loopback."""
+
+POSITION = TopicSpec("position", "std_msgs/msg/Float64", TELEMETRY_DEPTH, "position x in m, 100 Hz")
+JOINT_STATES = TopicSpec(
+    "joint_states",
+    "sensor_msgs/msg/JointState",
+    TELEMETRY_DEPTH,
+    "stamped position (m), velocity (m/s), effort = force actually applied (N) over the next sample",
+)
+FORCE = TopicSpec("force", "std_msgs/msg/Float64", 1, "force command in N; non-finite rejected, saturated at ±F")
+REFERENCE = TopicSpec("reference", "std_msgs/msg/Float64", 1, "set-point for the agent, m")
+CLOCK = TopicSpec("/clock", "rosgraph_msgs/msg/Clock", TELEMETRY_DEPTH, "sim time, lock-step mode only")
+
+TELEMETRY_TOPICS = (POSITION, JOINT_STATES)
+ALL_TOPICS = (POSITION, JOINT_STATES, FORCE, REFERENCE, CLOCK)

@@ -1,0 +1,63 @@
+"""rclpy-side helpers of the contract: QoS profiles, message classes, conversions.
+
+Imported only by nodes (it needs rclpy); bag code uses :mod:`msd_msgs_py.contract`.
+"""
+
+from __future__ import annotations
+
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+
+from msd_msgs_py.contract import JOINT_NAME, TopicSpec
+
+MESSAGE_CLASSES = {
+    "std_msgs/msg/Float64": Float64,
+    "sensor_msgs/msg/JointState": JointState,
+    "rosgraph_msgs/msg/Clock": Clock,
+}
+
+
+def qos(spec: TopicSpec) -> QoSProfile:
+    """Reliable keep-last QoS of the topic's depth (volatile durability)."""
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=spec.depth,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.VOLATILE,
+    )
+
+
+def msg_class(spec: TopicSpec) -> type:
+    """The generated Python class of the topic's type."""
+    return MESSAGE_CLASSES[spec.ros_type]
+
+
+def nanoseconds_to_stamp(ns: int, stamp: object) -> None:
+    """Fill a ``builtin_interfaces/Time`` in place from integer nanoseconds."""
+    stamp.sec = int(ns // 1_000_000_000)  # type: ignore[attr-defined]
+    stamp.nanosec = int(ns % 1_000_000_000)  # type: ignore[attr-defined]
+
+
+def joint_state(stamp_ns: int, x: float, v: float, effort: float) -> JointState:
+    """The plant's stamped telemetry sample."""
+    msg = JointState()
+    nanoseconds_to_stamp(stamp_ns, msg.header.stamp)
+    msg.name = [JOINT_NAME]
+    msg.position = [float(x)]
+    msg.velocity = [float(v)]
+    msg.effort = [float(effort)]
+    return msg
+
+
+def float64(value: float) -> Float64:
+    """A ``std_msgs/Float64``."""
+    return Float64(data=float(value))
+
+
+def clock(stamp_ns: int) -> Clock:
+    """A ``rosgraph_msgs/Clock`` at ``stamp_ns``."""
+    msg = Clock()
+    nanoseconds_to_stamp(stamp_ns, msg.clock)
+    return msg
