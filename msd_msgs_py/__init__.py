@@ -12,6 +12,7 @@ from msd_msgs_py.contract import (
     PLANT_NAMESPACE,
     POSITION,
     REFERENCE,
+    RESET,
     TELEMETRY_TOPICS,
     TopicSpec,
 )
@@ -24,6 +25,7 @@ __all__ = [
     "PLANT_NAMESPACE",
     "POSITION",
     "REFERENCE",
+    "RESET",
     "TELEMETRY_TOPICS",
     "TopicSpec",
 ]

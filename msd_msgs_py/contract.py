@@ -47,9 +47,14 @@ JOINT_STATES = TopicSpec(
     TELEMETRY_DEPTH,
     "stamped position (m), velocity (m/s), effort = force actually applied (N) over the next sample",
 )
-FORCE = TopicSpec("force", "std_msgs/msg/Float64", 1, "force command in N; non-finite rejected, saturated at ±F")
+FORCE = TopicSpec(
+    "force", "std_msgs/msg/Float64", 1, "force command in N; non-finite rejected, saturated at ±F"
+)
 REFERENCE = TopicSpec("reference", "std_msgs/msg/Float64", 1, "set-point for the agent, m")
+RESET = TopicSpec(
+    "reset", "std_msgs/msg/Empty", 1, "return the plant-like node to rest at the origin, sample 0"
+)
 CLOCK = TopicSpec("/clock", "rosgraph_msgs/msg/Clock", TELEMETRY_DEPTH, "sim time, lock-step mode only")
 
 TELEMETRY_TOPICS = (POSITION, JOINT_STATES)
-ALL_TOPICS = (POSITION, JOINT_STATES, FORCE, REFERENCE, CLOCK)
+ALL_TOPICS = (POSITION, JOINT_STATES, FORCE, REFERENCE, RESET, CLOCK)

@@ -8,12 +8,13 @@ from __future__ import annotations
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
+from std_msgs.msg import Empty, Float64
 
 from msd_msgs_py.contract import JOINT_NAME, TopicSpec
 
 MESSAGE_CLASSES = {
     "std_msgs/msg/Float64": Float64,
+    "std_msgs/msg/Empty": Empty,
     "sensor_msgs/msg/JointState": JointState,
     "rosgraph_msgs/msg/Clock": Clock,
 }

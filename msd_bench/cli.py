@@ -1,0 +1,42 @@
+"""The ``msd-bench`` console script: ``paper``, ``bag``, ``echo``, ``hz``.
+
+Every subcommand module exposes ``register(subparsers)`` and sets ``func`` on
+its parser. A user mistake (:class:`MsdBenchError`) prints one line on stderr
+and exits with status 2 — never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from msd_bench.core.errors import MsdBenchError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full parser with every subcommand registered."""
+    from msd_bench.commands import bag, paper, topics
+
+    parser = argparse.ArgumentParser(prog="msd-bench", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for module in (paper, bag, topics):
+        module.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Parse, dispatch, and turn user errors into one line and exit status 2."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except MsdBenchError as exc:
+        print(f"msd-bench {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"msd-bench {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

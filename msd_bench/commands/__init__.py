@@ -1,0 +1,1 @@
+"""Subcommands of the ``msd-bench`` CLI; each module offers ``register(subparsers)``."""

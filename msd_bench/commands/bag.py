@@ -1,0 +1,77 @@
+"""``msd-bench bag info PATH`` and ``msd-bench bag recover PATH``.
+
+``register(subparsers)`` adds the ``bag`` command to the project CLI; every
+leaf parser sets ``func(args) -> int`` (the exit status). :func:`main` runs
+the command alone (tests, or before the CLI exists). User mistakes print one
+``error:`` line and exit with status 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from msd_bench.core.errors import MsdBenchError
+from msd_bench.io.bag_recover import RECOVERED_SUFFIX, recover
+from msd_bench.io.bags import bag_info
+
+EXIT_USAGE = 2
+"""Exit status on a user mistake (bad path, unreadable bag)."""
+
+
+def _info(args: argparse.Namespace) -> int:
+    info = bag_info(args.path)
+    print(f"bag:       {info.path}")
+    print(f"duration:  {info.duration_s:.3f} s")
+    for topic, (ros_type, count) in sorted(info.topics.items()):
+        print(f"topic:     {topic}  [{ros_type}]  {count} messages")
+    print(f"params:    {json.dumps(info.params, sort_keys=True) if info.params else '(none)'}")
+    return 0
+
+
+def _recover(args: argparse.Namespace) -> int:
+    report = recover(args.path, output=args.output, overwrite=args.overwrite)
+    print(report.summary())
+    for topic, count in sorted(report.counts.items()):
+        print(f"  {topic}: {count} messages")
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    """Add ``bag info`` and ``bag recover`` to an argparse subparsers object."""
+    bag = subparsers.add_parser("bag", help="inspect or recover rosbag2 (MCAP) bags")
+    sub = bag.add_subparsers(dest="bag_command", required=True, metavar="{info,recover}")
+    info = sub.add_parser("info", help="topics, message counts, duration and stored parameters")
+    info.add_argument("path", help="bag directory")
+    info.set_defaults(func=_info)
+    rec = sub.add_parser(
+        "recover",
+        help="rebuild a complete bag from a killed recording (the original is left untouched)",
+    )
+    rec.add_argument("path", help="bag directory (or its .mcap file)")
+    rec.add_argument("--output", default=None, help=f"new bag directory (default: PATH{RECOVERED_SUFFIX})")
+    rec.add_argument("--overwrite", action="store_true", help="replace an existing recovered bag")
+    rec.set_defaults(func=_recover)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Call the chosen subcommand; a :class:`MsdBenchError` becomes one line and status 2."""
+    try:
+        return int(args.func(args))
+    except MsdBenchError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``msd-bench bag ...`` on its own: ``main(["bag", "info", "bags/x"])``."""
+    parser = argparse.ArgumentParser(prog="msd-bench")
+    register(parser.add_subparsers(dest="command", required=True))
+    return run(parser.parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,173 @@
+"""Model and Q-table artifacts with a schema version and provenance.
+
+A model artifact is one JSON file (exact: Python writes floats with ``repr``,
+so parameters round-trip bit-for-bit); a Q-table artifact is an ``.npz`` with
+its metadata as a JSON string inside. Both record where they came from: the
+bags and their content hashes, the parameters and the seed, so any result can
+be traced back to the data that produced it.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+import math
+import platform
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import msd_bench
+from msd_bench.core import kernels
+from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.model import StepModel
+
+MODEL_SCHEMA = "msd-bench/model"
+QTABLE_SCHEMA = "msd-bench/qtable"
+SCHEMA_VERSION = 1
+
+
+class ArtifactError(MsdBenchError):
+    """An artifact is missing, unreadable, of another schema or another version."""
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where an artifact came from."""
+
+    sources: tuple[dict[str, str], ...] = ()
+    """Input files (bags, models) as ``{"path": ..., "sha256": ...}``."""
+    parameters: dict[str, Any] = field(default_factory=dict)
+    """Every configuration value that shaped the artifact."""
+    seed: int | None = None
+    """Random seed, if any."""
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready, stamped with the tool version, Python and the time of writing."""
+        return {
+            "sources": list(self.sources),
+            "parameters": _jsonable(self.parameters),
+            "seed": self.seed,
+            "msd_bench_version": msd_bench.__version__,
+            "python": platform.python_version(),
+            "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        }
+
+
+def sha256_path(path: Path) -> str:
+    """Content hash of a file, or of every file under a directory (a rosbag2 bag)."""
+    path = Path(path)
+    if not path.exists():
+        raise ArtifactError(f"{path}: no such file or directory to hash")
+    digest = hashlib.sha256()
+    files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+    for f in files:
+        digest.update(f.relative_to(path).as_posix().encode() if path.is_dir() else b"")
+        with f.open("rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(block)
+    return digest.hexdigest()
+
+
+def source(path: Path) -> dict[str, str]:
+    """A provenance entry for an input file or bag."""
+    return {"path": str(path), "sha256": sha256_path(path)}
+
+
+def save_model(model: StepModel, path: Path, provenance: Provenance) -> Path:
+    """Write ``model`` as a JSON artifact; refuses to overwrite."""
+    path = _fresh(Path(path))
+    doc = {
+        "schema": MODEL_SCHEMA,
+        "schema_version": SCHEMA_VERSION,
+        "name": model.name,
+        "kind": kernels.KIND_NAMES[model.kind],
+        "params": [float(v) for v in model.params],
+        "info": _jsonable(model.info),
+        "provenance": provenance.as_dict(),
+    }
+    path.write_text(json.dumps(doc, indent=1) + "\n")
+    return path
+
+
+def load_model(path: Path) -> StepModel:
+    """Read a model artifact written by :func:`save_model`."""
+    doc = _read_json(Path(path), MODEL_SCHEMA)
+    kinds = {v: k for k, v in kernels.KIND_NAMES.items()}
+    if doc.get("kind") not in kinds:
+        raise ArtifactError(f"{path}: unknown model kind {doc.get('kind')!r}")
+    try:
+        return StepModel(kinds[doc["kind"]], np.asarray(doc["params"], float), doc["name"], doc["info"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ArtifactError(f"{path}: malformed model artifact ({exc})") from None
+
+
+def save_qtables(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> Path:
+    """Write Q-tables (and snapshots) as ``.npz`` with JSON metadata; refuses to overwrite."""
+    path = _fresh(Path(path))
+    doc = {"schema": QTABLE_SCHEMA, "schema_version": SCHEMA_VERSION, **_jsonable(meta)}
+    with path.open("wb") as fh:
+        np.savez_compressed(fh, meta=np.array(json.dumps(doc)), **arrays)
+    return path
+
+
+def load_qtables(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """Read a Q-table artifact: its arrays and its metadata."""
+    path = Path(path)
+    if not path.is_file():
+        raise ArtifactError(f"{path}: no such Q-table artifact")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+            arrays = {k: data[k] for k in data.files if k != "meta"}
+    except (OSError, ValueError, KeyError) as exc:
+        raise ArtifactError(f"{path}: unreadable Q-table artifact ({exc})") from None
+    _check_schema(meta, QTABLE_SCHEMA, path)
+    return arrays, meta
+
+
+def _read_json(path: Path, schema: str) -> dict[str, Any]:
+    if not path.is_file():
+        raise ArtifactError(f"{path}: no such artifact")
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ArtifactError(f"{path}: not a JSON artifact ({exc})") from None
+    _check_schema(doc, schema, path)
+    return doc  # type: ignore[no-any-return]
+
+
+def _check_schema(doc: Any, schema: str, path: Path) -> None:
+    if not isinstance(doc, dict) or doc.get("schema") != schema:
+        raise ArtifactError(f"{path}: not a {schema} artifact")
+    if doc.get("schema_version") != SCHEMA_VERSION:
+        raise ArtifactError(
+            f"{path}: schema version {doc.get('schema_version')} is not {SCHEMA_VERSION}"
+        )
+
+
+def _fresh(path: Path) -> Path:
+    if path.exists():
+        raise ArtifactError(f"{path}: already exists; refusing to overwrite")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _jsonable(value: Any) -> Any:
+    """Plain JSON types: numpy scalars/arrays to Python, NaN/inf to None, tuples to lists."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        return _jsonable(value.item())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, Path):
+        return str(value)
+    return value

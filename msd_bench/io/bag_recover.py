@@ -1,0 +1,162 @@
+"""Recover a killed recording: salvage the complete chunks of a footerless MCAP.
+
+A SIGKILLed :class:`~msd_bench.io.bags.BagRecorder` leaves an MCAP file with
+no summary, no footer, maybe a half-written last chunk, and no
+``metadata.yaml``. ``mcap``'s ``StreamReader`` reads records front to back
+without needing the footer; every chunk is checked against its CRC and taken
+whole or not at all, and the scan stops at the first truncated or corrupt
+record. The salvage is written as a new bag *beside* the original
+(``<bag>.recovered``); the original is never modified.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mcap.exceptions import McapError
+from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Metadata, Schema
+from mcap.stream_reader import CRCValidationError, StreamReader, breakup_chunk
+from rosbags.typesys import get_types_from_msg
+from rosbags.typesys.store import Typestore
+
+from msd_bench.io.bags import PARAMS_RECORD, BagRecorder, _prepare_target, typestore
+from msd_bench.io.errors import BagError
+
+RECOVERED_SUFFIX = ".recovered"
+"""Suffix of the directory the recovered bag is written to, next to the original."""
+
+
+@dataclass(frozen=True)
+class RecoveryReport:
+    """What :func:`recover` salvaged."""
+
+    source: Path
+    """The damaged MCAP file (left untouched)."""
+    output: Path
+    """The new, complete bag directory."""
+    messages: int
+    """Messages copied into the new bag."""
+    chunks: int
+    """Complete chunks read (a partial trailing chunk is dropped)."""
+    stopped: str
+    """Why the scan ended: ``"end of data"`` or the truncation/corruption met."""
+    counts: dict[str, int] = field(default_factory=dict)
+    """Messages per topic in the new bag."""
+
+    def summary(self) -> str:
+        """One line for the CLI."""
+        return (
+            f"recovered {self.messages} messages ({self.chunks} chunks) from {self.source} "
+            f"into {self.output}; original left untouched; scan ended: {self.stopped}"
+        )
+
+
+@dataclass
+class _Salvage:
+    schemas: dict[int, Schema] = field(default_factory=dict)
+    channels: dict[int, Channel] = field(default_factory=dict)
+    messages: list[Message] = field(default_factory=list)
+    params: str | None = None
+    chunks: int = 0
+    stopped: str = "end of data"
+
+
+def _mcap_file(path: Path) -> Path:
+    """The one MCAP file of a bag directory (or the file itself)."""
+    if path.is_file():
+        return path
+    if not path.is_dir():
+        raise BagError(f"bag {path} does not exist")
+    files = sorted(path.glob("*.mcap"))
+    if len(files) != 1:
+        raise BagError(f"bag {path}: expected one .mcap file, found {len(files)}")
+    return files[0]
+
+
+def _take(salvage: _Salvage, record: object) -> None:
+    """Keep one record's contribution."""
+    if isinstance(record, Schema):
+        salvage.schemas[record.id] = record
+    elif isinstance(record, Channel):
+        salvage.channels[record.id] = record
+    elif isinstance(record, Message):
+        salvage.messages.append(record)
+    elif isinstance(record, Metadata) and record.name == PARAMS_RECORD:
+        salvage.params = record.metadata.get("params")
+
+
+def _scan(mcap_file: Path) -> _Salvage:
+    """Read records until the data section ends or a record is truncated or corrupt."""
+    salvage = _Salvage()
+    with mcap_file.open("rb") as fh:
+        reader = StreamReader(fh, emit_chunks=True, validate_crcs=True)
+        try:
+            for record in reader.records:
+                if isinstance(record, DataEnd | Footer):
+                    break
+                if isinstance(record, Chunk):
+                    inner = breakup_chunk(record, validate_crc=True)  # all or nothing
+                    for rec in inner:
+                        _take(salvage, rec)
+                    salvage.chunks += 1
+                else:
+                    _take(salvage, record)
+        except CRCValidationError as exc:
+            salvage.stopped = f"corrupt chunk ({exc})"
+        except (McapError, struct.error, EOFError, ValueError, UnicodeDecodeError) as exc:
+            salvage.stopped = f"truncated or corrupt record after chunk {salvage.chunks} ({exc!r})"
+    return salvage
+
+
+def _store_for(schemas: dict[int, Schema]) -> Typestore:
+    """Kilted's typestore plus any message type the bag defines that it lacks."""
+    store = typestore()
+    for schema in schemas.values():
+        if schema.name not in store.types and schema.encoding == "ros2msg":
+            store.register(get_types_from_msg(schema.data.decode(), schema.name))
+    return store
+
+
+def _write(salvage: _Salvage, out: Path) -> dict[str, int]:
+    """Copy the salvaged messages into a complete bag; returns messages per topic."""
+    params = json.loads(salvage.params) if salvage.params else {}
+    counts: dict[str, int] = {}
+    with BagRecorder(out, params=params, store=_store_for(salvage.schemas)) as rec:
+        for msg in salvage.messages:
+            channel = salvage.channels.get(msg.channel_id)
+            schema = salvage.schemas.get(channel.schema_id) if channel else None
+            if channel is None or schema is None:
+                continue  # a message whose channel was lost cannot be typed
+            rec.write(channel.topic, schema.name, msg.log_time, msg.data)
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+    return counts
+
+
+def recover(path: str | Path, *, output: str | Path | None = None, overwrite: bool = False) -> RecoveryReport:
+    """Write the readable part of a killed recording as a new bag next to it.
+
+    ``path`` is the bag directory (or its ``.mcap``); the new bag goes to
+    ``output`` or ``<bag>.recovered``. Raises :class:`BagError` when nothing
+    at all can be salvaged.
+    """
+    path = Path(path)
+    source = _mcap_file(path)
+    bag_dir = path if path.is_dir() else path.parent
+    out = Path(output) if output is not None else bag_dir.with_name(bag_dir.name + RECOVERED_SUFFIX)
+    _prepare_target(out, overwrite)
+    salvage = _scan(source)
+    if not salvage.messages:
+        raise BagError(f"bag {path}: no complete chunk to recover ({salvage.stopped})")
+    try:
+        counts = _write(salvage, out)
+    except BagError:
+        raise
+    except (ValueError, KeyError) as exc:
+        raise BagError(f"bag {path}: cannot rewrite salvaged messages ({exc})") from None
+    return RecoveryReport(source, out, sum(counts.values()), salvage.chunks, salvage.stopped, counts)
+
+
+__all__ = ["RECOVERED_SUFFIX", "RecoveryReport", "recover"]

@@ -1,0 +1,94 @@
+"""PNG figures like the paper's: model fits (Fig. 3–5), Q-table heat maps (Fig. 6/7/11/12)
+and closed-loop step responses (Fig. 13), drawn headless with matplotlib's Agg backend."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+def fit_figure(
+    path: Path,
+    title: str,
+    panels: Sequence[tuple[str, FloatArray, FloatArray, float]],
+    dt: float = 0.01,
+    max_seconds: float = 60.0,
+) -> Path:
+    """Measured vs simulated output, one panel per record: ``(label, y, yhat, fit %)``."""
+    fig, axes = plt.subplots(len(panels), 1, figsize=(9, 2.2 * len(panels) + 0.6), squeeze=False)
+    for ax, (label, y, yhat, fit) in zip(axes[:, 0], panels, strict=True):
+        n = min(len(y), int(max_seconds / dt))
+        t = np.arange(n) * dt
+        ax.plot(t, y[:n], lw=1.0, label="measured")
+        ax.plot(t, yhat[:n], lw=1.0, ls="--", label=f"model (fit {fit:.1f} %)")
+        ax.set_ylabel(f"{label}\nx (m)")
+        ax.legend(loc="upper right", fontsize=8)
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.suptitle(title)
+    return _save(fig, path)
+
+
+def qtable_figure(path: Path, title: str, first: FloatArray, last: FloatArray) -> Path:
+    """Filled contours of Q(s, a) after the first and after the last episode."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for ax, q, when in zip(axes, (first, last), ("after episode 1", "after the last episode"), strict=True):
+        q2 = np.asarray(q, dtype=float).reshape(q.shape[0], -1)
+        actions, states = np.arange(q2.shape[1]) + 1, np.arange(q2.shape[0]) + 1
+        cs = ax.contourf(actions, states, q2, levels=20, cmap="viridis")
+        fig.colorbar(cs, ax=ax)
+        ax.set_xlabel("action index")
+        ax.set_ylabel("state index")
+        ax.set_title(when)
+    fig.suptitle(title)
+    return _save(fig, path)
+
+
+def step_response_figure(
+    path: Path,
+    responses: Mapping[str, Sequence[FloatArray]],
+    target: float = 1.0,
+    dt: float = 0.01,
+    band: float = 0.02,
+) -> Path:
+    """Position and |error| of greedy agents on the true plant, one column per agent kind.
+
+    Every seed is drawn thinly so the spread across seeds is visible, the median
+    response thickly.
+    """
+    kinds = list(responses)
+    fig, axes = plt.subplots(2, len(kinds), figsize=(3.6 * len(kinds), 5.5), squeeze=False, sharex=True)
+    for col, kind in enumerate(kinds):
+        runs = np.asarray(responses[kind], dtype=float)
+        t = np.arange(runs.shape[1]) * dt
+        top, bottom = axes[0, col], axes[1, col]
+        for x in runs:
+            top.plot(t, x, lw=0.5, alpha=0.35, color="tab:blue")
+            bottom.plot(t, np.abs(x - target), lw=0.5, alpha=0.35, color="tab:red")
+        top.plot(t, np.median(runs, axis=0), lw=1.5, color="navy", label="median")
+        top.axhline(target, color="k", lw=0.8, ls=":")
+        top.axhspan(target * (1 - band), target * (1 + band), color="green", alpha=0.15)
+        top.set_title(f"{kind} (n={len(runs)})", fontsize=9)
+        top.set_ylim(-0.5, 2.6)
+        bottom.set_xlabel("time (s)")
+    axes[0, 0].set_ylabel("x (m)")
+    axes[1, 0].set_ylabel("|e| (m)")
+    fig.suptitle(f"Closed loop on the true plant, unit step (±{100 * band:.0f} % band shaded)")
+    return _save(fig, path)
+
+
+def _save(fig: plt.Figure, path: Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path

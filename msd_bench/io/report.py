@@ -1,0 +1,120 @@
+"""Table 1 as Markdown, CSV and JSON (schema ``msd-bench/table1`` v1, see README)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from msd_bench.core.results import METRIC_KEYS, AgentResult
+from msd_bench.io.artifacts import _jsonable
+
+TABLE_SCHEMA = "msd-bench/table1"
+TABLE_VERSION = 1
+
+_HEADERS = {
+    "mae": "MAE (m)",
+    "std": "STD (m)",
+    "po": "PO (%)",
+    "ts": "ts 2% (s)",
+    "ts5": "ts 5% (s)",
+    "sse": "SSE (%)",
+}
+
+
+def table_json(results: Sequence[AgentResult], run: Mapping[str, Any]) -> dict[str, Any]:
+    """The ``table1.json`` document: run facts, then one object per agent kind."""
+    return {
+        "schema": TABLE_SCHEMA,
+        "schema_version": TABLE_VERSION,
+        "run": _jsonable(dict(run)),
+        "agents": [_agent_json(r) for r in results],
+    }
+
+
+def _agent_json(r: AgentResult) -> dict[str, Any]:
+    return _jsonable(
+        {
+            "kind": r.kind,
+            "label": r.label,
+            "surrogate": r.surrogate,
+            "agent": r.agent,
+            "identification_samples": r.identification_samples,
+            "fit_sim_percent": r.fit_sim,
+            "fit_one_step_percent": r.fit_one_step,
+            "fit_by_id_seed": list(r.fit_by_id_seed),
+            "real_interactions": r.real_interactions,
+            "notes": r.notes,
+            "n": r.n,
+            "n_success": r.n_success,
+            "success_rate": r.success_rate,
+            "summary": {k: s.as_dict() for k, s in r.summary().items()},
+            "per_seed": list(r.per_seed),
+        }
+    )
+
+
+def table_markdown(results: Sequence[AgentResult], run: Mapping[str, Any]) -> str:
+    """Table 1 for humans: fits, samples, each metric as mean ± sd (median), success rate."""
+    head = ["Agent", "Fit sim (%)", "Fit 1-step (%)", "Id. samples", *_HEADERS.values(), "Success"]
+    lines = [
+        f"Table 1 — unit step on the true plant ({run.get('preset', '?')} preset), "
+        f"{run.get('seeds', '?')} seeds per agent; SSE over the last {run.get('window', '?')} "
+        f"steps; success = SSE < 5 %; cells are mean ± sd (med median) [defined/n].",
+        "",
+        "| " + " | ".join(head) + " |",
+        "|" + "---|" * len(head),
+    ]
+    for r in results:
+        summ = r.summary()
+        cells = [
+            r.label,
+            _fmt(r.fit_sim),
+            _fmt(r.fit_one_step),
+            str(r.identification_samples) if r.identification_samples else "—",
+            *(summ[k].text(3 if k in ("mae", "std") else 1) for k in METRIC_KEYS),
+            f"{r.n_success}/{r.n} ({100 * r.success_rate:.0f} %)",
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    notes = [f"- {r.label}: {r.notes}" for r in results if r.notes]
+    return "\n".join(lines + (["", *notes] if notes else [])) + "\n"
+
+
+def write_report(out_dir: Path, results: Sequence[AgentResult], run: Mapping[str, Any]) -> dict[str, Path]:
+    """Write ``table1.json``, ``table1.csv`` and ``table1.md`` under ``out_dir``."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = {
+        "json": out_dir / "table1.json",
+        "csv": out_dir / "table1.csv",
+        "md": out_dir / "table1.md",
+    }
+    paths["json"].write_text(json.dumps(table_json(results, run), indent=1) + "\n")
+    _write_csv(paths["csv"], results)
+    paths["md"].write_text(table_markdown(results, run))
+    return paths
+
+
+def _write_csv(path: Path, results: Sequence[AgentResult]) -> None:
+    """One line per agent kind and seed (tidy data), so any tool can re-summarise."""
+    cols = ["kind", "label", "surrogate", "agent", "identification_samples",
+            "fit_sim_percent", "fit_one_step_percent", "seed", "id_seed", *METRIC_KEYS, "success"]
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(cols)
+        for r in results:
+            for s in r.per_seed:
+                w.writerow([r.kind, r.label, r.surrogate, r.agent, r.identification_samples,
+                            _csv(r.fit_sim), _csv(r.fit_one_step), s["seed"], s["id_seed"],
+                            *(_csv(s[k]) for k in METRIC_KEYS), int(bool(s["success"]))])
+
+
+def _fmt(v: float | None) -> str:
+    return "—" if v is None or not math.isfinite(v) else f"{v:.1f}"
+
+
+def _csv(v: float | None) -> str:
+    return "" if v is None or not math.isfinite(v) else repr(float(v))
