@@ -184,6 +184,10 @@ def test_launch_script_sigterm_leaves_a_complete_bag(ctx: Context, tmp_path: Pat
     executor.add_node(node)
     try:
         _spin_until(executor, lambda: pub.get_subscription_count() >= 1, timeout=30.0)
+        # Our side sees the match before the recorder's reader has matched us: give it time.
+        settle = time.monotonic() + 0.5
+        while time.monotonic() < settle:
+            executor.spin_once(timeout_sec=0.05)
         for k in range(50):
             pub.publish(float64(k))
         time.sleep(1.0)  # let the reliable writer deliver before we stop the process

@@ -1,0 +1,130 @@
+"""Lock-step plant speed between two processes, beside a bare rclpy ping-pong.
+
+Both measurements drive a *separate process* from this one, one message out,
+one reply back, so the ratio isolates what the plant node adds over the
+middleware round trip:
+
+* ``pingpong``: an echo node (subscribes ``/bench_pingpong/force``, republishes
+  the value on ``/bench_pingpong/position``) — the floor rclpy allows;
+* ``lockstep``: ``launch_scripts/plant.py -p lockstep:=true``; each force
+  command yields joint_states, position and /clock, and the driver waits for
+  ``position`` (x_{k+1}).
+
+    .venv/bin/python benchmarks/bench_lockstep.py [--steps 5000]
+
+Prints JSON: steps/s of each, the ratio, and the spec floor (1,500 steps/s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from std_msgs.msg import Float64
+
+from msd_bench import launch
+from msd_bench.nodes.spin import main as spin_main
+from msd_msgs_py.contract import FORCE, POSITION
+from msd_msgs_py.ros import float64, qos
+
+PINGPONG_NS = "/bench_pingpong"
+FLOOR = 1500.0
+
+
+class Echo(Node):
+    """Republish every force value as a position: the bare round trip."""
+
+    def __init__(self) -> None:
+        super().__init__("echo", namespace=PINGPONG_NS)
+        self._pub = self.create_publisher(Float64, POSITION.name, qos(POSITION))
+        self.create_subscription(Float64, FORCE.name, lambda m: self._pub.publish(m), qos(FORCE))
+
+
+class Driver(Node):
+    """Send one command, spin until the reply arrives, repeat."""
+
+    def __init__(self, namespace: str) -> None:
+        super().__init__("bench_driver", namespace=namespace)
+        self.pub = self.create_publisher(Float64, FORCE.name, qos(FORCE))
+        self.sub = self.create_subscription(Float64, POSITION.name, self._on_reply, qos(POSITION))
+        self.replies = 0
+
+    def _on_reply(self, _msg: Float64) -> None:
+        self.replies += 1
+
+    def wait_matched(self, executor: SingleThreadedExecutor, timeout: float = 20.0) -> None:
+        deadline = time.monotonic() + timeout
+        while self.pub.get_subscription_count() == 0 or self.sub.get_publisher_count() == 0:
+            if time.monotonic() > deadline:
+                raise launch.LaunchError(f"{self.get_namespace()}: peer not matched in {timeout} s")
+            executor.spin_once(timeout_sec=0.05)
+        end = time.monotonic() + 0.5  # let the peer's side of the match settle
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.05)
+
+    def run(self, executor: SingleThreadedExecutor, steps: int) -> float:
+        """Round trips per second over ``steps`` commands."""
+        t0 = time.perf_counter()
+        for k in range(steps):
+            self.pub.publish(float64(0.001 * (k % 100)))
+            deadline = time.monotonic() + 5.0
+            while self.replies <= k:
+                executor.spin_once(timeout_sec=0.1)
+                if time.monotonic() > deadline:
+                    raise launch.LaunchError(f"reply {k} lost")
+        return steps / (time.perf_counter() - t0)
+
+
+def measure(proc: launch.NodeProcess, ns: str, steps: int) -> float:
+    """Round trips per second against the process ``proc`` serving namespace ``ns``."""
+    with rclpy.init(args=[]):
+        driver = Driver(ns)
+        executor = SingleThreadedExecutor()
+        executor.add_node(driver)
+        try:
+            driver.wait_matched(executor)
+            driver.run(executor, min(200, steps))  # warm-up
+            driver.replies = 0
+            return driver.run(executor, steps)
+        finally:
+            driver.destroy_node()
+            launch.stop(proc)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=5000)
+    parser.add_argument("--echo", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.echo:  # the ping-pong peer: this file is its own launch script
+        sys.exit(spin_main(Echo, args=[]))
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(101, 200)))
+    with launch.process_group() as procs:
+        echo = procs.start(Path(__file__).resolve(), name="echo", script_args=["--echo"])
+        ping = measure(echo, PINGPONG_NS, args.steps)
+        plant_proc = procs.start("plant.py", ["-p", "lockstep:=true", "-p", "duplicate_check:=0.0"])
+        plant = measure(plant_proc, "/msd", args.steps)
+    print(json.dumps({
+        "benchmark": "lockstep",
+        "steps": args.steps,
+        "pingpong_roundtrips_per_s": round(ping, 1),
+        "lockstep_steps_per_s": round(plant, 1),
+        "lockstep_over_pingpong": round(plant / ping, 3),
+        "floor_steps_per_s": FLOOR,
+        "meets_floor": plant >= FLOOR,
+    }, indent=2))
+
+
+if __name__ == "__main__":
+    main()

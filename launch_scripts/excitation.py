@@ -1,0 +1,15 @@
+"""Play one seeded excitation signal on /msd/force; exits 0 when done.
+
+    python launch_scripts/excitation.py [--ros-args -p signal:=multilevel -p seed:=3 -p lockstep:=true]
+"""
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from msd_bench.nodes.excitation_node import ExcitationNode
+from msd_bench.nodes.spin import run
+
+if __name__ == "__main__":
+    run(lambda: ExcitationNode())

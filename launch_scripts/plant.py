@@ -1,0 +1,15 @@
+"""Start the emulated NL-MSD plant: real-time 100 Hz under /msd by default.
+
+    python launch_scripts/plant.py [--ros-args -p lockstep:=true -p preset:=mild -r __ns:=/msd]
+"""
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from msd_bench.nodes.plant_node import PlantNode, declare_true_plant
+from msd_bench.nodes.spin import run
+
+if __name__ == "__main__":
+    run(lambda: PlantNode(declare_true_plant))

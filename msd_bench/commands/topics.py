@@ -1,0 +1,188 @@
+"""``echo TOPIC`` and ``hz TOPIC``: ``ros2 topic echo/hz`` for machines without the ROS 2 CLI.
+
+The PyPI wheels ship rclpy but no ``ros2`` command, so these two look at the
+bench from a terminal. The message type of a contract topic (``*/position``,
+``*/joint_states``, ``/clock`` ...) comes from :mod:`msd_msgs_py.contract`
+with its QoS; any other topic's type is looked up in the graph and read
+best-effort (which matches reliable and best-effort publishers alike).
+
+    msd-bench echo /msd/position --count 5
+    msd-bench hz /msd/joint_states --window 200
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import itertools
+import math
+import sys
+import time
+from collections import deque
+from collections.abc import Sequence
+from typing import Any
+
+import rclpy
+import yaml
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, qos_profile_sensor_data
+
+from msd_bench.core.errors import MsdBenchError
+from msd_msgs_py.contract import ALL_TOPICS
+from msd_msgs_py.ros import qos
+
+
+class TopicError(MsdBenchError):
+    """The topic is unknown, has no publisher, or its type cannot be imported."""
+
+
+def register(subparsers: Any) -> None:
+    """Add ``echo`` and ``hz`` to an argparse subparsers object."""
+    echo = subparsers.add_parser("echo", help="print messages of a topic (like ros2 topic echo)")
+    _common(echo)
+    echo.set_defaults(func=run_echo)
+    hz = subparsers.add_parser("hz", help="print the rate of a topic (like ros2 topic hz)")
+    _common(hz)
+    hz.add_argument("--window", type=int, default=100, help="messages the statistics cover")
+    hz.set_defaults(func=run_hz)
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("topic", help="absolute topic name, e.g. /msd/position")
+    p.add_argument("--count", type=int, default=0, help="stop after N messages (0: until Ctrl-C)")
+    p.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for a publisher")
+
+
+def resolve_type(node: Node, topic: str, timeout: float) -> tuple[type, QoSProfile]:
+    """Message class and QoS of ``topic``: the contract first, then the graph."""
+    for spec in ALL_TOPICS:
+        if topic == spec.name or topic.endswith("/" + spec.name.lstrip("/")):
+            return import_type(spec.ros_type), qos(spec)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        for name, types in node.get_topic_names_and_types():
+            if name == topic and types:
+                return import_type(types[0]), qos_profile_sensor_data
+        time.sleep(0.1)
+    raise TopicError(f"topic {topic} has no publisher (waited {timeout} s)")
+
+
+def import_type(ros_type: str) -> type:
+    """``pkg/msg/Name`` -> the generated class."""
+    try:
+        pkg, kind, name = ros_type.split("/")
+        cls: type = getattr(importlib.import_module(f"{pkg}.{kind}"), name)
+        return cls
+    except (ValueError, ImportError, AttributeError):
+        raise TopicError(f"cannot import message type {ros_type}") from None
+
+
+def to_plain(msg: Any) -> Any:
+    """A message as dicts/lists/floats, for YAML output."""
+    if hasattr(msg, "get_fields_and_field_types"):
+        return {f: to_plain(getattr(msg, f)) for f in msg.get_fields_and_field_types()}
+    if isinstance(msg, bytes | str | int | float | bool) or msg is None:
+        return msg
+    return [to_plain(v) for v in msg]
+
+
+class _Probe:
+    """One subscription counting and handing messages to a sink."""
+
+    def __init__(self, args: argparse.Namespace) -> None:
+        self.args = args
+        self.node = rclpy.create_node("msd_bench_topic_probe")
+        cls, profile = resolve_type(self.node, args.topic, args.timeout)
+        self.received = 0
+        self.node.create_subscription(cls, args.topic, self._on_msg, profile)
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(self.node)
+
+    def _on_msg(self, msg: Any) -> None:
+        self.received += 1
+        self.handle(msg)
+
+    def handle(self, msg: Any) -> None:
+        raise NotImplementedError
+
+    def spin(self) -> None:
+        """Spin until --count messages (or forever); TopicError if none comes in --timeout."""
+        deadline = time.monotonic() + self.args.timeout
+        while self.args.count <= 0 or self.received < self.args.count:
+            self.executor.spin_once(timeout_sec=0.1)
+            if self.received == 0 and time.monotonic() > deadline:
+                raise TopicError(f"no message on {self.args.topic} within {self.args.timeout} s")
+
+
+class _Echo(_Probe):
+    def handle(self, msg: Any) -> None:
+        sys.stdout.write(yaml.safe_dump(to_plain(msg), sort_keys=False) + "---\n")
+        sys.stdout.flush()
+
+
+class _Hz(_Probe):
+    def __init__(self, args: argparse.Namespace) -> None:
+        super().__init__(args)
+        self.times: deque[float] = deque(maxlen=max(2, args.window + 1))
+        self.last_report = time.monotonic()
+
+    def handle(self, _msg: Any) -> None:
+        now = time.monotonic()
+        self.times.append(now)
+        done = self.args.count > 0 and self.received >= self.args.count
+        if done or now - self.last_report >= 1.0:
+            self.last_report = now
+            print(rate_report(list(self.times)), flush=True)
+
+
+def rate_report(times: Sequence[float]) -> str:
+    """``ros2 topic hz``-style line: average rate, min/max/std of the gaps, window."""
+    if len(times) < 2:
+        return "average rate: n/a (fewer than 2 messages)"
+    gaps = [b - a for a, b in itertools.pairwise(times)]
+    mean = sum(gaps) / len(gaps)
+    std = math.sqrt(sum((g - mean) ** 2 for g in gaps) / len(gaps))
+    return (
+        f"average rate: {1.0 / mean:.3f}\n\tmin: {min(gaps):.4f}s max: {max(gaps):.4f}s "
+        f"std dev: {std:.5f}s window: {len(gaps)}"
+    )
+
+
+def _run(probe_cls: type[_Probe], args: argparse.Namespace) -> int:
+    try:
+        with rclpy.init(args=[]):
+            probe = probe_cls(args)
+            try:
+                probe.spin()
+            finally:
+                probe.node.destroy_node()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        return 0
+    return 0
+
+
+def run_echo(args: argparse.Namespace) -> int:
+    """Print each message as YAML followed by ``---``."""
+    return _run(_Echo, args)
+
+
+def run_hz(args: argparse.Namespace) -> int:
+    """Print the receive rate once a second (and once more at --count)."""
+    return _run(_Hz, args)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Standalone entry point: ``python -m msd_bench.commands.topics echo /msd/position``."""
+    parser = argparse.ArgumentParser(prog="msd-bench-topics", description=__doc__.splitlines()[0])
+    register(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except MsdBenchError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

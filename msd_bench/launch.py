@@ -1,0 +1,217 @@
+"""Start node processes from launch scripts and guarantee none is left behind.
+
+Why not ``ros2 launch``: the PyPI wheels ship no launch system, and tests,
+benchmarks and ``bench.py`` need exact control: each child is started with
+``sys.executable`` in its own process group, inherits the environment plus
+``ROS_DOMAIN_ID`` / ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, and is
+stopped by SIGINT, then SIGTERM, then SIGKILL. A SIGKILLed Fast DDS process
+cannot unlink its shared-memory segments, so :func:`stop` removes the
+``/dev/shm`` files it had open that no other process still uses.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from msd_bench.core.errors import MsdBenchError
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+SCRIPTS = REPO_ROOT / "launch_scripts"
+SHM = Path("/dev/shm")
+
+
+class LaunchError(MsdBenchError):
+    """A node process did not start, did not become ready, or would not stop."""
+
+
+@dataclass
+class NodeProcess:
+    """A running launch script with its merged stdout/stderr collected line by line."""
+
+    name: str
+    popen: subprocess.Popen[str]
+    lines: list[str] = field(default_factory=list)
+    shm_files: set[str] = field(default_factory=set)
+    reader: threading.Thread | None = None
+
+    @property
+    def pid(self) -> int:
+        """Process id (also the process group id)."""
+        return self.popen.pid
+
+    def output(self) -> str:
+        """Everything the process printed so far."""
+        return "\n".join(self.lines)
+
+    def wait_for_line(self, pattern: str, timeout: float) -> str:
+        """The first output line matching ``pattern`` (regex); LaunchError on timeout or exit."""
+        rx = re.compile(pattern)
+        deadline = time.monotonic() + timeout
+        seen = 0
+        while time.monotonic() < deadline:
+            for line in self.lines[seen:]:
+                if rx.search(line):
+                    return line
+            seen = len(self.lines)
+            if self.popen.poll() is not None and seen == len(self.lines):
+                raise LaunchError(f"{self.name} exited ({self.popen.returncode}) before {pattern!r}")
+            time.sleep(0.02)
+        raise LaunchError(f"{self.name}: no line matching {pattern!r} within {timeout} s")
+
+    def wait(self, timeout: float) -> int:
+        """Exit status once the process ends; LaunchError if it is still running."""
+        try:
+            status = self.popen.wait(timeout)
+        except subprocess.TimeoutExpired:
+            raise LaunchError(f"{self.name} still running after {timeout} s") from None
+        self.close_output()
+        return status
+
+    def close_output(self) -> None:
+        """Collect the last lines and close the pipe (the process has ended)."""
+        if self.reader is not None:
+            self.reader.join(timeout=2.0)
+        if self.popen.stdout is not None and not self.popen.stdout.closed:
+            self.popen.stdout.close()
+
+
+def ros_env(domain_id: int | None = None, extra: dict[str, str] | None = None) -> dict[str, str]:
+    """The inherited environment, confined to loopback, in ``domain_id`` if given."""
+    env = dict(os.environ)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    if domain_id is not None:
+        env["ROS_DOMAIN_ID"] = str(domain_id)
+    env.setdefault("PYTHONUNBUFFERED", "1")
+    env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")
+    env.update(extra or {})
+    return env
+
+
+def start(
+    script: str | Path,
+    ros_args: Sequence[str] = (),
+    *,
+    name: str | None = None,
+    script_args: Sequence[str] = (),
+    domain_id: int | None = None,
+    env: dict[str, str] | None = None,
+) -> NodeProcess:
+    """Start ``launch_scripts/<script>`` (or a path) with ``--ros-args`` in a new process group."""
+    path = Path(script)
+    if not path.is_absolute() and not path.exists():
+        path = SCRIPTS / path
+    argv = [sys.executable, str(path), *script_args]
+    if ros_args:
+        argv += ["--ros-args", *ros_args]
+    popen = subprocess.Popen(
+        argv, cwd=REPO_ROOT, env=env or ros_env(domain_id), text=True,
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True,
+    )
+    proc = NodeProcess(name or path.stem, popen)
+    proc.reader = threading.Thread(target=_pump, args=(proc,), daemon=True)
+    proc.reader.start()
+    return proc
+
+
+def _pump(proc: NodeProcess) -> None:
+    assert proc.popen.stdout is not None
+    try:
+        for line in proc.popen.stdout:
+            proc.lines.append(line.rstrip("\n"))
+    except ValueError:  # the pipe was closed under us
+        pass
+
+
+def stop(proc: NodeProcess, grace: Sequence[float] = (5.0, 3.0, 3.0)) -> int:
+    """SIGINT, then SIGTERM, then SIGKILL the process group; return the exit status."""
+    for sig, wait in zip((signal.SIGINT, signal.SIGTERM, signal.SIGKILL), grace, strict=True):
+        if proc.popen.poll() is not None:
+            break
+        if sig == signal.SIGKILL:
+            proc.shm_files |= shm_files_of(proc.pid)
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            break
+        try:
+            proc.popen.wait(wait)
+        except subprocess.TimeoutExpired:
+            continue
+    status = proc.wait(1.0)
+    if status == -signal.SIGKILL:
+        remove_orphan_shm(proc.shm_files)
+    return status
+
+
+def shm_files_of(pid: int) -> set[str]:
+    """Fast DDS segment names under /dev/shm that ``pid`` has open or mapped."""
+    names: set[str] = set()
+    try:
+        for fd in Path(f"/proc/{pid}/fd").iterdir():
+            names.add(os.readlink(fd))
+        names |= {line.split()[-1] for line in Path(f"/proc/{pid}/maps").read_text().splitlines()}
+    except OSError:
+        pass
+    return {Path(n).name.removesuffix("_el") for n in names if n.startswith("/dev/shm/fastdds")}
+
+
+def _in_use() -> set[str]:
+    """Segment names some live process still holds (its fd or mapping)."""
+    used: set[str] = set()
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            used |= shm_files_of(int(entry.name))
+    return used
+
+
+def remove_orphan_shm(segments: set[str]) -> list[str]:
+    """Unlink the segments (and their lock/mutex files) no live process uses; return them."""
+    removed = []
+    used = _in_use()
+    for seg in sorted(segments - used):
+        for path in (SHM / seg, SHM / f"{seg}_el", SHM / f"sem.{seg}_mutex"):
+            try:
+                path.unlink()
+                removed.append(path.name)
+            except FileNotFoundError:
+                pass
+    return removed
+
+
+@contextmanager
+def process_group(domain_id: int | None = None) -> Iterator[ProcessSet]:
+    """A :class:`ProcessSet` whose processes are all stopped on exit, whatever happens."""
+    procs = ProcessSet(domain_id)
+    try:
+        yield procs
+    finally:
+        procs.stop_all()
+
+
+class ProcessSet:
+    """The processes one experiment started, stopped newest first."""
+
+    def __init__(self, domain_id: int | None = None) -> None:
+        """Children run in ``domain_id`` (the inherited ROS_DOMAIN_ID if None)."""
+        self.domain_id = domain_id
+        self.procs: list[NodeProcess] = []
+
+    def start(self, script: str | Path, ros_args: Sequence[str] = (), **kw: object) -> NodeProcess:
+        """Start a launch script in this set (see :func:`start`)."""
+        proc = start(script, ros_args, domain_id=self.domain_id, **kw)  # type: ignore[arg-type]
+        self.procs.append(proc)
+        return proc
+
+    def stop_all(self) -> dict[str, int]:
+        """Stop every process still running; return exit statuses by name."""
+        return {p.name: stop(p) for p in reversed(self.procs)}

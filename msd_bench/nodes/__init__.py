@@ -1,0 +1,1 @@
+"""Thin rclpy adapters: declare parameters, translate messages, own timers and QoS."""

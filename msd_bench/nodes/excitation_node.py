@@ -1,0 +1,182 @@
+"""The excitation node: plays one seeded core signal on ``<ns>/force`` (DESIGN.md §4).
+
+It does not start until its force publisher is matched by a subscriber (the
+plant) — a reliable publisher with no reader silently drops the first
+samples. In lock-step it also waits for the plant's ``joint_states`` and
+paces itself by them: command k+1 goes out only after sample k arrived. In
+real-time it publishes at 1/dt Hz on a steady-clock timer.
+
+Done signal: when the whole signal is played the node logs
+``excitation done: N commands`` and its ``done`` future completes with 0,
+so :func:`msd_bench.nodes.spin.main` returns and the process exits with
+status 0 — a launcher waits for the process to end. Timing out on the plant
+exits with status 1 and one line.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
+from rclpy.node import Node
+from rclpy.task import Future
+from rclpy.timer import Timer
+from std_msgs.msg import Float64
+
+from msd_bench.core import excitation as exc
+from msd_bench.core.errors import ConfigError
+from msd_bench.nodes.params import declare_from_dataclass
+from msd_msgs_py.contract import FORCE, JOINT_STATES, PLANT_NAMESPACE
+from msd_msgs_py.ros import float64, msg_class, qos
+
+SIGNALS = ("prbs", "multilevel", "steps")
+
+
+@dataclass(frozen=True)
+class ExcitationNodeConfig:
+    """Which signal to play and how to pace it."""
+
+    signal: str = "prbs"
+    """Signal kind: prbs (around a bias), multilevel (switching with dwell limits) or steps."""
+    seed: int = 0
+    """Seed of the signal generator (the same seed plays the same signal)."""
+    lockstep: bool = False
+    """Pace by the plant's joint_states (one command per sample) instead of a timer."""
+    dt: float = field(default=0.01, metadata={"range": (1e-4, 10.0)})
+    """Real-time only: seconds between commands (the plant's sample time)."""
+    start_timeout: float = field(default=30.0, metadata={"range": (0.1, 3600.0)})
+    """Seconds to wait for the plant to be matched before giving up."""
+    settle: float = field(default=0.3, metadata={"range": (0.0, 10.0)})
+    """Seconds between matching and the first command, so the plant's side has matched too."""
+    sample_timeout: float = field(default=5.0, metadata={"range": (0.1, 600.0)})
+    """Lock-step only: seconds to wait for a sample before giving up (the first is resent once)."""
+
+    def __post_init__(self) -> None:
+        if self.signal not in SIGNALS:
+            raise ConfigError(f"signal must be one of {', '.join(SIGNALS)}, got {self.signal!r}")
+
+
+def build_signal(
+    cfg: ExcitationNodeConfig,
+    prbs: exc.PrbsConfig,
+    multilevel: exc.MultilevelConfig,
+    steps: exc.StepsConfig,
+) -> np.ndarray:
+    """The force sequence the node plays: exactly the core generator's output."""
+    if cfg.signal == "prbs":
+        return exc.prbs(prbs, cfg.seed)
+    if cfg.signal == "multilevel":
+        return exc.multilevel(multilevel, cfg.seed)
+    return exc.steps(steps)
+
+
+class ExcitationNode(Node):
+    """Publish a precomputed force sequence once the plant listens; complete ``done``."""
+
+    def __init__(
+        self,
+        *,
+        signal: np.ndarray | None = None,
+        config: ExcitationNodeConfig | None = None,
+        node_name: str = "excitation",
+        namespace: str = PLANT_NAMESPACE,
+        **node_kwargs: Any,
+    ) -> None:
+        """``signal``/``config`` given directly (tests) or read from parameters."""
+        super().__init__(node_name, namespace=namespace, **node_kwargs)
+        self.config = config or declare_from_dataclass(self, ExcitationNodeConfig)
+        self.signal = np.asarray(signal if signal is not None else self._declare_signal(), dtype=float)
+        self.sent = 0
+        self.done: Future = Future()
+        self._pub = self.create_publisher(Float64, FORCE.name, qos(FORCE))
+        self._sub = None
+        if self.config.lockstep:
+            self._sub = self.create_subscription(
+                msg_class(JOINT_STATES), JOINT_STATES.name, self._on_sample, qos(JOINT_STATES)
+            )
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._t0 = time.monotonic()
+        self._t_match: float | None = None
+        self._t_sent = 0.0
+        self._resent = False
+        self._poll = self.create_timer(0.02, self._on_poll, clock=self._steady)
+        self._timer: Timer | None = None
+
+    def _declare_signal(self) -> np.ndarray:
+        prbs = declare_from_dataclass(self, exc.PrbsConfig, "prbs.")
+        multilevel = declare_from_dataclass(self, exc.MultilevelConfig, "multilevel.")
+        steps = declare_from_dataclass(self, exc.StepsConfig, "steps.")
+        return build_signal(self.config, prbs, multilevel, steps)
+
+    def _matched(self) -> bool:
+        if self._pub.get_subscription_count() == 0:
+            return False
+        return self._sub is None or self._sub.get_publisher_count() > 0
+
+    def _on_poll(self) -> None:
+        """Wait for the plant, then start; in lock-step also watch for a lost sample."""
+        now = time.monotonic()
+        if self._timer is None and self.sent == 0:
+            self._wait_for_plant(now)
+        elif self.config.lockstep and not self.done.done():
+            self._watch_sample(now)
+
+    def _wait_for_plant(self, now: float) -> None:
+        if self._t_match is None:
+            if self._matched():
+                self._t_match = now
+            elif now - self._t0 > self.config.start_timeout:
+                self._finish(1, f"no plant matched on {self._pub.topic_name} "
+                                f"within {self.config.start_timeout} s")
+            return
+        if now - self._t_match < self.config.settle:
+            return
+        self.get_logger().info(f"plant matched: playing {self.signal.size} commands")
+        if self.config.lockstep:
+            self._send()
+        else:
+            self._timer = self.create_timer(self.config.dt, self._on_tick, clock=self._steady)
+
+    def _watch_sample(self, now: float) -> None:
+        if now - self._t_sent <= self.config.sample_timeout:
+            return
+        if self.sent == 1 and not self._resent:  # the first command may race the plant's matching
+            self._resent, self.sent = True, 0
+            self._send()
+            return
+        self._finish(1, f"no joint_states sample {self.sent - 1} within {self.config.sample_timeout} s")
+
+    def _send(self) -> None:
+        self._pub.publish(float64(self.signal[self.sent]))
+        self.sent += 1
+        self._t_sent = time.monotonic()
+
+    def _on_tick(self) -> None:
+        if self.sent < self.signal.size:
+            self._send()
+        if self.sent >= self.signal.size:
+            self._pub.wait_for_all_acked(Duration(seconds=2.0))
+            self._finish(0, f"excitation done: {self.sent} commands")
+
+    def _on_sample(self, _msg: Any) -> None:
+        if self.done.done() or self.sent == 0:
+            return
+        if self.sent < self.signal.size:
+            self._send()
+        else:
+            self._finish(0, f"excitation done: {self.sent} commands")
+
+    def _finish(self, status: int, line: str) -> None:
+        for timer in (self._timer, self._poll):
+            if timer is not None:
+                timer.cancel()
+        if status == 0:
+            self.get_logger().info(line)
+        else:
+            self.get_logger().error(line)
+        if not self.done.done():
+            self.done.set_result(status)

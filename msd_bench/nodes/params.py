@@ -1,0 +1,188 @@
+"""Map a frozen config dataclass 1:1 onto declared ROS parameters (STYLE.md §3).
+
+Why generic: every node (plant, excitation, surrogate, agent, recorder) has a
+config dataclass in ``core`` with a docstring under each field. Declaring the
+parameters from the dataclass keeps the two from drifting: the field's
+docstring becomes the parameter's description, its default the default, and
+an optional range (``field(metadata={"range": (lo, hi)})`` or a per-class
+``RANGES = {"field": (lo, hi)}`` dict, or the ``ranges`` argument) becomes a
+``FloatingPointRange``/``IntegerRange`` that ``ros2 param describe`` shows.
+
+Any wrong value — a type ROS cannot coerce, a value outside its range, or one
+the dataclass' own validation rejects — surfaces as one
+:class:`~msd_bench.core.errors.ConfigError` line, which :mod:`.spin` prints
+without a traceback.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import functools
+import inspect
+import itertools
+import math
+import textwrap
+import typing
+from collections.abc import Mapping
+from typing import Any, TypeVar
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import ParameterException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from msd_bench.core.errors import ConfigError, MsdBenchError
+
+T = TypeVar("T")
+Range = tuple[float, float]
+
+_SCALARS: dict[type, Parameter.Type] = {
+    bool: Parameter.Type.BOOL,
+    int: Parameter.Type.INTEGER,
+    float: Parameter.Type.DOUBLE,
+    str: Parameter.Type.STRING,
+}
+_ARRAYS: dict[type, Parameter.Type] = {
+    bool: Parameter.Type.BOOL_ARRAY,
+    int: Parameter.Type.INTEGER_ARRAY,
+    float: Parameter.Type.DOUBLE_ARRAY,
+    str: Parameter.Type.STRING_ARRAY,
+}
+
+
+@functools.cache
+def field_docs(cls: type) -> dict[str, str]:
+    """Docstrings written under the fields of a dataclass, read from its source with ``ast``."""
+    try:
+        source = textwrap.dedent(inspect.getsource(cls))
+    except (OSError, TypeError):
+        return {}
+    body = ast.parse(source).body[0]
+    docs: dict[str, str] = {}
+    stmts = getattr(body, "body", [])
+    for stmt, nxt in itertools.pairwise(stmts):
+        if (
+            isinstance(stmt, ast.AnnAssign)
+            and isinstance(stmt.target, ast.Name)
+            and isinstance(nxt, ast.Expr)
+            and isinstance(nxt.value, ast.Constant)
+            and isinstance(nxt.value.value, str)
+        ):
+            docs[stmt.target.id] = inspect.cleandoc(nxt.value.value)
+    return docs
+
+
+def _ros_type(hint: Any, name: str) -> tuple[Parameter.Type, type, bool]:
+    """(parameter type, Python element type, is-sequence) of a field's annotation."""
+    origin = typing.get_origin(hint)
+    if origin in (tuple, list):
+        elem = typing.get_args(hint)[0]
+        if elem in _ARRAYS:
+            return _ARRAYS[elem], elem, True
+    elif hint in _SCALARS:
+        return _SCALARS[hint], hint, False
+    raise TypeError(f"field {name!r}: type {hint!r} has no ROS parameter equivalent")
+
+
+def _descriptor(
+    name: str, doc: str, ptype: Parameter.Type, bounds: Range | None
+) -> ParameterDescriptor:
+    desc = ParameterDescriptor(name=name, type=ptype.value, description=doc, read_only=True)
+    if bounds is not None and ptype == Parameter.Type.DOUBLE:
+        desc.floating_point_range = [
+            FloatingPointRange(from_value=float(bounds[0]), to_value=float(bounds[1]), step=0.0)
+        ]
+    elif bounds is not None and ptype == Parameter.Type.INTEGER:
+        desc.integer_range = [
+            IntegerRange(from_value=int(bounds[0]), to_value=int(bounds[1]), step=0)
+        ]
+    return desc
+
+
+def _coerce_overrides(node: Node, name: str, ptype: Parameter.Type) -> None:
+    """Let ``-p mass:=2`` set a float field: ROS parses ``2`` as an integer and would refuse it."""
+    overrides: dict[str, Parameter[Any]] = getattr(node, "_parameter_overrides", {})
+    given = overrides.get(name)
+    if given is None:
+        return
+    if ptype == Parameter.Type.DOUBLE and given.type_ == Parameter.Type.INTEGER:
+        overrides[name] = Parameter(name, Parameter.Type.DOUBLE, float(given.value))
+    elif ptype == Parameter.Type.DOUBLE_ARRAY and given.type_ == Parameter.Type.INTEGER_ARRAY:
+        overrides[name] = Parameter(name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in given.value])
+
+
+def _bounds(cls: type, f: dataclasses.Field[Any], ranges: Mapping[str, Range] | None) -> Range | None:
+    if ranges and f.name in ranges:
+        return ranges[f.name]
+    if "range" in f.metadata:
+        return typing.cast(Range, f.metadata["range"])
+    return typing.cast(Mapping[str, Range], getattr(cls, "RANGES", {})).get(f.name)
+
+
+def declare_from_dataclass(
+    node: Node,
+    cls: type[T],
+    prefix: str = "",
+    *,
+    defaults: T | None = None,
+    ranges: Mapping[str, Range] | None = None,
+    exclude: tuple[str, ...] = (),
+) -> T:
+    """Declare one read-only parameter per field of ``cls``, read them back, build the config.
+
+    ``prefix`` (e.g. ``"prbs."``) namespaces the parameters; ``defaults`` is an
+    instance whose values replace the class defaults (e.g. a plant preset);
+    excluded fields keep their default. Raises :class:`ConfigError` with one line.
+    """
+    if not (dataclasses.is_dataclass(cls) and isinstance(cls, type)):
+        raise TypeError(f"{cls!r} is not a dataclass")
+    hints = typing.get_type_hints(cls)
+    docs = field_docs(cls)
+    values: dict[str, Any] = {}
+    for f in dataclasses.fields(cls):
+        if f.name in exclude or not f.init:
+            continue
+        name = prefix + f.name
+        ptype, elem, is_seq = _ros_type(hints[f.name], f.name)
+        default = getattr(defaults, f.name) if defaults is not None else _default(f)
+        desc = _descriptor(name, docs.get(f.name, ""), ptype, _bounds(cls, f, ranges))
+        _coerce_overrides(node, name, ptype)
+        try:
+            value = node.declare_parameter(name, _to_ros(default, ptype, is_seq), desc).value
+        except ParameterException as exc:
+            raise ConfigError(f"parameter {name}: {_one_line(exc)}") from None
+        _check_finite(name, value)
+        values[f.name] = tuple(elem(v) for v in value) if is_seq else value
+    try:
+        return cls(**values)
+    except MsdBenchError as exc:
+        raise ConfigError(f"{cls.__name__} parameters: {exc}") from None
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"{cls.__name__} parameters: {_one_line(exc)}") from None
+
+
+def _default(f: dataclasses.Field[Any]) -> Any:
+    if f.default is not dataclasses.MISSING:
+        return f.default
+    if f.default_factory is not dataclasses.MISSING:
+        return f.default_factory()
+    raise TypeError(f"field {f.name!r} has no default: cannot declare it as a ROS parameter")
+
+
+def _to_ros(value: Any, ptype: Parameter.Type, is_seq: bool) -> Any:
+    if is_seq:
+        return list(value)
+    return float(value) if ptype == Parameter.Type.DOUBLE else value
+
+
+def _check_finite(name: str, value: Any) -> None:
+    items = value if isinstance(value, list | tuple) else [value]
+    for v in items:
+        if isinstance(v, float) and not math.isfinite(v):
+            raise ConfigError(f"parameter {name} must be finite, got {v}")
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__

@@ -1,0 +1,219 @@
+"""The plant-like node: any :class:`StepModel` behind the topic contract (DESIGN.md §3).
+
+The same class serves the emulated NL-MSD (:func:`true_plant_spec`) and, later,
+every identified surrogate: it only steps ``model`` and translates messages.
+
+Sample alignment (both modes). Each step k the node
+
+1. takes the force ``u_k`` (saturated to ±F),
+2. publishes ``joint_states`` row k: stamp ``t_k``, position ``x_k``, velocity
+   ``v_k`` and effort ``u_k`` — the force actually applied over [t_k, t_k+1),
+   so a bag row is exactly ``plant.simulate``'s ``(x[k], v[k], u_applied[k])``;
+3. advances the model and publishes ``position`` = ``x_{k+1}`` (the newest
+   state) and, in lock-step only, ``/clock`` = ``(k+1)·dt``.
+
+Real-time: a 100 Hz steady-clock timer runs the step with the latest command
+(zero-order hold) against absolute deadlines (:class:`DeadlinePacer`: a stall
+is caught up by a burst, so the mean rate stays 1/dt); stamps are the
+scheduled sample times (ROS time at start + k·dt). A watchdog uses 0 N once the last command is older than
+``watchdog_timeout``. A non-finite command is rejected (counted, throttled
+warning) and the last safe force is kept.
+
+Lock-step: one step per received command, stamps ``k·dt``; deterministic. A
+non-finite command is rejected and does *not* step (sim time never advances on
+garbage; a client that waits for the sample times out and sees the warning).
+A closed-loop client sends ``u_k`` and waits for ``position`` (``x_{k+1}``).
+
+``reset`` (std_msgs/Empty) returns the model to rest at sample 0, force 0.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rclpy.publisher import Publisher
+from std_msgs.msg import Empty, Float64
+
+from msd_bench.core import kernels
+from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.model import StepModel, plant_model
+from msd_bench.core.plant import PlantParams, preset
+from msd_bench.nodes.params import declare_from_dataclass
+from msd_bench.nodes.spin import DeadlinePacer
+from msd_msgs_py.contract import CLOCK, FORCE, JOINT_STATES, PLANT_NAMESPACE, POSITION, RESET
+from msd_msgs_py.ros import clock, float64, joint_state, msg_class, qos
+
+
+class GraphConflictError(MsdBenchError):
+    """Another node already serves the topics this node would publish."""
+
+
+@dataclass(frozen=True)
+class PlantNodeConfig:
+    """How a plant-like node runs (not what it simulates)."""
+
+    lockstep: bool = False
+    """Advance one step per received command and publish /clock, instead of a 100 Hz timer."""
+    watchdog_timeout: float = field(default=0.5, metadata={"range": (0.001, 60.0)})
+    """Real-time only: seconds without a command after which the applied force drops to 0 N."""
+    duplicate_check: float = field(default=2.0, metadata={"range": (0.0, 30.0)})
+    """Seconds to look for another publisher of <ns>/joint_states before starting; 0 skips."""
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """The model a plant-like node serves, with the two facts the kernel does not carry."""
+
+    model: StepModel
+    """Stepped once per sample."""
+    dt: float
+    """Sample time in s (the real-time timer period and the lock-step clock increment)."""
+    force_limit: float
+    """Commands are saturated to ±force_limit before they act (the plant's F)."""
+
+
+def true_plant_spec(preset_name: str = "default", **overrides: float) -> ModelSpec:
+    """The emulated NL-MSD of a named preset with fields overridden."""
+    params = preset(preset_name, **overrides)
+    return ModelSpec(plant_model(params), params.dt, params.F)
+
+
+def declare_true_plant(node: Node) -> ModelSpec:
+    """Read ``preset`` and the :class:`PlantParams` fields (defaults from the preset) as parameters."""
+    name: str = node.declare_parameter("preset", "default").value
+    params = declare_from_dataclass(node, PlantParams, defaults=preset(str(name)))
+    return ModelSpec(plant_model(params), params.dt, params.F)
+
+
+class PlantNode(Node):
+    """Serve a :class:`StepModel` on ``position``/``joint_states``/``force``/``reset``."""
+
+    def __init__(
+        self,
+        spec: ModelSpec | Any,
+        *,
+        config: PlantNodeConfig | None = None,
+        node_name: str = "plant",
+        namespace: str = PLANT_NAMESPACE,
+        **node_kwargs: Any,
+    ) -> None:
+        """``spec`` is a :class:`ModelSpec` or a callable ``(node) -> ModelSpec`` reading parameters."""
+        super().__init__(node_name, namespace=namespace, **node_kwargs)
+        self.config = config or declare_from_dataclass(self, PlantNodeConfig)
+        self.spec: ModelSpec = spec if isinstance(spec, ModelSpec) else spec(self)
+        self._is_plant = self.spec.model.kind == kernels.KIND_PLANT
+        self._dt_ns = round(self.spec.dt * 1e9)
+        self.counters = {"steps": 0, "rejected": 0, "saturated": 0, "watchdog": 0}
+        self._refuse_duplicate()
+        self.spec.model.step(self.spec.model.initial_state(), 0.0)  # compile before the first tick
+        self._pub_js: Publisher = self.create_publisher(
+            msg_class(JOINT_STATES), JOINT_STATES.name, qos(JOINT_STATES)
+        )
+        self._pub_x = self.create_publisher(Float64, POSITION.name, qos(POSITION))
+        self._pub_clock: Publisher | None = (
+            self.create_publisher(msg_class(CLOCK), CLOCK.name, qos(CLOCK)) if self.config.lockstep else None
+        )
+        self.create_subscription(Float64, FORCE.name, self._on_force, qos(FORCE))
+        self.create_subscription(Empty, RESET.name, self._on_reset, qos(RESET))
+        self._on_reset(None)
+        self._pacer = DeadlinePacer(self.spec.dt)
+        self._ros0 = self.get_clock().now().nanoseconds
+        self._mono0 = time.monotonic()
+        if not self.config.lockstep:
+            steady = Clock(clock_type=ClockType.STEADY_TIME)
+            self.create_timer(self.spec.dt, self._on_timer, clock=steady)
+        mode = "lock-step" if self.config.lockstep else f"real-time {1 / self.spec.dt:g} Hz"
+        self.get_logger().info(f"plant-like node {self.spec.model.name or 'model'} ready ({mode})")
+
+    @property
+    def k(self) -> int:
+        """Index of the next sample to be published (0 after a reset)."""
+        return self._k
+
+    def _refuse_duplicate(self) -> None:
+        """One plant per namespace: two would interleave samples on the same topics."""
+        topic = JOINT_STATES.resolve(self.get_namespace())
+        deadline = time.monotonic() + self.config.duplicate_check
+        while True:
+            others = self.get_publishers_info_by_topic(topic)
+            if others:
+                who = f"{others[0].node_namespace.rstrip('/')}/{others[0].node_name}"
+                raise GraphConflictError(f"{topic} already has a publisher ({who}); refusing to start")
+            if time.monotonic() >= deadline:
+                return
+            time.sleep(0.05)
+
+    def _on_reset(self, _msg: Empty | None) -> None:
+        self._state = self.spec.model.initial_state()
+        self._k = 0
+        self._u = 0.0
+        self._t_cmd: float | None = None
+
+    def _accept(self, u: float) -> float | None:
+        """The force to apply, or None if the command must be rejected."""
+        if not math.isfinite(u):
+            self.counters["rejected"] += 1
+            self.get_logger().warning(
+                f"rejected non-finite force command {u} ({self.counters['rejected']} so far)",
+                throttle_duration_sec=1.0,
+            )
+            return None
+        limit = self.spec.force_limit
+        if abs(u) > limit:
+            self.counters["saturated"] += 1
+            return math.copysign(limit, u)
+        return u
+
+    def _on_force(self, msg: Float64) -> None:
+        u = self._accept(msg.data)
+        if u is None:
+            return
+        if self.config.lockstep:
+            self._step(u, self._k * self._dt_ns)
+        else:
+            self._u = u
+            self._t_cmd = time.monotonic()
+
+    def _on_timer(self) -> None:
+        """Run every step whose slot has begun (one, or a burst after a stall)."""
+        now = time.monotonic()
+        for t_sched in self._pacer.due(now):
+            self._check_watchdog(t_sched)
+            self._step(self._u, self._ros0 + round((t_sched - self._mono0) * 1e9))
+
+    def _check_watchdog(self, t: float) -> None:
+        if self._t_cmd is not None and t - self._t_cmd > self.config.watchdog_timeout:
+            self.counters["watchdog"] += 1
+            self.get_logger().warning(
+                f"no force command for {self.config.watchdog_timeout} s: applying 0 N"
+            )
+            self._u, self._t_cmd = 0.0, None
+
+    def _velocity(self) -> float:
+        s = self._state
+        return float(s[1]) if self._is_plant else float(s[0] - s[1]) / self.spec.dt
+
+    def _step(self, u: float, stamp: int) -> None:
+        """Publish row k (x_k, v_k, u_k) stamped ``stamp``, advance, publish x_{k+1}."""
+        self._pub_js.publish(joint_state(stamp, float(self._state[0]), self._velocity(), u))
+        x_next = self.spec.model.step(self._state, u)
+        self._k += 1
+        self.counters["steps"] += 1
+        self._pub_x.publish(float64(x_next))
+        if self._pub_clock is not None:
+            self._pub_clock.publish(clock(self._k * self._dt_ns))
+
+    def close(self) -> None:
+        """Log the counters once, at shutdown."""
+        c = self.counters
+        print(
+            f"[{self.get_fully_qualified_name()}] shutdown: steps={c['steps']} "
+            f"rejected={c['rejected']} saturated={c['saturated']} watchdog={c['watchdog']} "
+            f"reanchors={self._pacer.reanchors}",
+            flush=True,
+        )

@@ -1,0 +1,113 @@
+"""The one thin ``main()`` every node process shares (ros2/examples pattern, STYLE.md §9).
+
+``with rclpy.init(args=args):`` build the node, spin, and end cleanly on
+Ctrl-C (``KeyboardInterrupt``), SIGTERM (rclpy's handler shuts the context
+down, the spin raises ``ExternalShutdownException``) or when the node says it
+is done. A user mistake (:class:`MsdBenchError`, e.g. ``-p m:=-1``) prints one
+line and exits with status 2, never a traceback.
+
+Nodes that finish on their own (the excitation) expose ``done``: an rclpy
+``Future`` whose result is the exit status. Every node may expose
+``close()``, called once before it is destroyed (the plant logs its counters
+there).
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import rclpy
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+
+from msd_bench.core.errors import MsdBenchError
+
+EXIT_USAGE = 2
+"""Exit status of a process that stopped on a user mistake."""
+
+
+@dataclass
+class DeadlinePacer:
+    """Absolute-deadline schedule for a periodic timer callback (no drift, bounded catch-up).
+
+    Why: rcl skips timer periods the process missed (a stall under load), so the
+    mean rate falls below 1/period. The timer instead asks ``due(now)`` which
+    returns the scheduled times of every step whose slot has begun — usually
+    one, several after a stall — so the long-run rate stays exactly 1/period.
+    A slot counts as begun half a period before its deadline, so jitter never
+    makes a callback miss its own step. After a stall longer than ``max_lag``
+    the schedule re-anchors at ``now`` (counted in ``reanchors``).
+    """
+
+    period: float
+    """Seconds between steps."""
+    max_lag: float = 1.0
+    """Longest stall (s) that is caught up by a burst of steps."""
+    reanchors: int = 0
+    """How many times the schedule gave up catching up."""
+    _next: float | None = field(default=None, repr=False)
+
+    def due(self, now: float) -> list[float]:
+        """Scheduled times (monotonic s) of the steps to run now, oldest first."""
+        if self._next is None or now - self._next > self.max_lag:
+            self.reanchors += self._next is not None
+            self._next = now
+        out = []
+        while self._next - 0.5 * self.period <= now:
+            out.append(self._next)
+            self._next += self.period
+        return out
+
+
+def make_executor(context: rclpy.context.Context | None = None) -> Executor:
+    """The executor nodes run on: the single-threaded one (see benchmarks/bench_lockstep.py)."""
+    return SingleThreadedExecutor(context=context)
+
+
+def spin_node(node: Node, executor: Executor) -> int:
+    """Spin until shutdown or until ``node.done`` completes; return the exit status."""
+    executor.add_node(node)
+    done = getattr(node, "done", None)
+    if done is None:
+        executor.spin()
+        return 0
+    executor.spin_until_future_complete(done)
+    return int(done.result()) if done.done() else 0
+
+
+def close_node(node: Node) -> None:
+    """Let the node report (``close()``), then destroy it."""
+    close = getattr(node, "close", None)
+    if close is not None:
+        close()
+    node.destroy_node()
+
+
+def main(build: Callable[[], Node], args: Sequence[str] | None = None) -> int:
+    """Run the node ``build()`` makes in this process; return the process exit status."""
+    argv = list(sys.argv if args is None else args)
+    node: Node | None = None
+    status = 0
+    try:
+        with rclpy.init(args=argv):
+            try:
+                node = build()
+                status = spin_node(node, make_executor())
+            except (KeyboardInterrupt, ExternalShutdownException):
+                status = 0
+            finally:
+                if node is not None:
+                    close_node(node)
+    except MsdBenchError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        return 0
+    return status
+
+
+def run(build: Callable[[], Node]) -> None:
+    """``sys.exit(main(build))`` for launch scripts."""
+    sys.exit(main(build))

@@ -1,0 +1,56 @@
+"""In-process node fixtures: a private rclpy Context per test, shut down in the finalizer."""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable, Iterator
+
+import pytest
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+
+# rclpy imports lark lazily (parameter events), which imports the deprecated sre_parse;
+# import it once here with that one warning silenced so warnings-as-errors stays on for ours.
+with warnings.catch_warnings():
+    warnings.filterwarnings("ignore", "module 'sre_.*' is deprecated", DeprecationWarning)
+    import lark  # noqa: F401
+
+
+@pytest.fixture
+def ctx() -> Iterator[Context]:
+    """A private, initialised context (no signal handlers), isolated from other tests."""
+    context = Context()
+    rclpy.init(args=[], context=context)
+    try:
+        yield context
+    finally:
+        rclpy.try_shutdown(context=context)
+
+
+@pytest.fixture
+def executor(ctx: Context) -> Iterator[SingleThreadedExecutor]:
+    """A single-threaded executor on the private context."""
+    ex = SingleThreadedExecutor(context=ctx)
+    try:
+        yield ex
+    finally:
+        ex.shutdown()
+
+
+def spin_until(
+    executor: SingleThreadedExecutor, done: Callable[[], bool], timeout: float = 5.0
+) -> bool:
+    """Spin until ``done()`` is true or ``timeout`` s pass; return ``done()``."""
+    deadline = time.monotonic() + timeout
+    while not done() and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.01)
+    return done()
+
+
+def spin_for(executor: SingleThreadedExecutor, seconds: float) -> None:
+    """Spin for a fixed time (for things that must *not* happen)."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.01)

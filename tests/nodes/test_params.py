@@ -1,0 +1,78 @@
+"""Config dataclass -> ROS parameters: docs, ranges, coercion, one-line errors; the pacer."""
+
+from __future__ import annotations
+
+import pytest
+from rcl_interfaces.msg import ParameterType
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.excitation import StepsConfig
+from msd_bench.core.plant import PlantParams, preset
+from msd_bench.nodes.params import declare_from_dataclass, field_docs
+from msd_bench.nodes.plant_node import PlantNodeConfig
+from msd_bench.nodes.spin import DeadlinePacer
+
+
+def test_field_docs_are_read_from_the_source():
+    docs = field_docs(PlantParams)
+    assert docs["m"] == "Mass in kg; > 0."
+    assert docs["L"].startswith("Stroke in m")
+    assert set(docs) == {"m", "c", "k", "g", "h", "L", "F", "dt"}
+
+
+@pytest.mark.ros
+def test_declares_each_field_with_description_range_and_default(ctx):
+    node = Node("p", context=ctx)
+    cfg = declare_from_dataclass(node, PlantNodeConfig)
+    assert cfg == PlantNodeConfig()
+    desc = node.describe_parameter("watchdog_timeout")
+    assert desc.description.startswith("Real-time only: seconds without a command")
+    assert desc.type == ParameterType.PARAMETER_DOUBLE and desc.read_only
+    assert (desc.floating_point_range[0].from_value, desc.floating_point_range[0].to_value) == (
+        0.001, 60.0)
+    assert node.describe_parameter("lockstep").type == ParameterType.PARAMETER_BOOL
+
+
+@pytest.mark.ros
+def test_overrides_with_preset_defaults_and_int_to_float_coercion(ctx):
+    node = Node("p", context=ctx, parameter_overrides=[Parameter("m", value=2)])
+    params = declare_from_dataclass(node, PlantParams, defaults=preset("mild"))
+    assert params == preset("mild", m=2.0) and isinstance(params.m, float)
+
+
+@pytest.mark.ros
+def test_tuple_fields_map_to_double_arrays(ctx):
+    node = Node("p", context=ctx, parameter_overrides=[
+        Parameter("steps.levels", value=[1, -2, 3]), Parameter("steps.dwell", value=7)])
+    cfg = declare_from_dataclass(node, StepsConfig, "steps.")
+    assert cfg == StepsConfig(levels=(1.0, -2.0, 3.0), dwell=7)
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize(
+    ("cls", "override", "message"),
+    [
+        (PlantParams, Parameter("m", value=-1.0), "plant parameter m must be finite and > 0"),
+        (PlantParams, Parameter("k", value=float("nan")), "parameter k must be finite"),
+        (PlantNodeConfig, Parameter("watchdog_timeout", value=100.0), "out of range"),
+        (PlantNodeConfig, Parameter("lockstep", value="yes"), "expecting type 'BOOL'"),
+        (StepsConfig, Parameter("dwell", value=0), "dwell must be >= 1"),
+    ],
+)
+def test_bad_values_become_one_line_config_errors(ctx, cls, override, message):
+    node = Node("p", context=ctx, parameter_overrides=[override])
+    with pytest.raises(ConfigError, match=message) as info:
+        declare_from_dataclass(node, cls)
+    assert "\n" not in str(info.value)
+
+
+def test_pacer_runs_one_step_per_period_and_catches_up_a_stall():
+    pacer = DeadlinePacer(0.01, max_lag=0.5)
+    assert pacer.due(100.0) == [100.0]
+    assert pacer.due(100.0101) == [pytest.approx(100.01)]  # jitter never skips a step
+    assert pacer.due(100.0199) == [pytest.approx(100.02)]  # nor doubles one
+    assert len(pacer.due(100.0702)) == 5  # a 50 ms stall: the missed slots run as a burst
+    assert pacer.due(100.0705) == []
+    assert pacer.due(102.0) == [102.0] and pacer.reanchors == 1  # too long: re-anchor
