@@ -1,0 +1,94 @@
+"""Train Q-learning agents on a plant-like model and run them greedily (paper §4, §5).
+
+The Python face of :mod:`msd_bench.core.qlearning`: it checks inputs, packs
+the config and calls one compiled kernel for the whole batch of seeds. Agents
+in a batch never share randomness, so the batch result for seed k equals a
+single run of seed k bit for bit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from msd_bench.core import qlearning, rng
+from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.model import StepModel
+from msd_bench.core.qconfig import N_ACTIONS, QConfig, encoding
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """What a batch of training runs produces."""
+
+    q: FloatArray
+    """Final Q-tables, shape (n_agents, n_states, 5)."""
+    snapshots: FloatArray
+    """Q-tables after the episodes in ``snapshot_episodes``, shape (n_agents, n_snap, S, 5)."""
+    snapshot_episodes: tuple[int, ...]
+    """Episode counts (1-based) of the snapshots."""
+    returns: FloatArray
+    """Sum of rewards per episode, shape (n_agents, episodes)."""
+    seeds: tuple[int, ...]
+    """Seed of each agent, in batch order."""
+    config: QConfig
+    """The configuration trained with."""
+    model_name: str
+    """Name of the model trained on (provenance)."""
+
+
+def train(model: StepModel, cfg: QConfig, seeds: Sequence[int]) -> TrainResult:
+    """Train one agent per seed on ``model`` in a single compiled call."""
+    seeds = tuple(int(s) for s in _check_seeds(seeds))
+    enc = encoding(cfg)
+    snap_at = np.array(cfg.snapshots(), dtype=np.int64)
+    q, snaps, returns = qlearning.train_batch(
+        model.kind, model.params, enc.mode, enc.n_states, enc.hp, enc.err_edges, enc.ref_edges,
+        enc.phi, enc.actions, cfg.episodes, cfg.steps, snap_at, rng.seed_states(seeds))
+    return TrainResult(q, snaps, cfg.snapshots(), returns, seeds, cfg, model.name)
+
+
+def greedy_rollouts(model: StepModel, q_tables: FloatArray, cfg: QConfig, target: float = 1.0,
+                    n_steps: int = 3000) -> tuple[FloatArray, FloatArray]:
+    """Greedy closed loop of each fixed table from rest: (x, u), each (n_tables, n_steps).
+
+    ``x[j, k]`` is the position before force ``u[j, k]`` acts, so ``x[:, 0] = 0``.
+    Equal Q-values resolve to the lowest action index, keeping validation deterministic.
+    """
+    enc = encoding(cfg)
+    q = np.ascontiguousarray(q_tables, dtype=np.float64)
+    if q.ndim != 3 or q.shape[1:] != (enc.n_states, N_ACTIONS):
+        raise InvalidInputError(
+            f"Q-tables must have shape (n, {enc.n_states}, {N_ACTIONS}) for state "
+            f"{cfg.state!r}, got {q.shape}")
+    if not np.all(np.isfinite(q)):
+        raise InvalidInputError("Q-tables contain a non-finite value")
+    if not np.isfinite(target):
+        raise InvalidInputError(f"target must be finite, got {target}")
+    if n_steps < 1:
+        raise InvalidInputError(f"n_steps must be >= 1, got {n_steps}")
+    return qlearning.greedy_batch(model.kind, model.params, enc.mode, enc.n_states, enc.hp,
+                                  enc.err_edges, enc.ref_edges, enc.actions, q, float(target),
+                                  int(n_steps))
+
+
+def greedy_rollout(model: StepModel, q: FloatArray, cfg: QConfig, target: float = 1.0,
+                   n_steps: int = 3000) -> tuple[FloatArray, FloatArray]:
+    """Greedy closed loop of one fixed table from rest: (x, u), the paper's validation run."""
+    q = np.asarray(q, dtype=np.float64)
+    if q.ndim != 2:
+        raise InvalidInputError(f"a single Q-table must be 2-D, got shape {q.shape}")
+    xs, us = greedy_rollouts(model, q[None], cfg, target, n_steps)
+    return xs[0], us[0]
+
+
+def _check_seeds(seeds: Sequence[int]) -> Sequence[int]:
+    if len(seeds) == 0:
+        raise InvalidInputError("need at least one seed")
+    rng.seed_states(seeds)  # raises on a bad seed
+    return seeds
