@@ -85,7 +85,7 @@ def train_dyna(plant: StepModel, cfg: DynaConfig, seeds: Sequence[int]) -> DynaR
 
 
 @numba.njit(cache=True)
-def _plan(q: FloatArray, n_plan: int, visited: IntArray, n_vis: int, mr: FloatArray,
+def plan(q: FloatArray, n_plan: int, visited: IntArray, n_vis: int, mr: FloatArray,
           ms: IntArray, hp: FloatArray, phi: FloatArray, state: rng.U64Array, i: int) -> None:
     """Replay ``n_plan`` remembered transitions of uniformly drawn visited pairs."""
     for _ in range(n_plan):
@@ -128,7 +128,7 @@ def _dyna_one(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray
                 n_vis += 1
             mr[j] = r
             ms[j] = s2
-            _plan(q, n_plan, visited, n_vis, mr, ms, hp, phi, state, i)
+            plan(q, n_plan, visited, n_vis, mr, ms, hp, phi, state, i)
             counts[0] += 1
             counts[1] += n_plan
             total += r

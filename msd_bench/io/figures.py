@@ -59,28 +59,32 @@ def step_response_figure(
     dt: float = 0.01,
     band: float = 0.02,
 ) -> Path:
-    """Position and |error| of greedy agents on the true plant, one column per agent kind.
+    """Position and |error| of greedy agents on the true plant (Fig. 13), a panel per agent kind.
 
     Every seed is drawn thinly so the spread across seeds is visible, the median
-    response thickly.
+    response thickly; the ±band around the target is shaded.
     """
     kinds = list(responses)
-    fig, axes = plt.subplots(2, len(kinds), figsize=(3.6 * len(kinds), 5.5), squeeze=False, sharex=True)
-    for col, kind in enumerate(kinds):
+    ncols = min(5, len(kinds))
+    nrows = -(-len(kinds) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.4 * ncols, 2.8 * nrows), squeeze=False,
+                             sharex=True, sharey=True)
+    for ax, kind in zip(axes.flat, kinds, strict=False):
         runs = np.asarray(responses[kind], dtype=float)
         t = np.arange(runs.shape[1]) * dt
-        top, bottom = axes[0, col], axes[1, col]
         for x in runs:
-            top.plot(t, x, lw=0.5, alpha=0.35, color="tab:blue")
-            bottom.plot(t, np.abs(x - target), lw=0.5, alpha=0.35, color="tab:red")
-        top.plot(t, np.median(runs, axis=0), lw=1.5, color="navy", label="median")
-        top.axhline(target, color="k", lw=0.8, ls=":")
-        top.axhspan(target * (1 - band), target * (1 + band), color="green", alpha=0.15)
-        top.set_title(f"{kind} (n={len(runs)})", fontsize=9)
-        top.set_ylim(-0.5, 2.6)
-        bottom.set_xlabel("time (s)")
-    axes[0, 0].set_ylabel("x (m)")
-    axes[1, 0].set_ylabel("|e| (m)")
+            ax.plot(t, x, lw=0.5, alpha=0.3, color="tab:blue")
+            ax.plot(t, np.abs(x - target), lw=0.4, alpha=0.25, color="tab:red")
+        ax.plot(t, np.median(runs, axis=0), lw=1.5, color="navy", label="median x")
+        ax.axhspan(target * (1 - band), target * (1 + band), color="green", alpha=0.2)
+        ax.set_title(f"{kind} (n={len(runs)})", fontsize=9)
+        ax.set_ylim(-0.2, 2.6)
+    for ax in axes.flat[len(kinds):]:
+        ax.axis("off")
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("x (blue), |e| (red), m")
     fig.suptitle(f"Closed loop on the true plant, unit step (±{100 * band:.0f} % band shaded)")
     return _save(fig, path)
 

@@ -1,0 +1,68 @@
+"""The step-at-a-time agent is the compiled trainer, bit for bit (basis of --via-ros)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from msd_bench.core.dyna import DynaConfig, train_dyna
+from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.learner import GreedyPolicy, StepwiseLearner
+from msd_bench.core.model import plant_model
+from msd_bench.core.plant import PlantParams
+from msd_bench.core.qconfig import QConfig, improved_config
+from msd_bench.core.qtrain import greedy_rollouts, train
+
+PLANT = plant_model(PlantParams())
+
+
+def _run_stepwise(cfg: QConfig, seed: int, planning: int = 0) -> StepwiseLearner:
+    agent = StepwiseLearner(cfg, seed, planning_steps=planning)
+    for _ in range(cfg.episodes):
+        state = PLANT.initial_state()
+        agent.start_episode(0.0)
+        while not agent.episode_over:
+            agent.learn(PLANT.step(state, agent.act()))
+    return agent
+
+
+@pytest.mark.parametrize("cfg", [QConfig(episodes=3, steps=400), improved_config(episodes=3, steps=400)])
+def test_stepwise_equals_compiled_training(cfg: QConfig) -> None:
+    batch = train(PLANT, cfg, [11])
+    agent = _run_stepwise(cfg, 11)
+    assert np.array_equal(agent.q, batch.q[0])
+    assert np.array_equal(agent.snapshots[1], batch.snapshots[0, 0])
+    assert agent.returns == pytest.approx(list(batch.returns[0]), abs=0)
+
+
+def test_stepwise_with_planning_equals_dyna_q() -> None:
+    cfg = QConfig(episodes=2, steps=300)
+    dyna = train_dyna(PLANT, DynaConfig(cfg, planning_steps=7), [5])
+    agent = _run_stepwise(cfg, 5, planning=7)
+    assert np.array_equal(agent.q, dyna.q[0])
+    assert agent.real_steps == int(dyna.real_steps[0]) == 600
+
+
+def test_greedy_policy_equals_greedy_rollouts() -> None:
+    cfg = improved_config(episodes=5, steps=500)
+    q = train(PLANT, cfg, [3]).q
+    x_ref, u_ref = greedy_rollouts(PLANT, q, cfg, 1.0, 400)
+    policy = GreedyPolicy(cfg, q[0], 1.0)
+    state, x = PLANT.initial_state(), 0.0
+    for k in range(400):
+        u = policy.force(x)
+        assert (x, u) == (x_ref[0, k], u_ref[0, k])
+        x = PLANT.step(state, u)
+
+
+def test_misuse_is_reported() -> None:
+    agent = StepwiseLearner(replace(QConfig(), steps=1), 0)
+    with pytest.raises(InvalidInputError, match="start_episode"):
+        agent.act()
+    agent.start_episode()
+    with pytest.raises(InvalidInputError, match="preceding act"):
+        agent.learn(0.1)
+    with pytest.raises(InvalidInputError, match="shape"):
+        GreedyPolicy(QConfig(), np.zeros((3, 5)), 1.0)

@@ -1,0 +1,110 @@
+"""The PLM blend (msd_bench.core.plm): exact where a membership is 1, known-truth recovery."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from msd_bench.core import kernels
+from msd_bench.core.data import IOData
+from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.excitation import PrbsConfig, prbs
+from msd_bench.core.fit import fit_percent
+from msd_bench.core.identify import PlmConfig, free_run, identify_plm
+from msd_bench.core.linear import LinearFit
+from msd_bench.core.model import StepModel
+from msd_bench.core.plm import PLM_BIASES, blend, local_from_params
+
+DT = 0.01
+# Five distinct stable systems; operating points inside each membership's plateau/peak
+# (model 1 below -2 and model 5 above 1.5, where f1 / f5 are exactly 1).
+TRUTH = [
+    LinearFit(1.0e-4, 0.2e-4, -1.96, 0.9640, -10.0, -2.3, DT),
+    LinearFit(0.8e-4, 0.4e-4, -1.97, 0.9720, -5.0, -1.0, DT),
+    LinearFit(1.2e-4, 0.1e-4, -1.98, 0.9810, 0.0, 0.0, DT),
+    LinearFit(0.9e-4, 0.3e-4, -1.95, 0.9540, 5.0, 1.0, DT),
+    LinearFit(1.1e-4, 0.5e-4, -1.94, 0.9450, 10.0, 2.0, DT),
+]
+
+
+def _linear(fit: LinearFit) -> StepModel:
+    return StepModel(kernels.KIND_LINEAR, fit.to_params(5.0))
+
+
+def _step(model: StepModel, x: float, xp: float, up: float, u: float) -> float:
+    return model.step(np.array([x, xp, up, 0.0]), u)
+
+
+@pytest.mark.parametrize(
+    ("x", "index"), [(0.0, 2), (1.0, 3), (-1.0, 1), (-2.3, 0), (-2.0001, 0), (1.7, 4), (2.4, 4)]
+)
+def test_blend_is_the_local_model_where_its_membership_is_one(x, index):
+    plm = blend(TRUTH, 5.0)
+    for u in (-3.0, 0.5, 7.0):
+        expected = _step(_linear(TRUTH[index]), x, x - 0.004, u + 0.2, u)
+        assert _step(plm, x, x - 0.004, u + 0.2, u) == pytest.approx(expected, abs=1e-14)
+
+
+def test_blend_between_models_four_and_five_is_their_average_at_1_25():
+    """f4(1.25) = 2 (1.5 - 1.25) = 0.5 and f5(1.25) = 2 (1.25 - 1) = 0.5: equal weights."""
+    plm = blend(TRUTH, 5.0)
+    a = _step(_linear(TRUTH[3]), 1.25, 1.24, 4.0, 4.5)
+    b = _step(_linear(TRUTH[4]), 1.25, 1.24, 4.0, 4.5)
+    assert _step(plm, 1.25, 1.24, 4.0, 4.5) == pytest.approx(0.5 * (a + b), abs=1e-14)
+
+
+def test_blend_round_trips_through_packed_params():
+    plm = blend(TRUTH, 5.0)
+    assert plm.kind == kernels.KIND_PLM and plm.params.size == kernels.PLM_SIZE
+    back = local_from_params(plm.params, DT)
+    for got, want in zip(back, TRUTH, strict=True):
+        assert got.coefficients == want.coefficients and (got.u0, got.y0) == (want.u0, want.y0)
+
+
+def _records_from_truth() -> dict[float, IOData]:
+    records = {}
+    for i, (bias, truth) in enumerate(zip(PLM_BIASES, TRUTH, strict=True)):
+        u = prbs(PrbsConfig(bias=bias, settle=0, n_samples=3000), seed=i + 1)
+        dy = lfilter([0.0, truth.n1, truth.n2], [1.0, truth.d1, truth.d2], u - bias)
+        records[bias] = IOData.single(u, truth.y0 + dy, DT, name=f"bias={bias:+g}")
+    return records
+
+
+def test_plm_from_five_known_linear_systems_recovers_them():
+    records = _records_from_truth()
+    plm = identify_plm(records, PlmConfig())
+    for got, want in zip(local_from_params(plm.params, DT), TRUTH, strict=True):
+        np.testing.assert_allclose(got.coefficients, want.coefficients, rtol=1e-6, atol=1e-12)
+        assert got.u0 == want.u0
+        assert got.y0 == pytest.approx(want.y0, abs=1e-8)
+    # In the outer regions (f1 = 1 below -2, f5 = 1 above 1.5) the blend is the system itself.
+    for bias in (-10.0, 10.0):
+        exp = records[bias].experiments[0]
+        assert fit_percent(exp.y, free_run(plm, exp)) > 99.999
+
+
+def test_plm_accepts_pairs_in_any_order():
+    records = _records_from_truth()
+    shuffled = [(b, records[b]) for b in (5.0, -10.0, 0.0, 10.0, -5.0)]
+    a = identify_plm(records)
+    b = identify_plm(shuffled)
+    np.testing.assert_array_equal(a.params, b.params)
+    assert a.info["biases"] == list(PLM_BIASES)
+
+
+def test_wrong_number_of_biases_is_rejected():
+    records = _records_from_truth()
+    del records[0.0]
+    with pytest.raises(InvalidInputError, match="5 distinct biases, got 4"):
+        identify_plm(records)
+    with pytest.raises(InvalidInputError, match="exactly 5 local models"):
+        blend(TRUTH[:3], 5.0)
+
+
+def test_mixed_sample_times_are_rejected():
+    records = _records_from_truth()
+    e = records[5.0].experiments[0]
+    records[5.0] = IOData.single(e.u, e.y, dt=0.02)
+    with pytest.raises(InvalidInputError, match="different sample times"):
+        identify_plm(records)
