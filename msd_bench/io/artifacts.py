@@ -49,7 +49,7 @@ class Provenance:
         """JSON-ready, stamped with the tool version, Python and the time of writing."""
         return {
             "sources": list(self.sources),
-            "parameters": _jsonable(self.parameters),
+            "parameters": jsonable(self.parameters),
             "seed": self.seed,
             "msd_bench_version": msd_bench.__version__,
             "python": platform.python_version(),
@@ -86,7 +86,7 @@ def save_model(model: StepModel, path: Path, provenance: Provenance) -> Path:
         "name": model.name,
         "kind": kernels.KIND_NAMES[model.kind],
         "params": [float(v) for v in model.params],
-        "info": _jsonable(model.info),
+        "info": jsonable(model.info),
         "provenance": provenance.as_dict(),
     }
     path.write_text(json.dumps(doc, indent=1) + "\n")
@@ -108,7 +108,7 @@ def load_model(path: Path) -> StepModel:
 def save_qtables(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> Path:
     """Write Q-tables (and snapshots) as ``.npz`` with JSON metadata; refuses to overwrite."""
     path = _fresh(Path(path))
-    doc = {"schema": QTABLE_SCHEMA, "schema_version": SCHEMA_VERSION, **_jsonable(meta)}
+    doc = {"schema": QTABLE_SCHEMA, "schema_version": SCHEMA_VERSION, **jsonable(meta)}
     with path.open("wb") as fh:
         np.savez_compressed(fh, meta=np.array(json.dumps(doc)), **arrays)
     return path
@@ -156,16 +156,16 @@ def _fresh(path: Path) -> Path:
     return path
 
 
-def _jsonable(value: Any) -> Any:
+def jsonable(value: Any) -> Any:
     """Plain JSON types: numpy scalars/arrays to Python, NaN/inf to None, tuples to lists."""
     if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
     if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
+        return jsonable(value.tolist())
     if isinstance(value, np.generic):
-        return _jsonable(value.item())
+        return jsonable(value.item())
     if isinstance(value, float) and not math.isfinite(value):
         return None
     if isinstance(value, Path):

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from msd_bench.core.results import METRIC_KEYS, AgentResult
-from msd_bench.io.artifacts import _jsonable
+from msd_bench.io.artifacts import jsonable
 
 TABLE_SCHEMA = "msd-bench/table1"
 TABLE_VERSION = 1
@@ -30,13 +30,13 @@ def table_json(results: Sequence[AgentResult], run: Mapping[str, Any]) -> dict[s
     return {
         "schema": TABLE_SCHEMA,
         "schema_version": TABLE_VERSION,
-        "run": _jsonable(dict(run)),
+        "run": jsonable(dict(run)),
         "agents": [_agent_json(r) for r in results],
     }
 
 
 def _agent_json(r: AgentResult) -> dict[str, Any]:
-    return _jsonable(
+    return jsonable(
         {
             "kind": r.kind,
             "label": r.label,

@@ -24,7 +24,11 @@ non-finite command is rejected and does *not* step (sim time never advances on
 garbage; a client that waits for the sample times out and sees the warning).
 A closed-loop client sends ``u_k`` and waits for ``position`` (``x_{k+1}``).
 
-``reset`` (std_msgs/Empty) returns the model to rest at sample 0, force 0.
+``reset`` (std_msgs/Empty) returns the model to rest at sample 0, force 0. In
+lock-step the node acknowledges a reset by publishing ``position`` = x_0: a
+client sends ``reset``, waits for that one position, then sends ``u_0`` — the
+reset and force topics are not ordered with respect to each other, so without
+the acknowledgement a command could overtake the reset.
 """
 
 from __future__ import annotations
@@ -119,7 +123,7 @@ class PlantNode(Node):
             self.create_publisher(msg_class(CLOCK), CLOCK.name, qos(CLOCK)) if self.config.lockstep else None
         )
         self.create_subscription(Float64, FORCE.name, self._on_force, qos(FORCE))
-        self.create_subscription(Empty, RESET.name, self._on_reset, qos(RESET))
+        self.create_subscription(Empty, RESET.name, self._on_reset_msg, qos(RESET))
         self._on_reset(None)
         self._pacer = DeadlinePacer(self.spec.dt)
         self._ros0 = self.get_clock().now().nanoseconds
@@ -153,6 +157,11 @@ class PlantNode(Node):
         self._k = 0
         self._u = 0.0
         self._t_cmd: float | None = None
+
+    def _on_reset_msg(self, msg: Empty) -> None:
+        self._on_reset(msg)
+        if self.config.lockstep:
+            self._pub_x.publish(float64(float(self._state[0])))
 
     def _accept(self, u: float) -> float | None:
         """The force to apply, or None if the command must be rejected."""

@@ -56,9 +56,9 @@ class Client:
         assert spin_until(self.executor, lambda: self.force.get_subscription_count() > 0)
 
     def send_and_wait(self, u: float) -> None:
-        n = len(self.positions)
+        n, n_rows = len(self.positions), len(self.rows)
         self.force.publish(float64(u))
-        assert spin_until(self.executor, lambda: len(self.positions) > n and len(self.rows) > n)
+        assert spin_until(self.executor, lambda: len(self.positions) > n and len(self.rows) > n_rows)
 
 
 def make_plant(ctx, executor, spec: ModelSpec | None = None, config=LOCKSTEP) -> PlantNode:
@@ -113,8 +113,10 @@ def test_reset_returns_to_rest_at_sample_zero(ctx, executor):
     for _ in range(5):
         client.send_and_wait(10.0)
     assert client.positions[-1] > 0
+    n_before = len(client.positions)
     client.reset.publish(Empty())
-    assert spin_until(executor, lambda: plant.k == 0)
+    assert spin_until(executor, lambda: plant.k == 0 and len(client.positions) == n_before + 1)
+    assert client.positions[-1] == 0.0  # the lock-step acknowledgement: x_0 after a reset
     client.send_and_wait(10.0)
     last = client.rows[-1]
     assert (last.position[0], last.velocity[0], last.header.stamp.nanosec) == (0.0, 0.0, 0)

@@ -1,0 +1,217 @@
+"""The agent node: train tabular Q-learning on a surrogate, then close the loop on the plant.
+
+Training (one of):
+
+* in-process (default, fast): the surrogate's model artifact is loaded and all
+  seeds train in one compiled call (:func:`msd_bench.core.qtrain.train`);
+* ``via_ros``: over a surrogate node's topics in lock-step, one
+  :class:`StepwiseLearner` per seed — the same Q-table bit for bit;
+* ``dyna``: Dyna-Q whose *real* interactions go to the plant node's topics
+  (the baseline of paper §3.4.2), planning in-process.
+
+Then every seed's greedy table runs once on the plant topics (unit step,
+3,000 steps), each run is written as a bag, scored (paper §5), and the node
+writes ``qtables.npz`` and ``result.json`` under ``out_dir`` and exits.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rclpy.node import Node
+from rclpy.task import Future
+
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.learner import GreedyPolicy, StepwiseLearner
+from msd_bench.core.metrics import compute
+from msd_bench.core.qconfig import QConfig, improved_config
+from msd_bench.core.qtrain import train
+from msd_bench.core.results import per_seed_row
+from msd_bench.io import artifacts
+from msd_bench.io.bags import write_experiment
+from msd_bench.nodes.episode_client import Episode, EpisodeClient
+from msd_bench.nodes.params import declare_from_dataclass
+from msd_msgs_py.contract import PLANT_NAMESPACE
+
+
+@dataclass(frozen=True)
+class AgentNodeConfig:
+    """What the agent node trains on, how, and where it validates."""
+
+    kind: str = "plm"
+    """Agent kind label for the report (e.g. ``plm``, ``plm+improved``, ``dyna-q``)."""
+    model_path: str = ""
+    """Surrogate model artifact (JSON) to train on; unused for ``dyna``."""
+    agent: str = "paper"
+    """State design: ``paper`` (§4 as printed) or ``improved`` (our extension)."""
+    seeds: tuple[int, ...] = (0,)
+    """Learning seeds; one agent per seed."""
+    episodes: int = field(default=300, metadata={"range": (1, 100_000)})
+    """Training episodes per seed (paper: 300)."""
+    steps: int = field(default=3000, metadata={"range": (1, 1_000_000)})
+    """Steps per training episode (paper: 3,000)."""
+    via_ros: bool = False
+    """Train over the surrogate node's topics (lock-step) instead of in-process."""
+    surrogate_ns: str = "/surrogate"
+    """Namespace of the surrogate node used when ``via_ros`` is set."""
+    dyna: bool = False
+    """Dyna-Q: real interactions go to the plant node, planning happens in-process."""
+    planning_steps: int = field(default=100, metadata={"range": (0, 10_000)})
+    """Dyna-Q planning updates per real step (paper: 100)."""
+    plant_ns: str = PLANT_NAMESPACE
+    """Namespace of the plant the agent is validated on (and Dyna-Q interacts with)."""
+    lockstep: bool = True
+    """The plant runs in lock-step (else real-time at 100 Hz)."""
+    target: float = 1.0
+    """Validation set-point, m (paper: unit step)."""
+    validation_steps: int = field(default=3000, metadata={"range": (1, 1_000_000)})
+    """Closed-loop validation length (paper: 3,000)."""
+    window: int = field(default=500, metadata={"range": (1, 1_000_000)})
+    """Terminal window of the SSE, samples."""
+    dt: float = field(default=0.01, metadata={"range": (1e-4, 1.0)})
+    """Sample time of the plant, s (for settling times)."""
+    force: float = field(default=10.0, metadata={"range": (1e-3, 1e4)})
+    """Force magnitude F of the action alphabet, N."""
+    out_dir: str = ""
+    """Where qtables.npz, result.json and the validation bags go (required)."""
+
+    def __post_init__(self) -> None:
+        if self.agent not in ("paper", "improved"):
+            raise ConfigError(f"agent must be 'paper' or 'improved', got {self.agent!r}")
+        if not self.out_dir:
+            raise ConfigError("out_dir is required")
+        if not self.dyna and not self.model_path:
+            raise ConfigError("model_path is required unless dyna is set")
+        if not self.seeds:
+            raise ConfigError("seeds must not be empty")
+        if self.window > self.validation_steps:
+            raise ConfigError("window must not exceed validation_steps")
+
+    def qconfig(self) -> QConfig:
+        """Learner settings (paper agent or improved agent) with this node's budgets."""
+        base = improved_config() if self.agent == "improved" else QConfig()
+        return replace(base, episodes=self.episodes, steps=self.steps, force=self.force)
+
+
+class _Learn:
+    """Episode controller adapter for a :class:`StepwiseLearner`."""
+
+    def __init__(self, learner: StepwiseLearner) -> None:
+        self.learner = learner
+
+    def start(self, x0: float) -> None:
+        self.learner.start_episode(x0)
+
+    def act(self) -> float:
+        return self.learner.act()
+
+    def observe(self, x: float) -> None:
+        self.learner.learn(x)
+
+
+class _Greedy:
+    """Episode controller adapter for a fixed greedy table."""
+
+    def __init__(self, policy: GreedyPolicy) -> None:
+        self.policy = policy
+        self.x = 0.0
+
+    def start(self, x0: float) -> None:
+        self.x = x0
+
+    def act(self) -> float:
+        return self.policy.force(self.x)
+
+    def observe(self, x: float) -> None:
+        self.x = x
+
+
+class AgentNode(Node):
+    """Train, validate on the plant, write the results, finish (``done`` holds the exit status)."""
+
+    def __init__(self, config: AgentNodeConfig | None = None, **node_kwargs: Any) -> None:
+        super().__init__("agent", **node_kwargs)
+        self.config = config or declare_from_dataclass(self, AgentNodeConfig)
+        self.out = Path(self.config.out_dir)
+        self.done: Future = Future()
+        self.q: np.ndarray | None = None
+        self.per_seed: list[dict[str, Any]] = []
+        self.real_steps = 0
+        self._learners: list[StepwiseLearner] = []
+        self._client = EpisodeClient(self, lockstep=self.config.lockstep)
+        self._source = self._check_inputs()
+        self._start_timer = self.create_timer(0.01, self._start)
+
+    def _check_inputs(self) -> dict[str, str] | None:
+        """Load the model up front so a bad path fails before any ROS traffic."""
+        if self.config.dyna:
+            return None
+        self.model = artifacts.load_model(Path(self.config.model_path))
+        return artifacts.source(Path(self.config.model_path))
+
+    def _start(self) -> None:
+        self._start_timer.cancel()
+        cfg, qc = self.config, self.config.qconfig()
+        if cfg.dyna or cfg.via_ros:
+            ns = cfg.plant_ns if cfg.dyna else cfg.surrogate_ns
+            planning = cfg.planning_steps if cfg.dyna else 0
+            self._learners = [StepwiseLearner(qc, s, planning) for s in cfg.seeds]
+            for learner in self._learners:
+                for _ in range(qc.episodes):
+                    self._client.submit(Episode(_Learn(learner), ns, qc.steps))
+            self._client.on_idle = self._trained_over_ros
+            self.get_logger().info(f"training {len(cfg.seeds)} seed(s) over {ns}")
+        else:
+            result = train(self.model, qc, cfg.seeds)
+            self._trained(result.q, result.snapshots[:, 0], result.snapshots[:, -1])
+
+    def _trained_over_ros(self) -> None:
+        q = np.stack([lr.q for lr in self._learners])
+        first = np.stack([lr.snapshots[min(lr.snapshots)] for lr in self._learners])
+        last = np.stack([lr.snapshots[max(lr.snapshots)] for lr in self._learners])
+        self.real_steps = sum(lr.real_steps for lr in self._learners) if self.config.dyna else 0
+        self._trained(q, first, last)
+
+    def _trained(self, q: np.ndarray, first: np.ndarray, last: np.ndarray) -> None:
+        cfg = self.config
+        self.q = q
+        prov = artifacts.Provenance(
+            tuple(s for s in [self._source] if s is not None), _jsonable_config(cfg), cfg.seeds[0])
+        artifacts.save_qtables(self.out / "qtables.npz", {"q": q, "first": first, "last": last},
+                               {"seeds": list(cfg.seeds), "provenance": prov.as_dict()})
+        self.get_logger().info(f"trained; validating {len(cfg.seeds)} seed(s) on {cfg.plant_ns}")
+        for i, seed in enumerate(cfg.seeds):
+            policy = GreedyPolicy(cfg.qconfig(), q[i], cfg.target)
+            ep = Episode(_Greedy(policy), cfg.plant_ns, cfg.validation_steps, record=True,
+                         on_done=lambda e, s=seed: self._validated(s, e))
+            self._client.submit(ep)
+        self._client.on_idle = self._finish
+
+    def _validated(self, seed: int, ep: Episode) -> None:
+        cfg = self.config
+        rows = np.array(sorted(ep.rows)[: cfg.validation_steps])
+        t, x, v, u = rows[:, 0].astype(np.int64), rows[:, 1], rows[:, 2], rows[:, 3]
+        params = {"role": "validation", "kind": cfg.kind, "seed": seed, "target": cfg.target}
+        write_experiment(self.out / "validation" / f"seed_{seed}", t, u, x, v, params=params,
+                         namespace=cfg.plant_ns)
+        m = compute(x, cfg.target, cfg.dt, cfg.window)
+        metrics = {"mae": m.mae, "std": m.std, "po": m.po, "ts": m.ts2, "ts5": m.ts5, "sse": m.sse}
+        self.per_seed.append(per_seed_row(seed, 0, metrics))
+        self.get_logger().info(f"seed {seed}: SSE {m.sse:.2f} %  MAE {m.mae:.3f} m")
+
+    def _finish(self) -> None:
+        cfg = self.config
+        doc = {"kind": cfg.kind, "agent": cfg.agent, "config": _jsonable_config(cfg),
+               "training": "dyna-q over the plant" if cfg.dyna else ("ros" if cfg.via_ros else "in-process"),
+               "real_interactions": self.real_steps, "per_seed": self.per_seed}
+        (self.out / "result.json").write_text(json.dumps(artifacts.jsonable(doc), indent=1) + "\n")
+        self.get_logger().info(f"agent done: {self.out / 'result.json'}")
+        self.done.set_result(0)
+
+
+def _jsonable_config(cfg: AgentNodeConfig) -> dict[str, Any]:
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()}

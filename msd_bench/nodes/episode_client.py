@@ -1,0 +1,193 @@
+"""Run control episodes against plant-like nodes over their topics, driven by callbacks.
+
+An :class:`Episode` pairs a controller (anything with ``start(x0)``, ``act()``
+and ``observe(x)``) with the namespace of a plant-like node and a length. The
+:class:`EpisodeClient` plays a queue of episodes:
+
+* lock-step: publish ``reset``, wait for its acknowledgement (``position`` =
+  x_0), then for each step publish ``u_k`` and wait for ``position`` =
+  x_{k+1}. One command in flight at a time, so the exchange is deterministic
+  and as fast as the middleware allows.
+* real-time: publish ``reset``, let the node settle at rest for
+  ``settle_s``, then answer every ``position`` sample with a force (the plant
+  holds the latest command; its watchdog covers a silent client).
+
+When ``record`` is set the episode also collects the node's ``joint_states``
+rows (x_k, v_k, applied u_k) so the run can be written as a bag; the episode
+ends only once every row has arrived (the two topics are not ordered).
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from rclpy.node import Node
+from std_msgs.msg import Empty, Float64
+
+from msd_bench.core.errors import MsdBenchError
+from msd_msgs_py.contract import FORCE, JOINT_STATES, POSITION, RESET
+from msd_msgs_py.ros import float64, msg_class, qos
+
+
+class EpisodeError(MsdBenchError):
+    """A plant-like node did not answer as the contract requires."""
+
+
+class Controller(Protocol):
+    """What an episode drives: a learner or a fixed policy."""
+
+    def start(self, x0: float) -> None:
+        """The node is at rest at ``x0``; the episode begins."""
+
+    def act(self) -> float:
+        """Force for the current step, N."""
+
+    def observe(self, x: float) -> None:
+        """The position that followed the last force."""
+
+
+@dataclass
+class Episode:
+    """One episode to play."""
+
+    controller: Controller
+    namespace: str
+    steps: int
+    record: bool = False
+    on_done: Callable[[Episode], None] | None = None
+    rows: list[tuple[int, float, float, float]] = field(default_factory=list)
+    """(stamp ns, x, v, applied force) per sample when ``record`` is set."""
+    taken: int = 0
+
+
+class _Endpoint:
+    """Publishers/subscriptions of one plant-like namespace."""
+
+    def __init__(self, node: Node, ns: str, client: EpisodeClient) -> None:
+        self.ns = ns
+        self.force = node.create_publisher(Float64, FORCE.resolve(ns), qos(FORCE))
+        self.reset = node.create_publisher(Empty, RESET.resolve(ns), qos(RESET))
+        self.pos = node.create_subscription(
+            Float64, POSITION.resolve(ns), lambda m: client.on_position(ns, m.data), qos(POSITION))
+        self.js = node.create_subscription(
+            msg_class(JOINT_STATES), JOINT_STATES.resolve(ns), lambda m: client.on_row(ns, m),
+            qos(JOINT_STATES))
+
+    def matched(self) -> bool:
+        return (self.force.get_subscription_count() > 0 and self.reset.get_subscription_count() > 0
+                and self.pos.get_publisher_count() > 0 and self.js.get_publisher_count() > 0)
+
+
+class EpisodeClient:
+    """Plays queued episodes on plant-like nodes; calls ``on_idle`` when the queue empties."""
+
+    def __init__(self, node: Node, lockstep: bool = True, settle_s: float = 0.5,
+                 match_timeout_s: float = 30.0) -> None:
+        self.node = node
+        self.lockstep = lockstep
+        self.settle_s = settle_s
+        self.match_timeout_s = match_timeout_s
+        self.on_idle: Callable[[], None] | None = None
+        self._endpoints: dict[str, _Endpoint] = {}
+        self._queue: deque[Episode] = deque()
+        self._ep: Episode | None = None
+        self._phase = "idle"
+        self._since = 0.0
+        self._matched_at: dict[str, float] = {}
+        node.create_timer(0.05, self._on_tick)
+
+    def endpoint(self, ns: str) -> _Endpoint:
+        """Create (once) the publishers and subscriptions for namespace ``ns``."""
+        if ns not in self._endpoints:
+            self._endpoints[ns] = _Endpoint(self.node, ns, self)
+        return self._endpoints[ns]
+
+    def submit(self, episode: Episode) -> None:
+        """Queue an episode; it starts once its node is matched."""
+        self.endpoint(episode.namespace)
+        self._queue.append(episode)
+
+    @property
+    def busy(self) -> bool:
+        """True while an episode runs or waits in the queue."""
+        return self._ep is not None or bool(self._queue)
+
+    def _on_tick(self) -> None:
+        now = time.monotonic()
+        if self._ep is None and self._queue:
+            self._begin(self._queue.popleft(), now)
+        if self._ep is None:
+            return
+        if self._phase == "match":
+            self._check_match(now)
+        elif self._phase == "settle" and now - self._since >= self.settle_s:
+            self._start_steps(0.0)
+
+    def _begin(self, ep: Episode, now: float) -> None:
+        self._ep, self._phase, self._since = ep, "match", now
+        self._check_match(now)
+
+    def _check_match(self, now: float) -> None:
+        assert self._ep is not None
+        ns = self._ep.namespace
+        if self._endpoints[ns].matched():
+            first = self._matched_at.setdefault(ns, now)
+            if now - first >= 0.3:  # both sides see the match, not just ours
+                self._send_reset(now)
+        elif now - self._since > self.match_timeout_s:
+            raise EpisodeError(f"no plant-like node answers under {ns} (waited {self.match_timeout_s:.0f} s)")
+
+    def _send_reset(self, now: float) -> None:
+        assert self._ep is not None
+        self._phase, self._since = ("reset" if self.lockstep else "settle"), now
+        self._endpoints[self._ep.namespace].reset.publish(Empty())
+
+    def on_position(self, ns: str, x: float) -> None:
+        """Position callback: the reset acknowledgement or the answer to the last force."""
+        ep = self._ep
+        if ep is None or ns != ep.namespace:
+            return
+        if self._phase == "reset":
+            self._start_steps(x)
+        elif self._phase == "step":
+            ep.controller.observe(x)
+            ep.taken += 1
+            if ep.taken < ep.steps:
+                self._send(ep)
+            else:
+                self._phase = "drain"
+                self._maybe_finish()
+
+    def on_row(self, ns: str, msg: Any) -> None:
+        """joint_states callback: collect rows of recorded episodes."""
+        ep = self._ep
+        if ep is None or ns != ep.namespace or not ep.record or self._phase not in ("step", "drain"):
+            return
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        ep.rows.append((stamp, msg.position[0], msg.velocity[0], msg.effort[0]))
+        self._maybe_finish()
+
+    def _start_steps(self, x0: float) -> None:
+        assert self._ep is not None
+        self._phase = "step"
+        self._ep.controller.start(x0)
+        self._send(self._ep)
+
+    def _send(self, ep: Episode) -> None:
+        self._endpoints[ep.namespace].force.publish(float64(ep.controller.act()))
+
+    def _maybe_finish(self) -> None:
+        ep = self._ep
+        if ep is None or self._phase != "drain" or (ep.record and len(ep.rows) < ep.steps):
+            return
+        self._ep, self._phase = None, "idle"
+        if ep.on_done is not None:
+            ep.on_done(ep)
+        if self._queue:
+            self._begin(self._queue.popleft(), time.monotonic())
+        elif self.on_idle is not None:
+            self.on_idle()

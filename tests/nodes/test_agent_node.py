@@ -1,0 +1,90 @@
+"""The agent node: ROS-trained == in-process-trained, and plant validation == the core's."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from msd_bench.core.dyna import DynaConfig, train_dyna
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.metrics import compute
+from msd_bench.core.model import plant_model
+from msd_bench.core.pipeline import PaperConfig, identify_surrogates, make_records
+from msd_bench.core.plant import PlantParams
+from msd_bench.core.qtrain import greedy_rollouts, train
+from msd_bench.io import artifacts
+from msd_bench.io.artifacts import ArtifactError
+from msd_bench.io.bags import read_experiment
+from msd_bench.nodes.agent_node import AgentNode, AgentNodeConfig
+from msd_bench.nodes.plant_node import ModelSpec, PlantNode, PlantNodeConfig, true_plant_spec
+from tests.nodes.conftest import spin_until
+
+pytestmark = pytest.mark.ros
+LOCKSTEP = PlantNodeConfig(lockstep=True, duplicate_check=0.0)
+
+
+@pytest.fixture(scope="module")
+def glm_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    cfg = PaperConfig(samples=2000, val_samples=600)
+    models, _ = identify_surrogates(make_records(cfg, 0), ["glm"], 0, cfg)
+    path = tmp_path_factory.mktemp("models") / "glm.json"
+    return artifacts.save_model(models["glm"], path, artifacts.Provenance())
+
+
+def _run(ctx, executor, cfg: AgentNodeConfig, surrogate=None) -> AgentNode:
+    nodes = [PlantNode(true_plant_spec(), config=LOCKSTEP, context=ctx)]
+    if surrogate is not None:
+        spec = ModelSpec(surrogate, 0.01, 10.0)
+        nodes.append(PlantNode(spec, config=LOCKSTEP, namespace="/surrogate/glm", context=ctx))
+    agent = AgentNode(cfg, context=ctx)
+    for n in [*nodes, agent]:
+        executor.add_node(n)
+    assert spin_until(executor, agent.done.done, timeout=120.0)
+    return agent
+
+
+def test_ros_training_is_bit_identical_and_validation_matches_core(ctx, executor, glm_path, tmp_path):
+    cfg = AgentNodeConfig(kind="glm", model_path=str(glm_path), seeds=(3, 4), episodes=2, steps=150,
+                          via_ros=True, surrogate_ns="/surrogate/glm", validation_steps=300,
+                          window=100, out_dir=str(tmp_path))
+    model = artifacts.load_model(glm_path)
+    agent = _run(ctx, executor, cfg, surrogate=model)
+    reference = train(model, cfg.qconfig(), cfg.seeds)
+    assert np.array_equal(agent.q, reference.q)
+    x_ref, u_ref = greedy_rollouts(plant_model(PlantParams()), reference.q, cfg.qconfig(), 1.0, 300)
+    for i, seed in enumerate(cfg.seeds):
+        exp, params = read_experiment(tmp_path / "validation" / f"seed_{seed}")
+        assert np.array_equal(exp.y, x_ref[i]) and np.array_equal(exp.u, u_ref[i])
+        assert params["seed"] == seed
+        assert agent.per_seed[i]["sse"] == compute(x_ref[i], 1.0, 0.01, 100).sse
+    doc = json.loads((tmp_path / "result.json").read_text())
+    assert doc["training"] == "ros" and len(doc["per_seed"]) == 2
+    arrays, meta = artifacts.load_qtables(tmp_path / "qtables.npz")
+    assert np.array_equal(arrays["q"], reference.q)
+    assert meta["provenance"]["sources"][0]["sha256"] == artifacts.sha256_path(glm_path)
+
+
+def test_dyna_q_interacts_with_the_plant_node(ctx, executor, tmp_path):
+    cfg = AgentNodeConfig(kind="dyna-q", dyna=True, planning_steps=5, seeds=(1,), episodes=2,
+                          steps=100, validation_steps=200, window=50, out_dir=str(tmp_path))
+    agent = _run(ctx, executor, cfg)
+    ref = train_dyna(plant_model(PlantParams()), DynaConfig(replace(cfg.qconfig()), 5), [1])
+    assert np.array_equal(agent.q, ref.q)
+    assert agent.real_steps == 200
+
+
+def test_bad_configuration_is_one_line(tmp_path):
+    with pytest.raises(ConfigError, match="model_path is required"):
+        AgentNodeConfig(out_dir=str(tmp_path))
+    with pytest.raises(ConfigError, match="agent must be"):
+        AgentNodeConfig(model_path="m.json", out_dir=str(tmp_path), agent="clever")
+
+
+def test_missing_model_fails_before_any_traffic(ctx, tmp_path):
+    cfg = AgentNodeConfig(model_path=str(tmp_path / "nope.json"), out_dir=str(tmp_path))
+    with pytest.raises(ArtifactError, match="no such artifact"):
+        AgentNode(cfg, context=ctx)
