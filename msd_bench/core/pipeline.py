@@ -153,7 +153,7 @@ class Records:
     bias_train: dict[float, IOData]
     """PRBS record per bias (settling dropped)."""
     bias_val: dict[float, IOData]
-    """Validation PRBS record per bias (other seeds)."""
+    """Validation PRBS record per bias (other seeds; may be empty: only figures use it)."""
     broad_train: IOData
     """Multilevel record for GLM and NLARX."""
     broad_val: IOData
@@ -207,10 +207,9 @@ def nlarx_config(form: str, seed: int, scale: float = 1.0) -> NlarxConfig:
 
 
 def identify_surrogates(
-    records: Records, names: Sequence[str], seed: int, cfg: PaperConfig
+    records: Records, names: Sequence[str], seed: int, stroke: float = 5.0, nlarx_scale: float = 1.0
 ) -> tuple[dict[str, StepModel], dict[str, FitReport]]:
-    """Fit the requested surrogates and score each on its validation record."""
-    stroke = cfg.plant.L
+    """Fit the requested surrogates and score each on the broad validation record."""
     models: dict[str, StepModel] = {}
     for name in names:
         if name == "glm":
@@ -220,7 +219,7 @@ def identify_surrogates(
         else:
             form = name.removeprefix("nlarx-")
             models[name] = identify.identify_nlarx(
-                records.broad_train, nlarx_config(form, seed, cfg.nlarx_scale), stroke)
+                records.broad_train, nlarx_config(form, seed, nlarx_scale), stroke)
     fits = {name: identify.evaluate(m, _validation_for(name, records)) for name, m in models.items()}
     return models, fits
 
@@ -282,7 +281,7 @@ def run_paper(cfg: PaperConfig, progress: Progress | None = None) -> PaperRun:
         records = make_records(cfg, id_seed)
         run.records[id_seed] = records
         run.models[id_seed], run.fits[id_seed] = identify_surrogates(
-            records, cfg.surrogates_needed(), id_seed, cfg)
+            records, cfg.surrogates_needed(), id_seed, cfg.plant.L, cfg.nlarx_scale)
         done += 1
         for a in surrogate_kinds:
             tell(f"train {a} (id seed {id_seed})", done, total)

@@ -30,7 +30,7 @@ LOCKSTEP = PlantNodeConfig(lockstep=True, duplicate_check=0.0)
 @pytest.fixture(scope="module")
 def glm_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
     cfg = PaperConfig(samples=2000, val_samples=600)
-    models, _ = identify_surrogates(make_records(cfg, 0), ["glm"], 0, cfg)
+    models, _ = identify_surrogates(make_records(cfg, 0), ["glm"], 0)
     path = tmp_path_factory.mktemp("models") / "glm.json"
     return artifacts.save_model(models["glm"], path, artifacts.Provenance())
 

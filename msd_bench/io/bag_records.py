@@ -1,0 +1,93 @@
+"""Identification records from bags: ours (self-describing) or a rig's (described by the caller).
+
+Our recorder stores each experiment's parameters in its bag (role, signal,
+bias, settle length), so a directory of bags is enough to rebuild the paper's
+records. A bag recorded elsewhere (``ros2 bag record`` on a real rig) carries
+none of that: the caller names each bag's role and bias and the settle length.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from msd_bench.core.data import Experiment, IOData
+from msd_bench.core.pipeline import PLM_BIASES, Records
+from msd_bench.io.bags import BagError, read_experiment
+
+
+@dataclass(frozen=True)
+class BagRole:
+    """What one bag is for."""
+
+    path: Path
+    """The rosbag2 bag directory."""
+    role: str
+    """``train`` or ``validation``."""
+    bias: float | None
+    """Operating-point force of a PRBS experiment, N; None for the broad record."""
+    settle: int
+    """Leading samples to drop (the settling segment before the PRBS)."""
+
+
+def roles_from_dir(bags_dir: Path, namespace: str = "/msd") -> list[BagRole]:
+    """Roles of every bag under ``bags_dir`` that carries our experiment parameters."""
+    bags_dir = Path(bags_dir)
+    if not bags_dir.is_dir():
+        raise BagError(f"{bags_dir}: no such bag directory")
+    roles = []
+    for meta in sorted(bags_dir.glob("*/metadata.yaml")):
+        _, params = read_experiment(meta.parent, namespace)
+        if "role" in params:
+            roles.append(_role_of(meta.parent, params))
+    if not roles:
+        raise BagError(f"{bags_dir}: no experiment bag with msd-bench parameters found")
+    return roles
+
+
+def _role_of(path: Path, params: Mapping[str, Any]) -> BagRole:
+    signal = params.get("signal")
+    settle = int(params.get(str(signal), {}).get("settle", 0)) if signal == "prbs" else 0
+    bias = params.get("bias")
+    return BagRole(path, str(params["role"]), None if bias is None else float(bias), settle)
+
+
+def explicit_roles(bias_bags: Sequence[str], broad_bag: str, val_bag: str, settle: int) -> list[BagRole]:
+    """Roles given by hand, e.g. ``bias_bags=["-10=/data/b1", ...]`` for a rig's bags."""
+    roles = []
+    for item in bias_bags:
+        bias, sep, path = item.partition("=")
+        try:
+            value = float(bias)
+        except ValueError:
+            value = float("nan")
+        if not sep or not path or value != value:
+            raise BagError(f"bias bag {item!r} must look like BIAS=PATH, e.g. -10=/data/bias_m10")
+        roles.append(BagRole(Path(path), "train", value, settle))
+    if broad_bag:
+        roles.append(BagRole(Path(broad_bag), "train", None, 0))
+    if val_bag:
+        roles.append(BagRole(Path(val_bag), "validation", None, 0))
+    return roles
+
+
+def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/msd") -> Records:
+    """Read every bag once and assemble the paper's records (one-line BagError if incomplete)."""
+    data: dict[tuple[str, float | None], IOData] = {}
+    for r in roles:
+        exp, _ = read_experiment(r.path, namespace)
+        if r.settle >= len(exp) - 3:
+            raise BagError(f"{r.path}: {len(exp)} samples, fewer than the {r.settle} settle samples to drop")
+        trimmed = Experiment(exp.u[r.settle:], exp.y[r.settle:], str(r.path))
+        data[(r.role, r.bias)] = IOData((trimmed,), 0.01, {"bag": str(r.path)})
+    for role in ("train", "validation"):
+        if (role, None) not in data:
+            raise BagError(f"no broad-range {role} bag given (the multilevel record)")
+    bias_train = {b: data[("train", b)] for b in PLM_BIASES if ("train", b) in data}
+    if need_plm and len(bias_train) != len(PLM_BIASES):
+        missing = [b for b in PLM_BIASES if b not in bias_train]
+        raise BagError(f"PLM needs training bags at biases {list(PLM_BIASES)}; missing {missing}")
+    bias_val = {b: data[("validation", b)] for b in PLM_BIASES if ("validation", b) in data}
+    return Records(bias_train, bias_val, data[("train", None)], data[("validation", None)])

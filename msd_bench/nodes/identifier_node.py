@@ -1,0 +1,101 @@
+"""The identifier node: bags in, surrogate model artifacts and fit reports out.
+
+It reads the experiment bags of a run (ours describe themselves; a rig's are
+described by parameters), fits the requested surrogates (GLM, PLM, NLARX paper
+and improved; :func:`msd_bench.core.pipeline.identify_surrogates`), writes one
+JSON artifact per model with provenance (bag paths and content hashes, the
+parameters, the seed) and ``fits.json``, then finishes. It is a ROS node so
+it runs, logs and is configured like every other part of the bench.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rclpy.node import Node
+from rclpy.task import Future
+
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.pipeline import SURROGATES, identify_surrogates
+from msd_bench.io import artifacts
+from msd_bench.io.bag_records import explicit_roles, load_records, roles_from_dir
+from msd_bench.io.run_output import write_models
+from msd_bench.nodes.params import declare_from_dataclass
+from msd_msgs_py.contract import PLANT_NAMESPACE
+
+
+@dataclass(frozen=True)
+class IdentifierConfig:
+    """Which bags to read, which models to fit, where to write them."""
+
+    bags_dir: str = ""
+    """Directory of self-describing experiment bags (our recorder's); or use the explicit lists."""
+    bias_bags: tuple[str, ...] = ()
+    """A rig's PRBS bags as ``BIAS=PATH`` (e.g. ``-10=/data/b_m10``), one per bias of the PLM."""
+    broad_bag: str = ""
+    """A rig's broad-range (multilevel) training bag, for GLM and NLARX."""
+    validation_bag: str = ""
+    """A rig's broad-range validation bag (fits are reported on it)."""
+    settle_samples: int = field(default=0, metadata={"range": (0, 1_000_000)})
+    """Leading samples dropped from each of a rig's bias bags (ours store their own)."""
+    models: tuple[str, ...] = SURROGATES
+    """Surrogates to fit: any of glm, plm, nlarx-paper, nlarx-improved."""
+    seed: int = field(default=0, metadata={"range": (0, 2**31 - 1)})
+    """Seed of the NLARX training (same bags + same seed = same model)."""
+    stroke: float = field(default=5.0, metadata={"range": (1e-3, 1e3)})
+    """Stroke L of the rig, m: model outputs are projected on [-L/2, L/2]."""
+    nlarx_scale: float = field(default=1.0, metadata={"range": (1e-3, 10.0)})
+    """Multiplies the NLARX training iterations (< 1 only for smoke runs)."""
+    namespace: str = PLANT_NAMESPACE
+    """Namespace the bags' topics live under."""
+    out_dir: str = ""
+    """Where ``<model>.json`` and ``fits.json`` are written (required)."""
+
+    def __post_init__(self) -> None:
+        if not self.out_dir:
+            raise ConfigError("out_dir is required")
+        if not self.bags_dir and not self.broad_bag:
+            raise ConfigError("give bags_dir (our bags) or broad_bag/validation_bag/bias_bags (a rig's)")
+        unknown = [m for m in self.models if m not in SURROGATES]
+        if unknown or not self.models:
+            raise ConfigError(f"unknown model {unknown[0] if unknown else '(none)'}; choose from {SURROGATES}")
+
+
+def identify_from_bags(cfg: IdentifierConfig) -> dict[str, Any]:
+    """Read, fit, write; return the fit reports (shared by the node and the tests)."""
+    if cfg.bags_dir:
+        roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace)
+    else:
+        roles = explicit_roles(cfg.bias_bags, cfg.broad_bag, cfg.validation_bag, cfg.settle_samples)
+    records = load_records(roles, "plm" in cfg.models, cfg.namespace)
+    models, fits = identify_surrogates(records, cfg.models, cfg.seed, cfg.stroke, cfg.nlarx_scale)
+    prov = artifacts.Provenance(tuple(artifacts.source(r.path) for r in roles),
+                                {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()},
+                                cfg.seed)
+    out = Path(cfg.out_dir)
+    write_models(out, models, fits, prov)
+    report = {name: asdict(f) for name, f in fits.items()}
+    (out / "fits.json").write_text(json.dumps(artifacts.jsonable(report), indent=1) + "\n")
+    return report
+
+
+class IdentifierNode(Node):
+    """Runs :func:`identify_from_bags` once, then completes ``done``."""
+
+    def __init__(self, config: IdentifierConfig | None = None, **node_kwargs: Any) -> None:
+        super().__init__("identifier", **node_kwargs)
+        self.config = config or declare_from_dataclass(self, IdentifierConfig)
+        self.done: Future = Future()
+        self.report: dict[str, Any] = {}
+        self._timer = self.create_timer(0.01, self._run)
+
+    def _run(self) -> None:
+        self._timer.cancel()
+        self.report = identify_from_bags(self.config)
+        for name, f in self.report.items():
+            self.get_logger().info(
+                f"{name}: fit {f['sim_fit']:.1f} % (simulation), {f['one_step_fit']:.2f} % (one-step)")
+        self.done.set_result(0)

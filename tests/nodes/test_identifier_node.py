@@ -1,0 +1,103 @@
+"""The identifier: from bags (ours or a rig's) to the same models the in-process pipeline fits."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.excitation import MultilevelConfig, PrbsConfig, multilevel, prbs
+from msd_bench.core.pipeline import PLM_BIASES, Records, identify_surrogates
+from msd_bench.core.plant import PlantParams, simulate
+from msd_bench.io import artifacts
+from msd_bench.io.bags import BagError, write_experiment
+from msd_bench.nodes.identifier_node import IdentifierConfig, IdentifierNode, identify_from_bags
+from tests.nodes.conftest import spin_until
+
+P = PlantParams()
+N, NV, SETTLE = 3000, 1000, 300
+
+
+def _bag(path: Path, u: np.ndarray, params: dict) -> tuple[np.ndarray, np.ndarray]:
+    x, v, ua = simulate(u, P)
+    write_experiment(path, np.arange(u.size) * 10_000_000, ua, x, v, params=params)
+    return ua, x
+
+
+@pytest.fixture(scope="module")
+def bag_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("excitation")
+    for i, b in enumerate(PLM_BIASES):
+        cfg = PrbsConfig(bias=b, n_samples=N, settle=SETTLE)
+        _bag(d / f"bias_{i}", prbs(cfg, 10 + i),
+             {"role": "train", "signal": "prbs", "bias": b, "prbs": asdict(cfg)})
+    _bag(d / "broad", multilevel(MultilevelConfig(n_samples=N), 3),
+         {"role": "train", "signal": "multilevel", "bias": None})
+    _bag(d / "val_broad", multilevel(MultilevelConfig(n_samples=NV), 4),
+         {"role": "validation", "signal": "multilevel", "bias": None})
+    return d
+
+
+def _in_process_reference(bag_dir: Path) -> Records:
+    from msd_bench.core.data import IOData
+    from msd_bench.io.bags import read_experiment
+
+    def load(name: str, settle: int = 0) -> IOData:
+        e, _ = read_experiment(bag_dir / name)
+        return IOData.single(e.u[settle:], e.y[settle:])
+
+    bias = {b: load(f"bias_{i}", SETTLE) for i, b in enumerate(PLM_BIASES)}
+    return Records(bias, {}, load("broad"), load("val_broad"))
+
+
+def test_models_from_our_bags_equal_the_in_process_fit(bag_dir, tmp_path):
+    cfg = IdentifierConfig(bags_dir=str(bag_dir), models=("glm", "plm"), out_dir=str(tmp_path))
+    report = identify_from_bags(cfg)
+    models, fits = identify_surrogates(_in_process_reference(bag_dir), ["glm", "plm"], 0)
+    for name in ("glm", "plm"):
+        saved = artifacts.load_model(tmp_path / f"{name}.json")
+        assert np.array_equal(saved.params, models[name].params)
+        assert report[name]["sim_fit"] == fits[name].sim_fit
+    doc = json.loads((tmp_path / "plm.json").read_text())
+    hashes = {s["path"]: s["sha256"] for s in doc["provenance"]["sources"]}
+    assert hashes[str(bag_dir / "broad")] == artifacts.sha256_path(bag_dir / "broad")
+    assert doc["info"]["n_samples"] == 5 * N
+
+
+def test_rig_bags_described_by_parameters(bag_dir, tmp_path):
+    cfg = IdentifierConfig(broad_bag=str(bag_dir / "broad"), validation_bag=str(bag_dir / "val_broad"),
+                           models=("glm",), out_dir=str(tmp_path))
+    assert set(identify_from_bags(cfg)) == {"glm"}
+    bad = IdentifierConfig(broad_bag=str(bag_dir / "broad"), validation_bag=str(bag_dir / "val_broad"),
+                           models=("plm",), bias_bags=("ten=/x",), out_dir=str(tmp_path / "b"))
+    with pytest.raises(BagError, match="BIAS=PATH"):
+        identify_from_bags(bad)
+
+
+def test_missing_bias_bag_names_what_is_missing(bag_dir, tmp_path):
+    cfg = IdentifierConfig(broad_bag=str(bag_dir / "broad"), validation_bag=str(bag_dir / "val_broad"),
+                           bias_bags=(f"-10={bag_dir / 'bias_0'}",), models=("plm",), out_dir=str(tmp_path))
+    with pytest.raises(BagError, match=r"missing \[-5.0, 0.0, 5.0, 10.0\]"):
+        identify_from_bags(cfg)
+
+
+def test_config_errors_are_one_line(tmp_path):
+    with pytest.raises(ConfigError, match="out_dir is required"):
+        IdentifierConfig(bags_dir="x")
+    with pytest.raises(ConfigError, match="give bags_dir"):
+        IdentifierConfig(out_dir=str(tmp_path))
+    with pytest.raises(ConfigError, match="unknown model arx"):
+        IdentifierConfig(bags_dir="x", out_dir=str(tmp_path), models=("arx",))
+
+
+@pytest.mark.ros
+def test_node_runs_once_and_finishes(ctx, executor, bag_dir, tmp_path):
+    cfg = IdentifierConfig(bags_dir=str(bag_dir), models=("glm",), out_dir=str(tmp_path))
+    node = IdentifierNode(cfg, context=ctx)
+    executor.add_node(node)
+    assert spin_until(executor, node.done.done, timeout=60.0)
+    assert node.done.result() == 0 and (tmp_path / "fits.json").is_file()
