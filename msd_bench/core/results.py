@@ -63,7 +63,12 @@ class AgentResult:
 
     def summary(self) -> dict[str, Summary]:
         """Distribution of each metric over the seeds."""
-        return {key: summarize(float(s[key]) for s in self.per_seed) for key in METRIC_KEYS}
+        return {key: summarize(_number(s[key]) for s in self.per_seed) for key in METRIC_KEYS}
+
+
+def _number(value: Any) -> float:
+    """A metric value; None (N/A as stored in JSON) becomes NaN."""
+    return float("nan") if value is None else float(value)
 
 
 def per_seed_row(seed: int, id_seed: int, metrics: Mapping[str, Any]) -> dict[str, Any]:

@@ -1,0 +1,16 @@
+"""Serve an identified model artifact as a plant-like node under /surrogate/<model name>.
+
+    python launch_scripts/surrogate.py --ros-args -p model_path:=bags/<run>/models/plm.json \
+        -p lockstep:=true [-r __ns:=/surrogate/plm]
+"""
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from msd_bench.nodes.spin import run
+from msd_bench.nodes.surrogate_node import build_surrogate
+
+if __name__ == "__main__":
+    run(build_surrogate)
