@@ -1,6 +1,6 @@
 """The main job: the paper on the emulated ROS 2 bench, every stage a real node process.
 
-    python launch_scripts/bench.py                  # lock-step, 5 seeds, report under bags/<run-id>/
+    python launch_scripts/bench.py                  # lock-step, 3 seeds, report under bags/<run-id>/
     python launch_scripts/bench.py --seeds 20 --realtime
     python launch_scripts/bench.py --bags bags/<old-run>/excitation --stages identify,agents,report
 """
@@ -16,11 +16,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from msd_bench.core.errors import MsdBenchError  # noqa: E402
-from msd_bench.core.model import plant_model  # noqa: E402
-from msd_bench.core.pipeline import AGENT_KINDS  # noqa: E402
-from msd_bench.core.plant import preset  # noqa: E402
-from msd_bench.graph.bench import (  # noqa: E402
+from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.model import plant_model
+from msd_bench.core.pipeline import AGENT_KINDS
+from msd_bench.core.plant import preset
+from msd_bench.graph.bench import (
     STAGES,
     BenchConfig,
     stage_agents,
@@ -31,10 +31,10 @@ from msd_bench.graph.bench import (  # noqa: E402
     timed,
     write_run_facts,
 )
-from msd_bench.graph.bench_report import write_bench_report  # noqa: E402
-from msd_bench.io import artifacts  # noqa: E402
-from msd_bench.launch import process_group  # noqa: E402
-from msd_bench.progress import StageProgress  # noqa: E402
+from msd_bench.graph.bench_report import write_bench_report
+from msd_bench.io import artifacts
+from msd_bench.launch import process_group
+from msd_bench.progress import StageProgress
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -42,7 +42,8 @@ REPO = Path(__file__).resolve().parents[1]
 def parse(argv: list[str]) -> argparse.Namespace:
     """Command-line options."""
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--seeds", type=int, default=5, help="learning seeds per agent kind (5)")
+    p.add_argument("--seeds", type=int, default=3,
+                   help="learning seeds per agent kind (3; `msd-bench paper` runs many seeds in-process)")
     p.add_argument("--first-seed", type=int, default=0, help="first learning seed (0)")
     p.add_argument("--out", type=Path, help="run directory (default bags/<run-id>)")
     p.add_argument("--bags", type=Path, help="identify from these experiment bags instead of recording")
@@ -56,7 +57,7 @@ def parse(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--dyna-episodes", type=int, default=5,
                    help="Dyna-Q episodes on the plant node (paper: 300; default 5 to keep the run short)")
     p.add_argument("--samples", type=int, default=12_000, help="samples per identification record")
-    p.add_argument("--val-samples", type=int, default=4_000, help="samples per validation record")
+    p.add_argument("--val-samples", type=int, default=2_000, help="samples per validation record (2000)")
     p.add_argument("--nlarx-scale", type=float, default=1.0, help="NLARX training iterations multiplier")
     p.add_argument("--domain-id", type=int, help="ROS_DOMAIN_ID of the run (default: a random one)")
     return p.parse_args(argv)
@@ -111,9 +112,12 @@ def run(cfg: BenchConfig) -> int:
             write_plant_model(cfg)
         if "agents" in cfg.stages:
             with StageProgress("agents") as bar:
-                timed(cfg, "agents", lambda: stage_agents(cfg, procs, say, lambda d, t, n: bar.update(n, d, t)))
+                def agents_bar(done: int, total: int, name: str) -> None:
+                    bar.update(name, done, total)
+
+                timed(cfg, "agents", lambda: stage_agents(cfg, procs, say, agents_bar))
     facts = {"preset": cfg.preset, "seeds": len(cfg.seeds), "window": 500, "mode": "ros-graph",
-             "lockstep": not cfg.realtime, "stage_seconds": cfg.timings}
+             "lockstep": not cfg.realtime, "stage_seconds": cfg.timings, "agents": list(cfg.agents)}
     if "report" in cfg.stages:
         paths = timed(cfg, "report", lambda: write_bench_report(cfg, facts))
         print(paths["table"]["md"].read_text())

@@ -23,6 +23,8 @@ class TopicSpec:
     """Keep-last history depth of the reliable QoS profile."""
     doc: str
     """What the topic carries."""
+    latched: bool = False
+    """Transient-local durability: a late subscriber still gets the last message."""
 
     def resolve(self, namespace: str) -> str:
         """Absolute topic name under ``namespace`` (``/msd`` -> ``/msd/position``)."""
@@ -38,13 +40,17 @@ JOINT_NAME = "msd_slider"
 """The one joint name in ``joint_states``."""
 
 TELEMETRY_DEPTH = 1000
-"""Reliable keep-last depth for telemetry: 10 s at 100 Hz, so bags lose nothing on loopback."""
+"""Reliable keep-last depth of ``position`` and ``/clock``: 10 s at 100 Hz."""
+
+RECORD_DEPTH = 20_000
+"""Depth of ``joint_states``, the topic bags are made of: 200 s at 100 Hz, or a whole lock-step
+experiment of 13,000 samples that a slower recorder drains later, so bags lose nothing."""
 
 POSITION = TopicSpec("position", "std_msgs/msg/Float64", TELEMETRY_DEPTH, "position x in m, 100 Hz")
 JOINT_STATES = TopicSpec(
     "joint_states",
     "sensor_msgs/msg/JointState",
-    TELEMETRY_DEPTH,
+    RECORD_DEPTH,
     "stamped position (m), velocity (m/s), effort = force actually applied (N) over the next sample",
 )
 FORCE = TopicSpec(
@@ -53,6 +59,10 @@ FORCE = TopicSpec(
 REFERENCE = TopicSpec("reference", "std_msgs/msg/Float64", 1, "set-point for the agent, m")
 RESET = TopicSpec(
     "reset", "std_msgs/msg/Empty", 1, "return the plant-like node to rest at the origin, sample 0"
+)
+RECORDER_READY = TopicSpec(
+    "recorder/ready", "std_msgs/msg/String", 1,
+    "bag path of a recorder whose readers have all matched their publishers (latched)", latched=True,
 )
 CLOCK = TopicSpec("/clock", "rosgraph_msgs/msg/Clock", TELEMETRY_DEPTH, "sim time, lock-step mode only")
 

@@ -8,12 +8,13 @@ from __future__ import annotations
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Empty, Float64
+from std_msgs.msg import Empty, Float64, String
 
 from msd_msgs_py.contract import JOINT_NAME, TopicSpec
 
 MESSAGE_CLASSES = {
     "std_msgs/msg/Float64": Float64,
+    "std_msgs/msg/String": String,
     "std_msgs/msg/Empty": Empty,
     "sensor_msgs/msg/JointState": JointState,
     "rosgraph_msgs/msg/Clock": Clock,
@@ -21,12 +22,12 @@ MESSAGE_CLASSES = {
 
 
 def qos(spec: TopicSpec) -> QoSProfile:
-    """Reliable keep-last QoS of the topic's depth (volatile durability)."""
+    """Reliable keep-last QoS of the topic's depth (transient-local if latched, else volatile)."""
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
         depth=spec.depth,
         reliability=ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.VOLATILE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if spec.latched else DurabilityPolicy.VOLATILE,
     )
 
 

@@ -245,7 +245,9 @@ class Trained:
     real_interactions: int
 
 
-def train_and_validate(kind: AgentKind, surrogate: StepModel, cfg: PaperConfig, seeds: Sequence[int]) -> Trained:
+def train_and_validate(
+    kind: AgentKind, surrogate: StepModel, cfg: PaperConfig, seeds: Sequence[int]
+) -> Trained:
     """Train ``seeds`` on ``surrogate`` (or Dyna-Q on the plant), then run greedily on the plant."""
     qc = cfg.qconfig(kind.agent)
     plant = plant_model(cfg.plant)

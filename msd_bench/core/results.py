@@ -73,8 +73,8 @@ def _number(value: Any) -> float:
 
 def per_seed_row(seed: int, id_seed: int, metrics: Mapping[str, Any]) -> dict[str, Any]:
     """A per-seed record with the success flag derived from the SSE."""
-    row = {"seed": int(seed), "id_seed": int(id_seed)}
-    row.update({k: float(metrics[k]) for k in METRIC_KEYS})
+    row: dict[str, Any] = {"seed": int(seed), "id_seed": int(id_seed)}
+    row.update({k: _number(metrics[k]) for k in METRIC_KEYS})
     row["success"] = bool(row["sse"] < SUCCESS_SSE)
     return row
 

@@ -8,7 +8,6 @@ rebuilt at any time with ``bench.py --stages report --out <run>``.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 from typing import Any
 
 import numpy as np

@@ -25,12 +25,12 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.task import Future
 from rclpy.timer import Timer
-from std_msgs.msg import Float64
+from std_msgs.msg import Empty, Float64, String
 
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError
 from msd_bench.nodes.params import declare_from_dataclass
-from msd_msgs_py.contract import FORCE, JOINT_STATES, PLANT_NAMESPACE
+from msd_msgs_py.contract import FORCE, JOINT_STATES, PLANT_NAMESPACE, RECORDER_READY, RESET
 from msd_msgs_py.ros import float64, msg_class, qos
 
 SIGNALS = ("prbs", "multilevel", "steps")
@@ -54,6 +54,12 @@ class ExcitationNodeConfig:
     """Seconds between matching and the first command, so the plant's side has matched too."""
     sample_timeout: float = field(default=5.0, metadata={"range": (0.1, 600.0)})
     """Lock-step only: seconds to wait for a sample before giving up (the first is resent once)."""
+    reset_first: bool = False
+    """Publish <ns>/reset once matched (before the settle), so the plant starts at rest, sample 0."""
+    min_subscribers: int = field(default=1, metadata={"range": (1, 64)})
+    """Force subscribers to wait for: the plant, plus e.g. a recorder that must see every command."""
+    wait_recorder: str = ""
+    """Bag path of a recorder to wait for (its latched ``recorder/ready``); empty = none."""
 
     def __post_init__(self) -> None:
         if self.signal not in SIGNALS:
@@ -93,11 +99,18 @@ class ExcitationNode(Node):
         self.sent = 0
         self.done: Future = Future()
         self._pub = self.create_publisher(Float64, FORCE.name, qos(FORCE))
+        self._reset = (
+            self.create_publisher(Empty, RESET.name, qos(RESET)) if self.config.reset_first else None
+        )
         self._sub = None
         if self.config.lockstep:
             self._sub = self.create_subscription(
                 msg_class(JOINT_STATES), JOINT_STATES.name, self._on_sample, qos(JOINT_STATES)
             )
+        self._recorders_ready: set[str] = set()
+        if self.config.wait_recorder:
+            self.create_subscription(String, RECORDER_READY.name, lambda m: self._recorders_ready.add(m.data),
+                                     qos(RECORDER_READY))
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._t0 = time.monotonic()
         self._t_match: float | None = None
@@ -113,7 +126,11 @@ class ExcitationNode(Node):
         return build_signal(self.config, prbs, multilevel, steps)
 
     def _matched(self) -> bool:
-        if self._pub.get_subscription_count() == 0:
+        if self._pub.get_subscription_count() < self.config.min_subscribers:
+            return False
+        if self._reset is not None and self._reset.get_subscription_count() == 0:
+            return False
+        if self.config.wait_recorder and self.config.wait_recorder not in self._recorders_ready:
             return False
         return self._sub is None or self._sub.get_publisher_count() > 0
 
@@ -129,6 +146,8 @@ class ExcitationNode(Node):
         if self._t_match is None:
             if self._matched():
                 self._t_match = now
+                if self._reset is not None:
+                    self._reset.publish(Empty())
             elif now - self._t0 > self.config.start_timeout:
                 self._finish(1, f"no plant matched on {self._pub.topic_name} "
                                 f"within {self.config.start_timeout} s")

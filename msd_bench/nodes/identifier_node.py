@@ -61,7 +61,8 @@ class IdentifierConfig:
             raise ConfigError("give bags_dir (our bags) or broad_bag/validation_bag/bias_bags (a rig's)")
         unknown = [m for m in self.models if m not in SURROGATES]
         if unknown or not self.models:
-            raise ConfigError(f"unknown model {unknown[0] if unknown else '(none)'}; choose from {SURROGATES}")
+            which = unknown[0] if unknown else "(none)"
+            raise ConfigError(f"unknown model {which}; choose from {SURROGATES}")
 
 
 def identify_from_bags(cfg: IdentifierConfig) -> dict[str, Any]:

@@ -65,7 +65,7 @@ class PlantNodeConfig:
     """Advance one step per received command and publish /clock, instead of a 100 Hz timer."""
     watchdog_timeout: float = field(default=0.5, metadata={"range": (0.001, 60.0)})
     """Real-time only: seconds without a command after which the applied force drops to 0 N."""
-    duplicate_check: float = field(default=2.0, metadata={"range": (0.0, 30.0)})
+    duplicate_check: float = field(default=4.0, metadata={"range": (0.0, 30.0)})
     """Seconds to look for another publisher of <ns>/joint_states before starting; 0 skips."""
 
 

@@ -16,12 +16,23 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from rclpy.node import Node
+from rclpy.subscription import Subscription
 from rclpy.task import Future
+from std_msgs.msg import String
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.io.bags import BagRecorder
 from msd_bench.nodes.params import declare_from_dataclass
-from msd_msgs_py.contract import ALL_TOPICS, FORCE, JOINT_STATES, PLANT_NAMESPACE, POSITION, TopicSpec
+from msd_msgs_py.contract import (
+    ALL_TOPICS,
+    FORCE,
+    JOINT_STATES,
+    PLANT_NAMESPACE,
+    POSITION,
+    RECORD_DEPTH,
+    RECORDER_READY,
+    TopicSpec,
+)
 from msd_msgs_py.ros import msg_class, qos
 
 _SPECS = {spec.name: spec for spec in ALL_TOPICS}
@@ -41,6 +52,8 @@ class RecorderConfig:
     """Experiment parameters as a JSON object, stored in the bag."""
     max_duration_s: float = 0.0
     """Stop after this long from the first message (monotonic clock); 0 = no limit."""
+    ready_grace_s: float = 0.5
+    """Seconds between all readers matching and announcing ``recorder/ready``."""
     max_messages: int = 0
     """Stop after this many messages over all topics; 0 = no limit."""
     flush_period_s: float = 1.0
@@ -50,6 +63,7 @@ class RecorderConfig:
         "max_duration_s": (0.0, 1e6),
         "max_messages": (0, 2**31 - 1),
         "flush_period_s": (0.05, 60.0),
+        "ready_grace_s": (0.0, 30.0),
     }
 
     def __post_init__(self) -> None:
@@ -90,9 +104,14 @@ class RecorderNode(Node):
         ).open()
         self._started: float | None = None
         self._written = 0
+        self._unmatched: dict[str, Subscription] = {}
         for spec in self.config.specs():
             self._subscribe(spec)
         self._timer = self.create_timer(self.config.flush_period_s / 2, self._on_timer)
+        self._ready_pub = self.create_publisher(
+            String, RECORDER_READY.resolve(self.config.namespace), qos(RECORDER_READY))
+        self._all_matched_at: float | None = None
+        self._match_timer = self.create_timer(0.02, self._on_match_poll)
         self.get_logger().info(f"recording {list(self.config.topics)} to {self.config.bag_path}")
 
     def _subscribe(self, spec: TopicSpec) -> None:
@@ -101,7 +120,32 @@ class RecorderNode(Node):
         def on_message(data: bytes) -> None:
             self._record(topic, spec.ros_type, data)
 
-        self.create_subscription(msg_class(spec), topic, on_message, qos(spec), raw=True)
+        profile = qos(spec)  # commands are keep-last 1: a lagging recorder would drop them
+        profile.depth = max(profile.depth, RECORD_DEPTH)
+        self._unmatched[topic] = self.create_subscription(
+            msg_class(spec), topic, on_message, profile, raw=True
+        )
+
+    def _on_match_poll(self) -> None:
+        """Log ``matched <topic>`` per topic; once all are matched, announce ``recorder/ready``.
+
+        The announcement (latched, carrying the bag path) is what an excitation waits for:
+        our readers see the publishers, and a short grace lets the publishers' side match
+        us too (discovery is not symmetric), so the first sample is not lost.
+        """
+        for topic, sub in list(self._unmatched.items()):
+            if sub.get_publisher_count() > 0:
+                del self._unmatched[topic]
+                self.get_logger().info(f"matched {topic}")
+        if self._unmatched:
+            return
+        now = time.monotonic()
+        if self._all_matched_at is None:
+            self._all_matched_at = now
+        elif now - self._all_matched_at >= self.config.ready_grace_s:
+            self._ready_pub.publish(String(data=str(self.config.bag_path)))
+            self.get_logger().info("ready")
+            self._match_timer.cancel()
 
     @property
     def message_count(self) -> int:

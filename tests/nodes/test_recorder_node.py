@@ -23,7 +23,7 @@ from sensor_msgs.msg import JointState
 from msd_bench.core.errors import ConfigError
 from msd_bench.io.bags import bag_info, read_experiment, read_topic
 from msd_bench.nodes.recorder_node import RecorderNode
-from msd_msgs_py.contract import FORCE, JOINT_STATES, PLANT_NAMESPACE, POSITION
+from msd_msgs_py.contract import FORCE, JOINT_STATES, PLANT_NAMESPACE, POSITION, RECORDER_READY
 from msd_msgs_py.ros import float64, joint_state, msg_class, qos
 
 pytestmark = [
@@ -180,14 +180,14 @@ def test_launch_script_sigterm_leaves_a_complete_bag(ctx: Context, tmp_path: Pat
     )
     node = Node("fake_plant_proc", context=ctx)
     pub = node.create_publisher(msg_class(POSITION), POSITION.resolve("/msd"), qos(POSITION))
+    ready: list[str] = []
+    node.create_subscription(msg_class(RECORDER_READY), RECORDER_READY.resolve("/msd"),
+                             lambda m: ready.append(m.data), qos(RECORDER_READY))
     executor = SingleThreadedExecutor(context=ctx)
     executor.add_node(node)
     try:
-        _spin_until(executor, lambda: pub.get_subscription_count() >= 1, timeout=30.0)
-        # Our side sees the match before the recorder's reader has matched us: give it time.
-        settle = time.monotonic() + 0.5
-        while time.monotonic() < settle:
-            executor.spin_once(timeout_sec=0.05)
+        # The recorder announces (latched) once its readers matched, plus a grace for our side.
+        _spin_until(executor, lambda: str(bag) in ready, timeout=30.0)
         for k in range(50):
             pub.publish(float64(k))
         time.sleep(1.0)  # let the reliable writer deliver before we stop the process

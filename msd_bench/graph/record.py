@@ -1,0 +1,297 @@
+"""The recording stage of the main job: one verified rosbag2 bag per experiment.
+
+Given a *running* plant-like process, each experiment is recorded through real
+node processes, as on the rig: a recorder of ``joint_states`` (each row holds
+x_k, v_k and the force actually applied, so it is the whole identification
+record) and an excitation process start together; the excitation waits for
+the plant and for the recorder's latched ``recorder/ready`` announcement (all
+its readers matched, plus a grace for the publishers' side), resets the plant
+to rest, settles, plays the seeded signal in lock-step and exits 0. The
+recorder stops by itself after ``max_messages`` = samples (a timeout falls
+back to a clean SIGINT). ``joint_states`` keeps a whole experiment in its
+reliable history (``RECORD_DEPTH``), so a recorder slower than the lock-step
+loop drains it late instead of losing samples.
+Every bag is then read back with :func:`read_experiment` and must hold exactly
+the samples played, bit for bit after saturation. A bag that lacks samples
+(the plant had not matched the new recorder yet: discovery is asymmetric and
+takes 1-3 s) is recorded once more; a second shortfall, a wrong force or a
+plant that missed its reset fails loudly, naming the experiment.
+
+Real-time mode (``lockstep=False``) records the free-running plant from the
+recorder's start to its stop, so the check is weaker: no gap in the stamps and
+at least as many samples as commands.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from msd_bench.core import excitation as exc
+from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.io.bags import bag_info, read_experiment, read_topic
+from msd_bench.launch import LaunchError, NodeProcess, ProcessSet, stop
+from msd_msgs_py.contract import JOINT_STATES, PLANT_NAMESPACE
+
+SignalConfig = exc.PrbsConfig | exc.MultilevelConfig | exc.StepsConfig
+Progress = Callable[[int, int, str], None]
+_KINDS: dict[str, type] = {
+    "prbs": exc.PrbsConfig, "multilevel": exc.MultilevelConfig, "steps": exc.StepsConfig,
+}
+_TOPICS = (JOINT_STATES,)
+"""Recorded for identification: each joint_states row holds x_k, v_k and the force applied."""
+PAPER_BIASES = (-10.0, -5.0, 0.0, 5.0, 10.0)
+"""Operating-point forces of the PLM experiments, N (paper §3.2)."""
+
+
+class RecordError(MsdBenchError):
+    """An experiment could not be recorded, or its bag does not hold what was played."""
+
+
+class SampleLossError(RecordError):
+    """A bag lacks messages the plant published (worth one more try)."""
+
+
+@dataclass(frozen=True)
+class ExperimentSpec:
+    """One excitation experiment: what to play and what to store with it."""
+
+    name: str
+    """Bag directory name under the run, e.g. ``bias_m10``, ``broad``, ``val_bias_p5``."""
+    signal: str
+    """Signal kind: ``prbs``, ``multilevel`` or ``steps``."""
+    config: SignalConfig
+    """Core config of that kind (its type must match ``signal``)."""
+    seed: int = 0
+    """Seed of the signal generator (ignored by ``steps``)."""
+    params: Mapping[str, Any] = field(default_factory=dict)
+    """Extra parameters stored in the bag (role train/validation, bias, plan seed ...)."""
+
+    def __post_init__(self) -> None:
+        if not re.fullmatch(r"[A-Za-z0-9_.-]+", self.name):
+            raise ConfigError(f"experiment name {self.name!r} must be a plain directory name")
+        if not isinstance(self.config, _KINDS.get(self.signal, ())):
+            raise ConfigError(f"experiment {self.name}: signal {self.signal!r} does not match "
+                              f"its config {type(self.config).__name__}")
+
+    def force(self) -> np.ndarray:
+        """The commands the excitation node plays: exactly the core generator's output."""
+        if isinstance(self.config, exc.PrbsConfig):
+            return exc.prbs(self.config, self.seed)
+        if isinstance(self.config, exc.MultilevelConfig):
+            return exc.multilevel(self.config, self.seed)
+        return exc.steps(self.config)
+
+    def bag_params(self) -> dict[str, Any]:
+        """Everything needed to regenerate the signal, plus ``params``; stored in the bag."""
+        return {"experiment": self.name, "signal": self.signal, "seed": self.seed,
+                self.signal: asdict(self.config), **self.params}
+
+    def ros_args(self) -> list[str]:
+        """``-p`` arguments of the excitation node that make it play :meth:`force`."""
+        args = ["-p", f"signal:={self.signal}", "-p", f"seed:={self.seed}"]
+        for key, value in asdict(self.config).items():
+            args += ["-p", f"{self.signal}.{key}:={_ros_value(value)}"]
+        return args
+
+
+def _ros_value(value: Any) -> str:
+    """A ``-p`` value that ROS parses back to exactly ``value`` (floats by ``repr``)."""
+    if isinstance(value, tuple | list):
+        return "[" + ",".join(_ros_value(v) for v in value) + "]"
+    if isinstance(value, bool):
+        return str(value).lower()
+    return repr(float(value)) if isinstance(value, float) else str(value)
+
+
+def paper_plan(seed: int, n_samples: int = 12_000, val_samples: int = 4_000) -> list[ExperimentSpec]:
+    """The paper's records: five ±1 N PRBS at the biases, one broad multilevel, and validation twins.
+
+    Validation uses seeds offset by 500 (PRBS seeds repeat modulo 1023), so it
+    is other data than the training record of the same operating point.
+    """
+    plan: list[ExperimentSpec] = []
+    for role, prefix, n, offset in (("train", "", n_samples, 0), ("validation", "val_", val_samples, 500)):
+        common = {"role": role, "plan_seed": seed}
+        for i, bias in enumerate(PAPER_BIASES):
+            plan.append(ExperimentSpec(
+                f"{prefix}{_bias_name(bias)}", "prbs", exc.PrbsConfig(bias=bias, n_samples=n),
+                seed + offset + i, {**common, "bias": bias}))
+        plan.append(ExperimentSpec(f"{prefix}broad", "multilevel", exc.MultilevelConfig(n_samples=n),
+                                   seed + offset + len(PAPER_BIASES), {**common, "bias": None}))
+    return plan
+
+
+def _bias_name(bias: float) -> str:
+    sign = "m" if bias < 0 else "p" if bias > 0 else ""
+    return f"bias_{sign}{abs(bias):g}"
+
+
+@dataclass(frozen=True)
+class RecordTiming:
+    """Wall time of one experiment, split so start-up cost can be told from sample cost."""
+
+    name: str
+    """Experiment name."""
+    samples: int
+    """Commands played."""
+    startup_s: float
+    """Recorder start until the excitation's first command could go (processes + discovery + settle)."""
+    total_s: float
+    """Recorder start until the bag was verified."""
+
+
+TIMINGS: list[RecordTiming] = []
+"""Timings of the experiments recorded by this process, newest last (for benchmarks)."""
+
+
+def record_experiments(
+    specs: Sequence[ExperimentSpec],
+    out_dir: str | Path,
+    procs: ProcessSet,
+    namespace: str = PLANT_NAMESPACE,
+    lockstep: bool = True,
+    progress: Progress | None = None,
+    *,
+    force_limit: float = 10.0,
+    dt: float = 0.01,
+) -> list[Path]:
+    """Record every spec into ``out_dir/<name>`` from the running plant under ``namespace``."""
+    names = [s.name for s in specs]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"experiment names must be unique, got {names}")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    bags = []
+    for i, spec in enumerate(specs):
+        try:
+            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt)
+        except SampleLossError as err:
+            print(f"warning: {err}; recording it again", file=sys.stderr, flush=True)
+            shutil.rmtree(out / spec.name)
+            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt)
+        bags.append(bag)
+        if progress is not None:
+            progress(i + 1, len(specs), spec.name)
+    return bags
+
+
+def record_one(
+    spec: ExperimentSpec, bag: Path, procs: ProcessSet, namespace: str, lockstep: bool,
+    force_limit: float, dt: float,
+) -> Path:
+    """Record one experiment through a recorder and an excitation process; verify the bag."""
+    if bag.exists():
+        raise RecordError(f"experiment {spec.name}: bag {bag} already exists; refusing to overwrite")
+    u = spec.force()
+    t0 = time.monotonic()
+    # Both start at once (process start-up dominates a short experiment); the excitation
+    # waits until the recorder's reader is in the graph, then settles before playing.
+    rec = procs.start("recorder.py", _recorder_args(spec, bag, namespace, u.size if lockstep else 0),
+                      name=f"recorder[{spec.name}]")
+    ex = procs.start("excitation.py", _excitation_args(spec, bag, namespace, lockstep, dt),
+                     name=f"excitation[{spec.name}]")
+    try:
+        _wait_playing(spec, ex, rec, 40.0)
+        startup = time.monotonic() - t0
+        budget = 30.0 + u.size * (0.01 if lockstep else 1.5 * dt)
+        status = _expect(spec, ex.wait, budget)
+        if status != 0:
+            raise RecordError(f"experiment {spec.name}: excitation exited {status}: {_last(ex)}")
+        _finish_recorder(rec, lockstep)
+    finally:
+        for proc in (ex, rec):
+            stop(proc)
+    _verify(spec, bag, namespace, np.clip(u, -force_limit, force_limit), None if lockstep else dt)
+    TIMINGS.append(RecordTiming(spec.name, int(u.size), startup, time.monotonic() - t0))
+    return bag
+
+
+def _recorder_args(spec: ExperimentSpec, bag: Path, namespace: str, max_messages: int) -> list[str]:
+    params = json.dumps(spec.bag_params(), sort_keys=True).replace("'", "''")
+    topics = ",".join(t.name for t in _TOPICS)  # joint_states alone: x, v and applied force per row
+    return ["-p", f"bag_path:={bag}", "-p", f"namespace:={namespace}", "-p", f"topics:=[{topics}]",
+            "-p", f"params_json:='{params}'", "-p", f"max_messages:={max_messages}"]
+
+
+def _excitation_args(spec: ExperimentSpec, bag: Path, namespace: str, lockstep: bool, dt: float) -> list[str]:
+    return [*spec.ros_args(), "-p", f"lockstep:={str(lockstep).lower()}", "-p", f"dt:={dt!r}",
+            "-p", "reset_first:=true", "-p", f"wait_recorder:={bag}", "-p", "settle:=0.3",
+            "-r", f"__ns:={namespace}"]
+
+
+def _wait_playing(spec: ExperimentSpec, ex: NodeProcess, rec: NodeProcess, timeout: float) -> None:
+    """Wait for the excitation to start playing; fail at once if the recorder died meanwhile."""
+    deadline = time.monotonic() + timeout
+    while True:
+        if rec.popen.poll() is not None:
+            raise RecordError(f"experiment {spec.name}: {rec.name} exited ({rec.popen.returncode}) "
+                              f"before recording: {_last(rec)}")
+        try:
+            ex.wait_for_line(r"plant matched: playing", min(0.5, max(0.01, deadline - time.monotonic())))
+            return
+        except LaunchError as err:
+            if time.monotonic() >= deadline or ex.popen.poll() is not None:
+                raise RecordError(f"experiment {spec.name}: {err}") from None
+
+
+def _expect(spec: ExperimentSpec, wait: Callable[..., Any], *args: Any) -> Any:
+    """Call a launcher wait; its LaunchError becomes a RecordError naming the experiment."""
+    try:
+        return wait(*args)
+    except LaunchError as err:
+        raise RecordError(f"experiment {spec.name}: {err}") from None
+
+
+def _finish_recorder(rec: NodeProcess, lockstep: bool) -> None:
+    """Let a lock-step recorder reach ``max_messages`` by itself; else close it with SIGINT."""
+    if lockstep:
+        try:
+            rec.wait(10.0)
+            return
+        except LaunchError:
+            pass  # a message was lost: stop it cleanly, the check below names what is missing
+    stop(rec)
+
+
+def _last(proc: NodeProcess) -> str:
+    lines = [ln for ln in proc.lines if ln.strip()]
+    return lines[-1].strip() if lines else "no output"
+
+
+def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: float | None) -> None:
+    """The bag holds exactly the played samples (lock-step: ``dt`` None), or a gap-free superset."""
+    try:
+        counts = {t: bag_info(bag).topics.get(t.resolve(namespace), ("", 0))[1] for t in _TOPICS}
+        if not counts[JOINT_STATES]:
+            raise SampleLossError(f"experiment {spec.name}: bag {bag} has no joint_states sample")
+        experiment, _ = read_experiment(bag, namespace)
+    except SampleLossError:
+        raise
+    except MsdBenchError as err:
+        raise RecordError(f"experiment {spec.name}: {err}") from None
+    if dt is None:
+        got = {t.name: c for t, c in counts.items()}
+        want = {JOINT_STATES.name: u.size}
+        if got != want:
+            _, msgs = read_topic(bag, JOINT_STATES.resolve(namespace))
+            k = sorted(round((m.header.stamp.sec * 10**9 + m.header.stamp.nanosec) * 100 / 1e9) for m in msgs)
+            raise SampleLossError(f"experiment {spec.name}: expected {want} messages, got {got} "
+                                  f"(samples {k[0]}..{k[-1]} present)")
+        if experiment.y[0] != 0.0 or not np.array_equal(experiment.u, u):
+            raise RecordError(f"experiment {spec.name}: recorded force differs from the signal "
+                              f"(or the plant did not start at rest)")
+        return
+    _, msgs = read_topic(bag, JOINT_STATES.resolve(namespace))
+    stamps = np.sort([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs])
+    if len(experiment) < u.size or np.max(np.diff(stamps)) > 1.5e9 * dt:
+        raise RecordError(f"experiment {spec.name}: real-time recording has gaps or too few samples")

@@ -1,0 +1,78 @@
+"""The surrogate node: an identified model artifact served as a plant-like node (DESIGN.md §4).
+
+It is :class:`PlantNode` with a different :class:`ModelSpec`: the model comes
+from ``model_path`` (:func:`msd_bench.io.artifacts.load_model`), so a surrogate
+speaks exactly the plant's contract and sample alignment, in both clock modes,
+and an agent or a recorder is pointed at it by a namespace remap alone.
+
+The namespace defaults to ``/surrogate/<model name>`` (``-r __ns:=...``
+overrides it). The name is in the artifact, which is only known once the
+parameters are read, so :func:`build_surrogate` reads them first with a
+short-lived loader node and then builds the real one.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rclpy.node import Node
+
+from msd_bench.core import kernels
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.model import StepModel
+from msd_bench.io.artifacts import load_model
+from msd_bench.nodes.params import declare_from_dataclass
+from msd_bench.nodes.plant_node import ModelSpec, PlantNode
+
+SURROGATE_ROOT = "/surrogate"
+"""Parent namespace of every surrogate."""
+
+
+@dataclass(frozen=True)
+class SurrogateConfig:
+    """Which model artifact to serve, and the two facts a model artifact does not carry."""
+
+    model_path: str = ""
+    """Model artifact to serve (JSON from the identifier, e.g. bags/<run>/models/plm.json); required."""
+    dt: float = field(default=0.01, metadata={"range": (1e-4, 10.0)})
+    """Sample time in s the model was identified at (real-time period, lock-step clock increment)."""
+    force_limit: float = field(default=10.0, metadata={"range": (1e-6, 1e6)})
+    """Commands are saturated to ±force_limit N before they act (the plant's F)."""
+
+    def __post_init__(self) -> None:
+        if not self.model_path:
+            raise ConfigError("model_path is required (a model artifact, e.g. bags/<run>/models/plm.json)")
+
+
+def load_spec(config: SurrogateConfig) -> ModelSpec:
+    """The artifact at ``config.model_path`` as a :class:`ModelSpec` (ArtifactError if unreadable)."""
+    return ModelSpec(load_model(Path(config.model_path)), config.dt, config.force_limit)
+
+
+def declare_surrogate(node: Node) -> ModelSpec:
+    """Declare the :class:`SurrogateConfig` parameters on ``node`` and load the model."""
+    return load_spec(declare_from_dataclass(node, SurrogateConfig))
+
+
+def surrogate_namespace(model: StepModel) -> str:
+    """``/surrogate/<name>``, the name made a valid ROS token (kind name if the model has none)."""
+    name = re.sub(r"\W", "_", model.name or kernels.KIND_NAMES[model.kind]).strip("_") or "model"
+    return f"{SURROGATE_ROOT}/{'m_' + name if name[0].isdigit() else name}"
+
+
+def build_surrogate(*, namespace: str | None = None, **node_kwargs: Any) -> PlantNode:
+    """A plant-like node serving ``model_path`` under ``namespace`` (default from the model name).
+
+    ``node_kwargs`` go to both nodes (``context``, ``parameter_overrides`` in tests);
+    a missing or unreadable artifact raises one-line ConfigError/ArtifactError.
+    """
+    if namespace is None:
+        loader = Node("surrogate_loader", start_parameter_services=False, **node_kwargs)
+        try:
+            namespace = surrogate_namespace(declare_surrogate(loader).model)
+        finally:
+            loader.destroy_node()
+    return PlantNode(declare_surrogate, node_name="surrogate", namespace=namespace, **node_kwargs)
