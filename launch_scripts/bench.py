@@ -58,6 +58,8 @@ def parse(argv: list[str]) -> argparse.Namespace:
                    help="Dyna-Q episodes on the plant node (paper: 300; default 5 to keep the run short)")
     p.add_argument("--samples", type=int, default=12_000, help="samples per identification record")
     p.add_argument("--val-samples", type=int, default=2_000, help="samples per validation record (2000)")
+    p.add_argument("--validation-steps", type=int, default=3000,
+                   help="closed-loop validation steps on the plant (paper: 3000)")
     p.add_argument("--nlarx-scale", type=float, default=1.0, help="NLARX training iterations multiplier")
     p.add_argument("--domain-id", type=int, help="ROS_DOMAIN_ID of the run (default: a random one)")
     return p.parse_args(argv)
@@ -77,6 +79,7 @@ def config(args: argparse.Namespace) -> BenchConfig:
         episodes=args.episodes, dyna_episodes=args.dyna_episodes, samples=args.samples,
         val_samples=args.val_samples, nlarx_scale=args.nlarx_scale, realtime=args.realtime,
         via_ros=args.via_ros, bags=args.bags, stages=stages or tuple(args.stages.split(",")),
+        validation_steps=args.validation_steps,
     )
 
 
@@ -116,7 +119,7 @@ def run(cfg: BenchConfig) -> int:
                     bar.update(name, done, total)
 
                 timed(cfg, "agents", lambda: stage_agents(cfg, procs, say, agents_bar))
-    facts = {"preset": cfg.preset, "seeds": len(cfg.seeds), "window": 500, "mode": "ros-graph",
+    facts = {"preset": cfg.preset, "seeds": len(cfg.seeds), "window": cfg.window, "mode": "ros-graph",
              "lockstep": not cfg.realtime, "stage_seconds": cfg.timings, "agents": list(cfg.agents)}
     if "report" in cfg.stages:
         paths = timed(cfg, "report", lambda: write_bench_report(cfg, facts))

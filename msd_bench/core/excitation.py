@@ -128,3 +128,29 @@ def steps(cfg: StepsConfig) -> FloatArray:
 def _require(ok: bool, message: str) -> None:
     if not ok:
         raise ConfigError(message)
+
+
+_CONFIGS: dict[str, type] = {"prbs": PrbsConfig, "multilevel": MultilevelConfig, "steps": StepsConfig}
+
+
+def signal_from_params(params: dict[str, object]) -> FloatArray | None:
+    """Regenerate a played signal from the parameters a bag stores; None if it stores none.
+
+    A bag written by our recorder says which generator played (``signal``), its
+    config (under the signal's name) and its ``seed``, so the exact command
+    sequence can be rebuilt — e.g. to find where a real-time recording started.
+    """
+    kind = params.get("signal")
+    raw = params.get(str(kind))
+    if kind not in _CONFIGS or not isinstance(raw, dict):
+        return None
+    fields = {k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
+    try:
+        cfg = _CONFIGS[str(kind)](**fields)
+    except TypeError as exc:
+        raise ConfigError(f"bag parameters do not describe a {kind} signal: {exc}") from None
+    if isinstance(cfg, PrbsConfig):
+        return prbs(cfg, int(params.get("seed", 0)))  # type: ignore[call-overload]
+    if isinstance(cfg, MultilevelConfig):
+        return multilevel(cfg, int(params.get("seed", 0)))  # type: ignore[call-overload]
+    return steps(cfg)

@@ -88,6 +88,11 @@ class BenchConfig:
         """Where the experiment bags are (recorded here, or given with --bags)."""
         return self.bags if self.bags is not None else self.run_dir / "excitation"
 
+    @property
+    def window(self) -> int:
+        """Terminal SSE window: the last 500 samples (or the whole run if shorter)."""
+        return min(500, self.validation_steps)
+
     def surrogates(self) -> list[str]:
         """Surrogates the requested agents need."""
         need = {AGENT_KINDS[a].surrogate for a in self.agents}
@@ -131,7 +136,7 @@ def agent_args(cfg: BenchConfig, kind: str) -> list[str]:
     args = ["-p", f"kind:={kind}", "-p", f"agent:={k.agent}", "-p", f"seeds:={seeds}",
             "-p", f"out_dir:={cfg.run_dir / 'agents' / kind}",
             "-p", f"lockstep:={str(not cfg.realtime).lower()}",
-            "-p", f"validation_steps:={cfg.validation_steps}"]
+            "-p", f"validation_steps:={cfg.validation_steps}", "-p", f"window:={cfg.window}"]
     if k.dyna:
         return [*args, "-p", "dyna:=true", "-p", f"episodes:={cfg.dyna_episodes}"]
     if k.surrogate == "plant":  # on-plant Q-learning: the plant's own model, in-process

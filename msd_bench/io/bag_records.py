@@ -13,9 +13,33 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from msd_bench.core.data import Experiment, IOData
+from msd_bench.core.excitation import signal_from_params
 from msd_bench.core.pipeline import PLM_BIASES, Records
 from msd_bench.io.bags import BagError, read_experiment
+
+
+def align_to_played(exp: Experiment, params: Mapping[str, Any], force_limit: float = 10.0) -> Experiment:
+    """Cut a real-time recording to the samples the excitation played.
+
+    A real-time recorder runs from before the first command to after the last,
+    so the bag holds rest samples before and a hold-then-watchdog tail after.
+    The played signal is rebuilt from the bag's parameters; its first non-zero
+    force marks the same instant in the recorded effort. Lock-step bags (exactly
+    the played samples) and bags without parameters are returned unchanged.
+    """
+    signal = signal_from_params(dict(params))
+    if signal is None or len(exp) <= signal.size:
+        return exp
+    played = np.clip(signal, -force_limit, force_limit)
+    first_played = int(np.flatnonzero(played)[0]) if np.any(played) else 0
+    nonzero = np.flatnonzero(exp.u)
+    if nonzero.size == 0:
+        return exp
+    start = max(0, int(nonzero[0]) - first_played)
+    return exp.segment(start, start + signal.size)
 
 
 @dataclass(frozen=True)
@@ -30,6 +54,8 @@ class BagRole:
     """Operating-point force of a PRBS experiment, N; None for the broad record."""
     settle: int
     """Leading samples to drop (the settling segment before the PRBS)."""
+    params: Mapping[str, Any] | None = None
+    """The experiment parameters stored in the bag (None for a rig's bag)."""
 
 
 def roles_from_dir(bags_dir: Path, namespace: str = "/msd") -> list[BagRole]:
@@ -51,7 +77,7 @@ def _role_of(path: Path, params: Mapping[str, Any]) -> BagRole:
     signal = params.get("signal")
     settle = int(params.get(str(signal), {}).get("settle", 0)) if signal == "prbs" else 0
     bias = params.get("bias")
-    return BagRole(path, str(params["role"]), None if bias is None else float(bias), settle)
+    return BagRole(path, str(params["role"]), None if bias is None else float(bias), settle, params)
 
 
 def explicit_roles(bias_bags: Sequence[str], broad_bag: str, val_bag: str, settle: int) -> list[BagRole]:
@@ -78,6 +104,8 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
     data: dict[tuple[str, float | None], IOData] = {}
     for r in roles:
         exp, _ = read_experiment(r.path, namespace)
+        if r.params is not None:
+            exp = align_to_played(exp, r.params)
         if r.settle >= len(exp) - 3:
             raise BagError(f"{r.path}: {len(exp)} samples, fewer than the {r.settle} settle samples to drop")
         trimmed = Experiment(exp.u[r.settle:], exp.y[r.settle:], str(r.path))

@@ -1,0 +1,102 @@
+"""bench.py end to end with a tiny budget: real node processes, real bags, a real report."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from msd_bench.core.metrics import compute
+from msd_bench.core.model import plant_model
+from msd_bench.core.plant import PlantParams
+from msd_bench.core.qconfig import QConfig, encoding, improved_config
+from msd_bench.core.qtrain import greedy_rollouts
+from msd_bench.io import artifacts
+from msd_bench.io.bags import bag_info, read_experiment
+
+pytestmark = pytest.mark.e2e
+REPO = Path(__file__).resolve().parents[2]
+AGENTS = ("glm", "plm+improved", "nlarx-improved", "dyna-q", "plant")
+SEEDS = 2
+STEPS = 600
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subprocess.CompletedProcess[str]]:
+    out = tmp_path_factory.mktemp("bench") / "run"
+    argv = [sys.executable, "launch_scripts/bench.py", "--out", str(out), "--seeds", str(SEEDS),
+            "--agents", ",".join(AGENTS), "--episodes", "5", "--dyna-episodes", "1",
+            "--samples", "600", "--val-samples", "400", "--nlarx-scale", "0.05",
+            "--validation-steps", str(STEPS), "--domain-id", os.environ["ROS_DOMAIN_ID"]]
+    proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True, timeout=600)
+    return out, proc
+
+
+def test_exits_cleanly_and_prints_the_table(run):
+    out, proc = run
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "Traceback" not in proc.stderr
+    assert "| Agent |" in proc.stdout and "PLM (improved agent)" in proc.stdout
+    assert f"report: {out / 'report'}" in proc.stderr
+
+
+def test_excitation_bags_hold_the_played_experiments(run):
+    out, _ = run
+    names = sorted(p.name for p in (out / "excitation").iterdir())
+    assert len(names) == 12 and "bias_m10" in names and "val_broad" in names
+    exp, params = read_experiment(out / "excitation" / "bias_p5")
+    assert params["role"] == "train" and params["bias"] == 5.0
+    assert len(exp) == 600 + params["prbs"]["settle"]
+    assert exp.y[0] == 0.0  # each experiment starts from rest
+
+
+def test_models_carry_provenance_of_the_bags(run):
+    out, _ = run
+    doc = json.loads((out / "models" / "plm.json").read_text())
+    sources = {Path(s["path"]).name: s["sha256"] for s in doc["provenance"]["sources"]}
+    assert sources["bias_m10"] == artifacts.sha256_path(out / "excitation" / "bias_m10")
+    fits = json.loads((out / "models" / "fits.json").read_text())
+    assert set(fits) == {"glm", "plm", "nlarx-improved"}
+
+
+def test_validation_bags_match_the_core_greedy_run(run):
+    out, _ = run
+    arrays, meta = artifacts.load_qtables(out / "agents" / "glm" / "qtables.npz")
+    x_ref, u_ref = greedy_rollouts(plant_model(PlantParams()), arrays["q"], QConfig(), 1.0, STEPS)
+    for i, seed in enumerate(meta["seeds"]):
+        exp, _ = read_experiment(out / "agents" / "glm" / "validation" / f"seed_{seed}")
+        assert np.array_equal(exp.y, x_ref[i]) and np.array_equal(exp.u, u_ref[i])
+    arrays, _ = artifacts.load_qtables(out / "agents" / "plm+improved" / "qtables.npz")
+    assert arrays["q"].shape == (SEEDS, encoding(improved_config()).n_states, 5)
+
+
+def test_report_agrees_with_the_agents(run):
+    out, _ = run
+    table = json.loads((out / "report" / "table1.json").read_text())
+    assert table["schema"] == "msd-bench/table1" and table["run"]["mode"] == "ros-graph"
+    rows = {a["kind"]: a for a in table["agents"]}
+    assert set(rows) == set(AGENTS)
+    assert rows["dyna-q"]["real_interactions"] == SEEDS * 1 * 3000
+    assert "reduced budget" in rows["dyna-q"]["notes"]
+    assert rows["plm+improved"]["identification_samples"] == 5 * 600
+    for kind in AGENTS:
+        result = json.loads((out / "agents" / kind / "result.json").read_text())
+        for seed_row in result["per_seed"]:
+            exp, _ = read_experiment(out / "agents" / kind / "validation" / f"seed_{seed_row['seed']}")
+            assert seed_row["sse"] == compute(exp.y, 1.0, 0.01, 500).sse
+        assert [r["sse"] for r in rows[kind]["per_seed"]] == [r["sse"] for r in result["per_seed"]]
+    figures = {p.name for p in (out / "report" / "figures").iterdir()}
+    assert {"step_responses.png", "fit_plm.png", "qtable_glm.png"} <= figures
+    timings = json.loads((out / "run.json").read_text())["timings"]
+    assert {"record", "identify", "agents", "report"} <= set(timings)
+
+
+def test_validation_bag_is_a_complete_rosbag2(run):
+    out, _ = run
+    info = bag_info(out / "agents" / "plant" / "validation" / "seed_0")
+    assert info.topics["/msd/joint_states"][1] == STEPS
