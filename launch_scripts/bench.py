@@ -16,9 +16,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from msd_bench.core.agents import AGENT_KINDS
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.model import plant_model
-from msd_bench.core.pipeline import AGENT_KINDS
 from msd_bench.core.plant import preset
 from msd_bench.graph.bench import (
     STAGES,

@@ -11,12 +11,19 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from msd_bench.core.agents import AGENT_KINDS
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.pipeline import AGENT_KINDS, PaperConfig, run_paper
-from msd_bench.progress import StageProgress
+
+if TYPE_CHECKING:
+    from msd_bench.core.pipeline import PaperConfig
+
+# The pipeline pulls in torch and python-control (seconds): it is imported when a run
+# starts, so `--help` and option errors answer at once.
+AGENT_KIND_NAMES = tuple(AGENT_KINDS)
 
 
 def register(sub: Any) -> None:
@@ -31,31 +38,29 @@ def register(sub: Any) -> None:
 
 def add_run_arguments(p: argparse.ArgumentParser) -> None:
     """Options shared with bench.py: budgets, seeds, agent kinds, preset."""
-    d = PaperConfig()
-    p.add_argument("--seeds", type=int, default=d.seeds, help=f"learning seeds per agent kind ({d.seeds})")
-    p.add_argument("--first-seed", type=int, default=d.first_seed, help="first learning seed (0)")
-    p.add_argument("--id-seeds", type=int, default=d.id_seeds,
+    p.add_argument("--seeds", type=int, default=20, help="learning seeds per agent kind (20)")
+    p.add_argument("--first-seed", type=int, default=0, help="first learning seed (0)")
+    p.add_argument("--id-seeds", type=int, default=1,
                    help="identification seeds: re-record and re-identify each (1)")
-    p.add_argument("--preset", default=d.preset, help="plant preset: default or mild")
-    p.add_argument("--agents", default=",".join(d.agents),
-                   help=f"comma-separated agent kinds (default: all): {', '.join(AGENT_KINDS)}")
-    p.add_argument("--episodes", type=int, default=d.episodes, help="training episodes (300)")
-    p.add_argument("--steps", type=int, default=d.steps, help="steps per training episode (3000)")
-    p.add_argument("--dyna-episodes", type=int, default=d.dyna_episodes, help="Dyna-Q episodes (300)")
-    p.add_argument("--samples", type=int, default=d.samples, help="samples per identification record")
-    p.add_argument("--val-samples", type=int, default=d.val_samples, help="samples per validation record")
-    p.add_argument("--nlarx-scale", type=float, default=d.nlarx_scale,
+    p.add_argument("--preset", default="default", help="plant preset: default or mild")
+    p.add_argument("--agents", default=",".join(AGENT_KIND_NAMES),
+                   help=f"comma-separated agent kinds (default: all): {', '.join(AGENT_KIND_NAMES)}")
+    p.add_argument("--episodes", type=int, default=300, help="training episodes (300)")
+    p.add_argument("--steps", type=int, default=3000, help="steps per training episode (3000)")
+    p.add_argument("--dyna-episodes", type=int, default=300, help="Dyna-Q episodes (300)")
+    p.add_argument("--samples", type=int, default=12_000, help="samples per identification record (12000)")
+    p.add_argument("--val-samples", type=int, default=4_000, help="samples per validation record (4000)")
+    p.add_argument("--nlarx-scale", type=float, default=1.0,
                    help="scale NLARX training iterations (smoke runs: 0.05)")
 
 
 def config_from_args(args: argparse.Namespace) -> PaperConfig:
     """A validated :class:`PaperConfig` from parsed options (one-line ConfigError otherwise)."""
+    from msd_bench.core.pipeline import PaperConfig
+
     agents = tuple(a.strip() for a in str(args.agents).split(",") if a.strip())
     if not agents:
         raise ConfigError("--agents is empty")
-    from msd_bench.core.plant import preset
-
-    preset(args.preset)  # fail early with the list of presets
     return PaperConfig(
         preset=args.preset, seeds=args.seeds, first_seed=args.first_seed, id_seeds=args.id_seeds,
         agents=agents, episodes=args.episodes, steps=args.steps, dyna_episodes=args.dyna_episodes,
@@ -63,9 +68,20 @@ def config_from_args(args: argparse.Namespace) -> PaperConfig:
     )
 
 
+def _check_out(out: Path) -> None:
+    """Refuse an --out that is a file, holds a report already, or cannot be created."""
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out} is a file, not a directory")
+    if (out / "table1.json").exists():
+        raise ConfigError(f"{out} already holds a table1.json; choose another --out")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"cannot create --out {out}: {exc.strerror}") from None
+
+
 def run_facts(cfg: PaperConfig, seconds: float, mode: str) -> dict[str, Any]:
     """What table1.json's ``run`` object records about the run."""
-    from dataclasses import asdict
 
     return {**asdict(cfg), "plant": asdict(cfg.plant), "mode": mode, "seconds": round(seconds, 2),
             "success_sse_percent": 5.0}
@@ -73,12 +89,13 @@ def run_facts(cfg: PaperConfig, seconds: float, mode: str) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     """Run, write, print the table."""
+    from msd_bench.core.pipeline import run_paper
     from msd_bench.io.run_output import write_all
+    from msd_bench.progress import StageProgress
 
     cfg = config_from_args(args)
     out = Path(args.out)
-    if (out / "table1.json").exists():
-        raise ConfigError(f"{out} already holds a table1.json; choose another --out")
+    _check_out(out)
     t0 = time.perf_counter()
     with StageProgress("paper") as bar:
         result = run_paper(cfg, bar.update)

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core import identify
+from msd_bench.core.agents import AGENT_KINDS, SURROGATES, AgentKind
 from msd_bench.core.data import IOData
 from msd_bench.core.dyna import DynaConfig, train_dyna
 from msd_bench.core.errors import ConfigError
@@ -39,43 +40,6 @@ FloatArray = NDArray[np.float64]
 Progress = Callable[[str, int, int], None]
 
 PLM_BIASES = (-10.0, -5.0, 0.0, 5.0, 10.0)
-SURROGATES = ("glm", "plm", "nlarx-paper", "nlarx-improved")
-
-
-@dataclass(frozen=True)
-class AgentKind:
-    """One row of Table 1: what the agent learns on and how it sees the state."""
-
-    kind: str
-    """Machine name used in reports and on the command line."""
-    label: str
-    """Human label."""
-    surrogate: str
-    """``glm``, ``plm``, ``nlarx-paper``, ``nlarx-improved``, or ``plant`` (on-plant learners)."""
-    agent: str
-    """``paper`` (§4 as printed) or ``improved`` (our extension)."""
-    dyna: bool = False
-    """Dyna-Q with planning on the true plant (paper §3.4.2)."""
-
-
-AGENT_KINDS: dict[str, AgentKind] = {
-    k.kind: k
-    for k in (
-        AgentKind("glm", "GLM (paper agent)", "glm", "paper"),
-        AgentKind("plm", "PLM (paper agent)", "plm", "paper"),
-        AgentKind("nlarx-paper", "NLARX paper form (paper agent)", "nlarx-paper", "paper"),
-        AgentKind("nlarx-improved", "NLARX improved form (paper agent)", "nlarx-improved", "paper"),
-        AgentKind("dyna-q", "Dyna-Q on the plant (paper agent)", "plant", "paper", dyna=True),
-        AgentKind("plant", "Q-learning on the true plant (reference)", "plant", "paper"),
-        AgentKind("glm+improved", "GLM (improved agent)", "glm", "improved"),
-        AgentKind("plm+improved", "PLM (improved agent)", "plm", "improved"),
-        AgentKind("nlarx-paper+improved", "NLARX paper form (improved agent)", "nlarx-paper", "improved"),
-        AgentKind("nlarx-improved+improved", "NLARX improved form (improved agent)", "nlarx-improved",
-                  "improved"),
-    )
-}
-PAPER_TABLE = ("glm", "plm", "nlarx-paper", "nlarx-improved", "dyna-q")
-"""The paper's Table 1 rows (plus the improved NLARX form)."""
 
 
 @dataclass(frozen=True)
@@ -117,6 +81,9 @@ class PaperConfig:
         unknown = [a for a in self.agents if a not in AGENT_KINDS]
         if unknown:
             raise ConfigError(f"unknown agent kind {unknown[0]!r}; choose from {', '.join(AGENT_KINDS)}")
+        if not self.agents or len(set(self.agents)) != len(self.agents):
+            raise ConfigError(f"agent kinds must be given once each, got {list(self.agents)}")
+        preset(self.preset)  # an unknown preset fails here, naming the choices
         for name in ("seeds", "id_seeds", "episodes", "steps", "dyna_episodes", "samples",
                      "val_samples", "validation_steps", "window"):
             if int(getattr(self, name)) < 1:

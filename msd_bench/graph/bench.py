@@ -23,8 +23,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from msd_bench.core.agents import AGENT_KINDS, SURROGATES
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.pipeline import AGENT_KINDS, SURROGATES
 from msd_bench.graph.record import paper_plan, record_experiments
 from msd_bench.launch import NodeProcess, ProcessSet
 from msd_msgs_py.contract import PLANT_NAMESPACE
@@ -82,6 +82,8 @@ class BenchConfig:
             raise ConfigError(f"unknown agent kind {bad[0]!r}; choose from {', '.join(AGENT_KINDS)}")
         if not self.seeds:
             raise ConfigError("need at least one seed")
+        if not self.agents or len(set(self.agents)) != len(self.agents):
+            raise ConfigError(f"agent kinds must be given once each, got {list(self.agents)}")
 
     @property
     def excitation_dir(self) -> Path:

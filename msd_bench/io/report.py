@@ -61,8 +61,8 @@ def table_markdown(results: Sequence[AgentResult], run: Mapping[str, Any]) -> st
     """Table 1 for humans: fits, samples, each metric as mean ± sd (median), success rate."""
     head = ["Agent", "Fit sim (%)", "Fit 1-step (%)", "Id. samples", *_HEADERS.values(), "Success"]
     lines = [
-        f"Table 1 — unit step on the true plant ({run.get('preset', '?')} preset), "
-        f"{run.get('seeds', '?')} seeds per agent; SSE over the last {run.get('window', '?')} "
+        f"Table 1 — unit step on the true plant ({run.get('preset', '?')} preset); each row is n "
+        f"trained agents (n in the Success column); SSE over the last {run.get('window', '?')} "
         f"steps; success = SSE < 5 %; cells are mean ± sd (med median) [defined/n].",
         "",
         "| " + " | ".join(head) + " |",

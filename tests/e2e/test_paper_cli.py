@@ -185,3 +185,16 @@ def test_existing_table_is_not_overwritten(run, table):
     proc = _paper(*TINY, "--agents", "plant", "--out", str(out), cwd=out.parent)
     _assert_one_line_error(proc, "table1.json")
     assert (out / "table1.json").read_bytes() == before
+
+
+def test_repeated_agent_kind_is_one_line(tmp_path):
+    proc = _paper("--agents", "plant,plant", "--out", str(tmp_path / "o"), cwd=tmp_path)
+    _assert_one_line_error(proc, "once each", "'plant', 'plant'")
+
+
+def test_out_that_is_a_file_is_refused_before_running(tmp_path):
+    target = tmp_path / "a-file"
+    target.write_text("keep me")
+    proc = _paper(*TINY, "--agents", "plant", "--out", str(target), cwd=tmp_path)
+    _assert_one_line_error(proc, "is a file")
+    assert target.read_text() == "keep me"
