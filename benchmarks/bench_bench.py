@@ -1,0 +1,61 @@
+"""Wall time of the main job, ``python launch_scripts/bench.py``, and of each of its stages.
+
+Runs bench.py with its defaults (lock-step, 3 seeds, every agent kind, paper
+budgets except Dyna-Q's reduced 5 episodes) as a subprocess into a temporary
+run directory, then reads the stage timings bench.py records in ``run.json``.
+Baseline in the same run: ``msd-bench paper`` with the same seeds, agents and
+budgets in-process (no ROS), so ``graph_over_in_process`` shows what running
+every stage through node processes and DDS costs. Floor: 300 s for bench.py.
+
+    .venv/bin/python benchmarks/bench_bench.py [--seeds 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+FLOOR_S = 300.0
+
+
+def timed(argv: list[str]) -> float:
+    """Seconds a command takes; raises if it fails."""
+    t0 = time.perf_counter()
+    proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise SystemExit(f"{argv[1]} failed: {proc.stderr[-2000:]}")
+    return time.perf_counter() - t0
+
+
+def main() -> None:
+    """Run both, print one JSON object."""
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--seeds", type=int, default=3)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        run = Path(tmp) / "run"
+        bench_s = timed([sys.executable, "launch_scripts/bench.py", "--seeds", str(args.seeds),
+                         "--out", str(run)])
+        stages = json.loads((run / "run.json").read_text())["timings"]
+        table = json.loads((run / "report" / "table1.json").read_text())
+        paper_s = timed([sys.executable, "-m", "msd_bench.cli", "paper", "--seeds", str(args.seeds),
+                         "--dyna-episodes", "5", "--val-samples", "2000", "--out", str(Path(tmp) / "p")])
+    print(json.dumps({
+        "bench_seconds": round(bench_s, 1),
+        "stage_seconds": stages,
+        "floor_seconds": FLOOR_S,
+        "within_floor": bench_s <= FLOOR_S,
+        "in_process_paper_seconds": round(paper_s, 1),
+        "graph_over_in_process": round(bench_s / paper_s, 2),
+        "success_rate": {a["kind"]: a["success_rate"] for a in table["agents"]},
+    }, indent=2))
+
+
+if __name__ == "__main__":
+    main()
