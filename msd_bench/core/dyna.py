@@ -23,11 +23,11 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core import kernels, rng
+from msd_bench.core import rng
 from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.model import StepModel
-from msd_bench.core.qconfig import HP_EPS, N_ACTIONS, QConfig, encoding
-from msd_bench.core.qlearning import choose, draw_target, encode, reward, td_update
+from msd_bench.core.qconfig import N_ACTIONS, QConfig, encoding
+from msd_bench.core.qlearning import draw_target, encode, td_update, transition
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -115,12 +115,8 @@ def _dyna_one(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray
         s = encode(mode, n_states, hp, err_edges, ref_edges, x - target, 0.0, target)
         total = 0.0
         for _ in range(steps):
-            a = choose(q, s, hp[HP_EPS], state, i)
-            x_new = kernels.advance(kind, p, plant, actions[a])
-            e_new = x_new - target
-            s2 = encode(mode, n_states, hp, err_edges, ref_edges, e_new, x_new - x, target)
-            r = reward(hp, abs(e_new), err)
-            td_update(q, s, a, r, s2, hp, phi)
+            a, x, err, s2, r = transition(kind, p, mode, n_states, hp, err_edges, ref_edges, phi,
+                                          actions, q, plant, s, x, err, target, state, i)
             j = s * N_ACTIONS + a
             if not seen[j]:
                 seen[j] = True
@@ -132,7 +128,7 @@ def _dyna_one(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray
             counts[0] += 1
             counts[1] += n_plan
             total += r
-            x, err, s = x_new, abs(e_new), s2
+            s = s2
         returns[ep] = total
         if k_snap < snap_at.size and snap_at[k_snap] == ep + 1:
             snaps[k_snap] = q

@@ -53,13 +53,13 @@ __all__ = [
 
 
 @dataclass(frozen=True)
-class GlmConfig:
-    """Global linear model (paper §3.4.1): one 2nd-order model on the broad record."""
+class LinearFitConfig:
+    """Settings shared by every 2nd-order output-error fit."""
 
     stroke: float = 5.0
     """Stroke L in m; the model's output is projected on [-L/2, L/2] like the plant's."""
     max_nfev: int = 200
-    """Maximum residual evaluations of the output-error refinement."""
+    """Maximum residual evaluations of each output-error refinement."""
 
     def __post_init__(self) -> None:
         _positive(self.stroke, "stroke")
@@ -67,17 +67,13 @@ class GlmConfig:
 
 
 @dataclass(frozen=True)
-class PlmConfig:
+class GlmConfig(LinearFitConfig):
+    """Global linear model (paper §3.4.1): one 2nd-order model on the broad record."""
+
+
+@dataclass(frozen=True)
+class PlmConfig(LinearFitConfig):
     """Piecewise linear model (paper §3.2): five local models blended by f1..f5."""
-
-    stroke: float = 5.0
-    """Stroke L in m; the model's output is projected on [-L/2, L/2] like the plant's."""
-    max_nfev: int = 200
-    """Maximum residual evaluations of each local output-error refinement."""
-
-    def __post_init__(self) -> None:
-        _positive(self.stroke, "stroke")
-        _positive(self.max_nfev, "max_nfev")
 
 
 @dataclass(frozen=True)

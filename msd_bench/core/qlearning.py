@@ -125,6 +125,25 @@ def draw_target(hp: FloatArray, state: rng.U64Array, i: int) -> float:
 
 
 @numba.njit(cache=True)
+def transition(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray,
+               err_edges: FloatArray, ref_edges: FloatArray, phi: FloatArray, actions: FloatArray,
+               q: FloatArray, plant: FloatArray, s: int, x: float, err: float, target: float,
+               state: rng.U64Array, i: int) -> tuple[int, float, float, int, float]:
+    """One learning step: act ε-greedily, advance the model, score, update Q.
+
+    Returns ``(a, x_new, |e_new|, s_new, r)``. Shared by Q-learning and Dyna-Q so
+    both take exactly the same step.
+    """
+    a = choose(q, s, hp[HP_EPS], state, i)
+    x_new = kernels.advance(kind, p, plant, actions[a])
+    e_new = x_new - target
+    s2 = encode(mode, n_states, hp, err_edges, ref_edges, e_new, x_new - x, target)
+    r = reward(hp, abs(e_new), err)
+    td_update(q, s, a, r, s2, hp, phi)
+    return a, x_new, abs(e_new), s2, r
+
+
+@numba.njit(cache=True)
 def _train_one(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray,
                err_edges: FloatArray, ref_edges: FloatArray, phi: FloatArray,
                actions: FloatArray, steps: int, snap_at: IntArray, q: FloatArray,
@@ -139,14 +158,10 @@ def _train_one(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArra
         s = encode(mode, n_states, hp, err_edges, ref_edges, x - target, 0.0, target)
         total = 0.0
         for _ in range(steps):
-            a = choose(q, s, hp[HP_EPS], state, i)
-            x_new = kernels.advance(kind, p, plant, actions[a])
-            e_new = x_new - target
-            s2 = encode(mode, n_states, hp, err_edges, ref_edges, e_new, x_new - x, target)
-            r = reward(hp, abs(e_new), err)
-            td_update(q, s, a, r, s2, hp, phi)
+            _, x, err, s2, r = transition(kind, p, mode, n_states, hp, err_edges, ref_edges, phi,
+                                          actions, q, plant, s, x, err, target, state, i)
             total += r
-            x, err, s = x_new, abs(e_new), s2
+            s = s2
         returns[ep] = total
         if k_snap < snap_at.size and snap_at[k_snap] == ep + 1:
             snaps[k_snap] = q
