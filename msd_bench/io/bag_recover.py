@@ -22,7 +22,7 @@ from mcap.stream_reader import CRCValidationError, StreamReader, breakup_chunk
 from rosbags.typesys import get_types_from_msg
 from rosbags.typesys.store import Typestore
 
-from msd_bench.io.bags import PARAMS_RECORD, BagRecorder, _prepare_target, typestore
+from msd_bench.io.bag_writer import PARAMS_RECORD, BagRecorder, _prepare_target, typestore
 from msd_bench.io.errors import BagError
 
 RECOVERED_SUFFIX = ".recovered"

@@ -32,7 +32,7 @@ from msd_bench.core.qconfig import QConfig, improved_config
 from msd_bench.core.qtrain import train
 from msd_bench.core.results import per_seed_row
 from msd_bench.io import artifacts
-from msd_bench.io.bags import write_experiment
+from msd_bench.io.bag_writer import write_experiment
 from msd_bench.nodes.episode_client import Episode, EpisodeClient
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import PLANT_NAMESPACE

@@ -21,7 +21,7 @@ from rclpy.task import Future
 from std_msgs.msg import String
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.io.bags import BagRecorder
+from msd_bench.io.bag_writer import BagRecorder
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import (
     ALL_TOPICS,
