@@ -19,6 +19,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
@@ -102,6 +103,9 @@ def main(build: Callable[[], Node], args: Sequence[str] | None = None) -> int:
                     close_node(node)
     except MsdBenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except RCLError as exc:  # malformed --ros-args: rcl refuses to initialise
+        print(f"error: {str(exc).split(', at ')[0]}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         return 0

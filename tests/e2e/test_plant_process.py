@@ -97,3 +97,13 @@ def test_sigkilled_plant_leaves_no_shared_memory():
     assert own, "the plant had a Fast DDS segment of its own"
     leftovers = [s for s in proc.shm_files if (Path("/dev/shm") / s).exists()]
     assert not [s for s in leftovers if s in own]
+
+
+def test_malformed_ros_args_exit_with_one_error_line():
+    proc = launch.start("plant.py", ["-p"])  # a trailing -p: rcl refuses to initialise
+    assert proc.wait(20.0) == 2
+    time.sleep(0.1)
+    assert "Traceback" not in proc.output()
+    assert [ln for ln in proc.lines if ln.startswith("error: ")] == [
+        "error: failed to initialize rcl: Couldn't parse trailing -p flag. No parameter override rule found."
+    ]
