@@ -19,15 +19,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core import rng
 from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.model import StepModel
-from msd_bench.core.qconfig import N_ACTIONS, QConfig, encoding
-from msd_bench.core.qlearning import draw_target, encode, td_update, transition
+from msd_bench.core.qconfig import QConfig, encoding
+from msd_bench.core.qlearning import train_batch
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -77,75 +76,8 @@ def train_dyna(plant: StepModel, cfg: DynaConfig, seeds: Sequence[int]) -> DynaR
     qc = cfg.learner
     enc = encoding(qc)
     snap_at = np.array(qc.snapshots(), dtype=np.int64)
-    q, snaps, returns, counts = _dyna_batch(
+    q, snaps, returns, counts = train_batch(
         plant.kind, plant.params, enc.mode, enc.n_states, enc.hp, enc.err_edges, enc.ref_edges,
         enc.phi, enc.actions, qc.episodes, qc.steps, cfg.planning_steps, snap_at, stream)
     return DynaResult(q, snaps, qc.snapshots(), returns, counts[:, 0].copy(), counts[:, 1].copy(),
                       tuple(int(s) for s in seeds), cfg)
-
-
-@numba.njit(cache=True)
-def plan(q: FloatArray, n_plan: int, visited: IntArray, n_vis: int, mr: FloatArray,
-          ms: IntArray, hp: FloatArray, phi: FloatArray, state: rng.U64Array, i: int) -> None:
-    """Replay ``n_plan`` remembered transitions of uniformly drawn visited pairs."""
-    for _ in range(n_plan):
-        j = visited[rng.below(state, i, n_vis)]
-        td_update(q, j // N_ACTIONS, j % N_ACTIONS, mr[j], ms[j], hp, phi)
-
-
-@numba.njit(cache=True)
-def _dyna_one(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray,
-              err_edges: FloatArray, ref_edges: FloatArray, phi: FloatArray,
-              actions: FloatArray, steps: int, n_plan: int, snap_at: IntArray, q: FloatArray,
-              snaps: FloatArray, returns: FloatArray, counts: IntArray,
-              state: rng.U64Array, i: int) -> None:
-    n_pairs = n_states * N_ACTIONS
-    mr = np.zeros(n_pairs)
-    ms = np.zeros(n_pairs, dtype=np.int64)
-    seen = np.zeros(n_pairs, dtype=np.bool_)
-    visited = np.zeros(n_pairs, dtype=np.int64)
-    n_vis = 0
-    plant = np.zeros(4)
-    k_snap = 0
-    for ep in range(returns.size):
-        target = draw_target(hp, state, i)
-        plant[:] = 0.0
-        x = 0.0
-        err = abs(target)
-        s = encode(mode, n_states, hp, err_edges, ref_edges, x - target, 0.0, target)
-        total = 0.0
-        for _ in range(steps):
-            a, x, err, s2, r = transition(kind, p, mode, n_states, hp, err_edges, ref_edges, phi,
-                                          actions, q, plant, s, x, err, target, state, i)
-            j = s * N_ACTIONS + a
-            if not seen[j]:
-                seen[j] = True
-                visited[n_vis] = j
-                n_vis += 1
-            mr[j] = r
-            ms[j] = s2
-            plan(q, n_plan, visited, n_vis, mr, ms, hp, phi, state, i)
-            counts[0] += 1
-            counts[1] += n_plan
-            total += r
-            s = s2
-        returns[ep] = total
-        if k_snap < snap_at.size and snap_at[k_snap] == ep + 1:
-            snaps[k_snap] = q
-            k_snap += 1
-
-
-@numba.njit(cache=True)
-def _dyna_batch(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray,
-                err_edges: FloatArray, ref_edges: FloatArray, phi: FloatArray,
-                actions: FloatArray, episodes: int, steps: int, n_plan: int, snap_at: IntArray,
-                state: rng.U64Array) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
-    n = state.size
-    q = np.zeros((n, n_states, N_ACTIONS))
-    snaps = np.zeros((n, snap_at.size, n_states, N_ACTIONS))
-    returns = np.zeros((n, episodes))
-    counts = np.zeros((n, 2), dtype=np.int64)
-    for i in range(n):
-        _dyna_one(kind, p, mode, n_states, hp, err_edges, ref_edges, phi, actions, steps, n_plan,
-                  snap_at, q[i], snaps[i], returns[i], counts[i], state, i)
-    return q, snaps, returns, counts

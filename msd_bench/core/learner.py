@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core import dyna, qlearning, rng
+from msd_bench.core import qlearning, rng
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.qconfig import HP_EPS, N_ACTIONS, QConfig, encoding
 
@@ -109,7 +109,7 @@ class StepwiseLearner:
             self._n_visited += 1
         self._model_r[j] = r
         self._model_s[j] = s2
-        dyna.plan(self.q, self.planning_steps, self._visited, self._n_visited, self._model_r,
+        qlearning.plan(self.q, self.planning_steps, self._visited, self._n_visited, self._model_r,
                   self._model_s, self._enc.hp, self._enc.phi, self._stream, 0)
 
     def _end_episode(self) -> None:

@@ -144,10 +144,30 @@ def transition(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArra
 
 
 @numba.njit(cache=True)
-def _train_one(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray,
-               err_edges: FloatArray, ref_edges: FloatArray, phi: FloatArray,
-               actions: FloatArray, steps: int, snap_at: IntArray, q: FloatArray,
-               snaps: FloatArray, returns: FloatArray, state: rng.U64Array, i: int) -> None:
+def plan(q: FloatArray, n_plan: int, visited: IntArray, n_vis: int, mr: FloatArray,
+         ms: IntArray, hp: FloatArray, phi: FloatArray, state: rng.U64Array, i: int) -> None:
+    """Dyna-Q: replay ``n_plan`` remembered transitions of uniformly drawn visited pairs."""
+    for _ in range(n_plan):
+        j = visited[rng.below(state, i, n_vis)]
+        td_update(q, j // N_ACTIONS, j % N_ACTIONS, mr[j], ms[j], hp, phi)
+
+
+@numba.njit(cache=True)
+def learn_one(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray,
+              err_edges: FloatArray, ref_edges: FloatArray, phi: FloatArray,
+              actions: FloatArray, steps: int, n_plan: int, snap_at: IntArray, q: FloatArray,
+              snaps: FloatArray, returns: FloatArray, counts: IntArray,
+              state: rng.U64Array, i: int) -> None:
+    """All episodes of one agent; with ``n_plan > 0`` it is Dyna-Q (Q-learning is n_plan = 0).
+
+    ``counts`` receives (real steps, planning updates).
+    """
+    n_pairs = n_states * N_ACTIONS
+    mr = np.zeros(n_pairs if n_plan > 0 else 0)
+    ms = np.zeros(n_pairs if n_plan > 0 else 0, dtype=np.int64)
+    seen = np.zeros(n_pairs if n_plan > 0 else 0, dtype=np.bool_)
+    visited = np.zeros(n_pairs if n_plan > 0 else 0, dtype=np.int64)
+    n_vis = 0
     plant = np.zeros(4)
     k_snap = 0
     for ep in range(returns.size):
@@ -158,8 +178,19 @@ def _train_one(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArra
         s = encode(mode, n_states, hp, err_edges, ref_edges, x - target, 0.0, target)
         total = 0.0
         for _ in range(steps):
-            _, x, err, s2, r = transition(kind, p, mode, n_states, hp, err_edges, ref_edges, phi,
+            a, x, err, s2, r = transition(kind, p, mode, n_states, hp, err_edges, ref_edges, phi,
                                           actions, q, plant, s, x, err, target, state, i)
+            if n_plan > 0:
+                j = s * N_ACTIONS + a
+                if not seen[j]:
+                    seen[j] = True
+                    visited[n_vis] = j
+                    n_vis += 1
+                mr[j] = r
+                ms[j] = s2
+                plan(q, n_plan, visited, n_vis, mr, ms, hp, phi, state, i)
+            counts[0] += 1
+            counts[1] += n_plan
             total += r
             s = s2
         returns[ep] = total
@@ -171,17 +202,18 @@ def _train_one(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArra
 @numba.njit(cache=True)
 def train_batch(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray,
                 err_edges: FloatArray, ref_edges: FloatArray, phi: FloatArray,
-                actions: FloatArray, episodes: int, steps: int, snap_at: IntArray,
-                state: rng.U64Array) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Train one independent agent per stream word; returns (Q, snapshots, returns)."""
+                actions: FloatArray, episodes: int, steps: int, n_plan: int, snap_at: IntArray,
+                state: rng.U64Array) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
+    """One independent agent per stream word; returns (Q, snapshots, returns, counts)."""
     n = state.size
     q = np.zeros((n, n_states, N_ACTIONS))
     snaps = np.zeros((n, snap_at.size, n_states, N_ACTIONS))
     returns = np.zeros((n, episodes))
+    counts = np.zeros((n, 2), dtype=np.int64)
     for i in range(n):
-        _train_one(kind, p, mode, n_states, hp, err_edges, ref_edges, phi, actions, steps,
-                   snap_at, q[i], snaps[i], returns[i], state, i)
-    return q, snaps, returns
+        learn_one(kind, p, mode, n_states, hp, err_edges, ref_edges, phi, actions, steps, n_plan,
+                  snap_at, q[i], snaps[i], returns[i], counts[i], state, i)
+    return q, snaps, returns, counts
 
 
 @numba.njit(cache=True)

@@ -47,9 +47,9 @@ def train(model: StepModel, cfg: QConfig, seeds: Sequence[int]) -> TrainResult:
     seeds = tuple(int(s) for s in _check_seeds(seeds))
     enc = encoding(cfg)
     snap_at = np.array(cfg.snapshots(), dtype=np.int64)
-    q, snaps, returns = qlearning.train_batch(
+    q, snaps, returns, _ = qlearning.train_batch(
         model.kind, model.params, enc.mode, enc.n_states, enc.hp, enc.err_edges, enc.ref_edges,
-        enc.phi, enc.actions, cfg.episodes, cfg.steps, snap_at, rng.seed_states(seeds))
+        enc.phi, enc.actions, cfg.episodes, cfg.steps, 0, snap_at, rng.seed_states(seeds))
     return TrainResult(q, snaps, cfg.snapshots(), returns, seeds, cfg, model.name)
 
 
