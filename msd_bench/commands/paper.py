@@ -15,7 +15,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from msd_bench.core.agents import AGENT_KINDS
+from msd_bench.core.agents import AGENT_KINDS, check_agents
 from msd_bench.core.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -56,11 +56,10 @@ def add_run_arguments(p: argparse.ArgumentParser) -> None:
 
 def config_from_args(args: argparse.Namespace) -> PaperConfig:
     """A validated :class:`PaperConfig` from parsed options (one-line ConfigError otherwise)."""
+    agents = tuple(a.strip() for a in str(args.agents).split(",") if a.strip())
+    check_agents(agents)  # before the (slow) pipeline import, so a typo answers at once
     from msd_bench.core.pipeline import PaperConfig
 
-    agents = tuple(a.strip() for a in str(args.agents).split(",") if a.strip())
-    if not agents:
-        raise ConfigError("--agents is empty")
     return PaperConfig(
         preset=args.preset, seeds=args.seeds, first_seed=args.first_seed, id_seeds=args.id_seeds,
         agents=agents, episodes=args.episodes, steps=args.steps, dyna_episodes=args.dyna_episodes,
@@ -89,13 +88,13 @@ def run_facts(cfg: PaperConfig, seconds: float, mode: str) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     """Run, write, print the table."""
-    from msd_bench.core.pipeline import run_paper
-    from msd_bench.io.run_output import write_all
-    from msd_bench.progress import StageProgress
-
     cfg = config_from_args(args)
     out = Path(args.out)
     _check_out(out)
+    from msd_bench.core.pipeline import run_paper  # torch and control: seconds to import
+    from msd_bench.io.run_output import write_all
+    from msd_bench.progress import StageProgress
+
     t0 = time.perf_counter()
     with StageProgress("paper") as bar:
         result = run_paper(cfg, bar.update)

@@ -6,7 +6,10 @@ command line can list and check kinds instantly.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+
+from msd_bench.core.errors import ConfigError
 
 SURROGATES = ("glm", "plm", "nlarx-paper", "nlarx-improved")
 """Identified models an agent can train on."""
@@ -46,3 +49,12 @@ AGENT_KINDS: dict[str, AgentKind] = {
 }
 PAPER_TABLE = ("glm", "plm", "nlarx-paper", "nlarx-improved", "dyna-q")
 """The paper's Table 1 rows (plus the improved NLARX form)."""
+
+
+def check_agents(agents: Sequence[str]) -> None:
+    """One-line ConfigError unless every kind is known and given once."""
+    unknown = [a for a in agents if a not in AGENT_KINDS]
+    if unknown:
+        raise ConfigError(f"unknown agent kind {unknown[0]!r}; choose from {', '.join(AGENT_KINDS)}")
+    if not agents or len(set(agents)) != len(agents):
+        raise ConfigError(f"agent kinds must be given once each, got {list(agents)}")

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core import identify
-from msd_bench.core.agents import AGENT_KINDS, SURROGATES, AgentKind
+from msd_bench.core.agents import AGENT_KINDS, SURROGATES, AgentKind, check_agents
 from msd_bench.core.data import IOData
 from msd_bench.core.dyna import DynaConfig, train_dyna
 from msd_bench.core.errors import ConfigError
@@ -78,11 +78,7 @@ class PaperConfig:
     """Multiplies the NLARX training iterations (< 1 for smoke runs)."""
 
     def __post_init__(self) -> None:
-        unknown = [a for a in self.agents if a not in AGENT_KINDS]
-        if unknown:
-            raise ConfigError(f"unknown agent kind {unknown[0]!r}; choose from {', '.join(AGENT_KINDS)}")
-        if not self.agents or len(set(self.agents)) != len(self.agents):
-            raise ConfigError(f"agent kinds must be given once each, got {list(self.agents)}")
+        check_agents(self.agents)
         preset(self.preset)  # an unknown preset fails here, naming the choices
         for name in ("seeds", "id_seeds", "episodes", "steps", "dyna_episodes", "samples",
                      "val_samples", "validation_steps", "window"):

@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from msd_bench.core.agents import AGENT_KINDS, SURROGATES
+from msd_bench.core.agents import AGENT_KINDS, SURROGATES, check_agents
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.graph.record import paper_plan, record_experiments
 from msd_bench.launch import NodeProcess, ProcessSet
@@ -77,13 +77,9 @@ class BenchConfig:
         unknown = [s for s in self.stages if s not in STAGES]
         if unknown:
             raise ConfigError(f"unknown stage {unknown[0]!r}; choose from {', '.join(STAGES)}")
-        bad = [a for a in self.agents if a not in AGENT_KINDS]
-        if bad:
-            raise ConfigError(f"unknown agent kind {bad[0]!r}; choose from {', '.join(AGENT_KINDS)}")
+        check_agents(self.agents)
         if not self.seeds:
             raise ConfigError("need at least one seed")
-        if not self.agents or len(set(self.agents)) != len(self.agents):
-            raise ConfigError(f"agent kinds must be given once each, got {list(self.agents)}")
 
     @property
     def excitation_dir(self) -> Path:
