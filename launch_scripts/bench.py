@@ -124,6 +124,7 @@ def run(cfg: BenchConfig) -> int:
     if "report" in cfg.stages:
         paths = timed(cfg, "report", lambda: write_bench_report(cfg, facts))
         print(paths["table"]["md"].read_text())
+        print(paths["robustness"]["md"].read_text())
         say(f"report: {paths['table']['md'].parent}")
     write_run_facts(cfg, {"ros_domain_id": int(os.environ["ROS_DOMAIN_ID"])})
     say("stage seconds: " + ", ".join(f"{k} {v:.1f}" for k, v in cfg.timings.items()))

@@ -101,5 +101,7 @@ def run(args: argparse.Namespace) -> int:
     facts = run_facts(cfg, time.perf_counter() - t0, "in-process")
     written = write_all(out, result, facts, with_figures=not args.no_figures)
     print(written["report"]["md"].read_text())
+    if "robustness" in written:
+        print(written["robustness"]["md"].read_text())
     print(f"report: {out.resolve()}  ({facts['seconds']:.0f} s)", file=sys.stderr)
     return 0

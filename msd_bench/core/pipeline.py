@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core import identify
+from msd_bench.core import identify, robustness
 from msd_bench.core.agents import AGENT_KINDS, SURROGATES, AgentKind, check_agents
 from msd_bench.core.data import IOData
 from msd_bench.core.dyna import DynaConfig, train_dyna
@@ -137,6 +137,8 @@ class PaperRun:
     """Greedy closed-loop positions on the plant, per agent kind (seeds × steps)."""
     qtables: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Per agent kind: final tables, first/last snapshots, seeds."""
+    robustness: dict[str, dict[str, dict[str, Any]]] = field(default_factory=dict)
+    """Per agent kind and scenario: the fixed tables on perturbed plants / other set-points."""
     records: dict[int, Records] = field(default_factory=dict)
 
 
@@ -269,6 +271,9 @@ def run_paper(cfg: PaperConfig, progress: Progress | None = None) -> PaperRun:
             "first": np.concatenate([t.first for t in parts[a]]),
             "last": np.concatenate([t.last for t in parts[a]]),
         }
+        run.robustness[a] = robustness.evaluate(
+            run.qtables[a]["q"], cfg.qconfig(AGENT_KINDS[a].agent), cfg.plant,
+            steps=cfg.validation_steps, window=cfg.window)
     return run
 
 

@@ -12,13 +12,16 @@ from typing import Any
 
 import numpy as np
 
+from msd_bench.core import robustness
 from msd_bench.core.identify import FitReport
 from msd_bench.core.pipeline import AGENT_KINDS, PaperConfig, PaperRun
+from msd_bench.core.plant import preset
+from msd_bench.core.qconfig import QConfig, improved_config
 from msd_bench.core.results import AgentResult
 from msd_bench.io import artifacts
 from msd_bench.io.bag_records import load_records, roles_from_dir
 from msd_bench.io.bags import read_experiment
-from msd_bench.io.report import write_report
+from msd_bench.io.report import write_report, write_robustness
 from msd_bench.io.run_output import write_figures
 
 from .bench import BenchConfig
@@ -76,5 +79,14 @@ def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any
     results = load_results(cfg)
     out = cfg.run_dir / "report"
     paths: dict[str, Any] = {"table": write_report(out, results, facts)}
-    paths["figures"] = write_figures(out / "figures", figure_run(cfg, results))
+    run = figure_run(cfg, results)
+    paths["figures"] = write_figures(out / "figures", run)
+    rob = {r.kind: robustness.evaluate(run.qtables[r.kind]["q"], _qconfig(r.agent), preset(cfg.preset),
+                                       steps=cfg.validation_steps, window=cfg.window) for r in results}
+    paths["robustness"] = write_robustness(out, rob, {r.kind: r.label for r in results})
     return paths
+
+
+def _qconfig(agent: str) -> QConfig:
+    """The learner settings an agent kind was trained with (its state encoder matters here)."""
+    return improved_config() if agent == "improved" else QConfig()

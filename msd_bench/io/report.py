@@ -118,3 +118,32 @@ def _fmt(v: float | None) -> str:
 
 def _csv(v: float | None) -> str:
     return "" if v is None or not math.isfinite(v) else repr(float(v))
+
+
+def robustness_markdown(rob: Mapping[str, Mapping[str, Mapping[str, Any]]],
+                        labels: Mapping[str, str]) -> str:
+    """Success rate (median SSE) of each agent kind's fixed tables under each scenario."""
+    if not rob:
+        return ""
+    scenarios = list(next(iter(rob.values())))
+    lines = [
+        "Robustness — the trained tables held fixed, validated on perturbed plants and other "
+        "set-points (no retraining); cells are successes/n (median SSE %).",
+        "",
+        "| Agent | " + " | ".join(scenarios) + " |",
+        "|" + "---|" * (len(scenarios) + 1),
+    ]
+    for kind, by_scenario in rob.items():
+        cells = [f"{r['n_success']}/{r['n']} ({r['median_sse']:.1f})" for r in by_scenario.values()]
+        lines.append(f"| {labels.get(kind, kind)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def write_robustness(out_dir: Path, rob: Mapping[str, Any], labels: Mapping[str, str]) -> dict[str, Path]:
+    """``robustness.json`` (per kind, scenario and seed) and ``robustness.md``."""
+    out_dir = Path(out_dir)
+    paths = {"json": out_dir / "robustness.json", "md": out_dir / "robustness.md"}
+    doc = {"schema": "msd-bench/robustness", "schema_version": 1, "agents": jsonable(dict(rob))}
+    paths["json"].write_text(json.dumps(doc, indent=1) + "\n")
+    paths["md"].write_text(robustness_markdown(rob, labels))
+    return paths

@@ -19,7 +19,7 @@ from msd_bench.core.model import StepModel
 from msd_bench.core.pipeline import PaperRun, Records
 from msd_bench.core.results import AgentResult
 from msd_bench.io import artifacts, figures
-from msd_bench.io.report import write_report
+from msd_bench.io.report import write_report, write_robustness
 
 
 def write_models(out_dir: Path, models: Mapping[str, StepModel], fits: Mapping[str, FitReport],
@@ -90,6 +90,9 @@ def write_all(out_dir: Path, run: PaperRun, run_facts: Mapping[str, Any],
     out_dir = Path(out_dir)
     prov = artifacts.Provenance(parameters=dict(run_facts), seed=run.config.first_seed)
     written: dict[str, Any] = {"report": write_report(out_dir, results or run.results, run_facts)}
+    if run.robustness:
+        labels = {r.kind: r.label for r in run.results}
+        written["robustness"] = write_robustness(out_dir, run.robustness, labels)
     for id_seed, models in run.models.items():
         written[f"models_id{id_seed}"] = write_models(
             out_dir / "models" / f"id{id_seed}", models, run.fits[id_seed], prov)

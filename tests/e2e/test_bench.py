@@ -100,3 +100,14 @@ def test_validation_bag_is_a_complete_rosbag2(run):
     out, _ = run
     info = bag_info(out / "agents" / "plant" / "validation" / "seed_0")
     assert info.topics["/msd/joint_states"][1] == STEPS
+
+
+def test_robustness_of_every_agent_kind_is_reported(run):
+    out, proc = run
+    doc = json.loads((out / "report" / "robustness.json").read_text())
+    assert set(doc["agents"]) == set(AGENTS)
+    nominal = doc["agents"]["glm"]["nominal"]
+    result = json.loads((out / "agents" / "glm" / "result.json").read_text())
+    assert nominal["n"] == SEEDS
+    assert nominal["sse"] == [r["sse"] for r in result["per_seed"]]  # same tables, same plant
+    assert "Robustness" in proc.stdout

@@ -198,3 +198,13 @@ def test_out_that_is_a_file_is_refused_before_running(tmp_path):
     proc = _paper(*TINY, "--agents", "plant", "--out", str(target), cwd=tmp_path)
     _assert_one_line_error(proc, "is a file")
     assert target.read_text() == "keep me"
+
+
+def test_robustness_is_written_and_printed(run, table):
+    proc, out = run
+    doc = json.loads((out / "robustness.json").read_text())
+    assert set(doc["agents"]) == {a["kind"] for a in table["agents"]}
+    for a in table["agents"]:
+        nominal = doc["agents"][a["kind"]]["nominal"]
+        assert nominal["sse"] == [s["sse"] for s in a["per_seed"]]
+    assert "Robustness" in proc.stdout
