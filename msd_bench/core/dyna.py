@@ -27,6 +27,7 @@ from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import QConfig, encoding
 from msd_bench.core.qlearning import train_batch
+from msd_bench.core.qtrain import LearnedTables
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -47,23 +48,13 @@ class DynaConfig:
 
 
 @dataclass(frozen=True)
-class DynaResult:
-    """What a batch of Dyna-Q runs produces."""
+class DynaResult(LearnedTables):
+    """A batch of Dyna-Q runs, with what they cost on the plant."""
 
-    q: FloatArray
-    """Final Q-tables, shape (n_agents, n_states, 5)."""
-    snapshots: FloatArray
-    """Q-tables after ``snapshot_episodes``, shape (n_agents, n_snap, n_states, 5)."""
-    snapshot_episodes: tuple[int, ...]
-    """Episode counts (1-based) of the snapshots."""
-    returns: FloatArray
-    """Sum of real rewards per episode, shape (n_agents, episodes)."""
     real_steps: IntArray
     """Interactions with the model passed in (the plant), per agent."""
     planning_updates: IntArray
     """Simulated Q-updates from the learned table model, per agent."""
-    seeds: tuple[int, ...]
-    """Seed of each agent."""
     config: DynaConfig
     """The configuration trained with."""
 
@@ -79,5 +70,5 @@ def train_dyna(plant: StepModel, cfg: DynaConfig, seeds: Sequence[int]) -> DynaR
     q, snaps, returns, counts = train_batch(
         plant.kind, plant.params, enc.mode, enc.n_states, enc.hp, enc.err_edges, enc.ref_edges,
         enc.phi, enc.actions, qc.episodes, qc.steps, cfg.planning_steps, snap_at, stream)
-    return DynaResult(q, snaps, qc.snapshots(), returns, counts[:, 0].copy(), counts[:, 1].copy(),
-                      tuple(int(s) for s in seeds), cfg)
+    return DynaResult(q, snaps, qc.snapshots(), returns, tuple(int(s) for s in seeds),
+                      counts[:, 0].copy(), counts[:, 1].copy(), cfg)

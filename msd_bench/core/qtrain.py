@@ -23,8 +23,8 @@ FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
-class TrainResult:
-    """What a batch of training runs produces."""
+class LearnedTables:
+    """What any batch of tabular learners produces (Q-learning and Dyna-Q alike)."""
 
     q: FloatArray
     """Final Q-tables, shape (n_agents, n_states, 5)."""
@@ -33,9 +33,15 @@ class TrainResult:
     snapshot_episodes: tuple[int, ...]
     """Episode counts (1-based) of the snapshots."""
     returns: FloatArray
-    """Sum of rewards per episode, shape (n_agents, episodes)."""
+    """Sum of (real) rewards per episode, shape (n_agents, episodes)."""
     seeds: tuple[int, ...]
     """Seed of each agent, in batch order."""
+
+
+@dataclass(frozen=True)
+class TrainResult(LearnedTables):
+    """A batch of Q-learning runs on a model."""
+
     config: QConfig
     """The configuration trained with."""
     model_name: str
