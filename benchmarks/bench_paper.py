@@ -32,15 +32,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from msd_bench.app.agents import agent_kind
+from msd_bench.app.config import RunConfig as PaperConfig
+from msd_bench.app.pipeline import Trained, identify_surrogates, make_records, train_and_validate
 from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.pipeline import (
-    AGENT_KINDS,
-    PaperConfig,
-    Trained,
-    identify_surrogates,
-    make_records,
-    train_and_validate,
-)
 from msd_bench.core.plant import PRESETS
 
 FLOOR_S = 600.0
@@ -77,13 +72,13 @@ def warm_up(cfg: PaperConfig) -> float:
     make_records(tiny, 0)
     plant = plant_model(tiny.plant)
     for kind in ("plant", "dyna-q"):
-        train_and_validate(AGENT_KINDS[kind], plant, tiny, [0])
+        train_and_validate(kind, plant, tiny, [0])
     return time.perf_counter() - t0
 
 
 def time_stages(cfg: PaperConfig) -> tuple[dict[str, Any], dict[str, Trained]]:
     """Each stage of one identification seed, timed separately in this process."""
-    seeds = cfg.learning_seeds()
+    seeds = cfg.learning_seeds(0)
     stages: dict[str, Any] = {"warmup_s": round(warm_up(cfg), 2)}
     t0 = time.perf_counter()
     records = make_records(cfg, 0)
@@ -92,15 +87,15 @@ def time_stages(cfg: PaperConfig) -> tuple[dict[str, Any], dict[str, Trained]]:
     stages["identification_s"] = {}
     for name in cfg.surrogates_needed():
         t0 = time.perf_counter()
-        fitted, _ = identify_surrogates(records, [name], 0, cfg.plant.L, cfg.nlarx_scale)
+        fitted, _ = identify_surrogates(records, [name], 0, cfg.plant, cfg.nlarx_scale)
         stages["identification_s"][name] = round(time.perf_counter() - t0, 2)
         models.update(fitted)
     stages["training_s"] = {}
     trained: dict[str, Trained] = {}
     for kind_name in cfg.agents:
-        kind = AGENT_KINDS[kind_name]
         t0 = time.perf_counter()
-        trained[kind_name] = train_and_validate(kind, models[kind.surrogate], cfg, seeds)
+        surrogate = models[agent_kind(kind_name).surrogate]
+        trained[kind_name] = train_and_validate(kind_name, surrogate, cfg, seeds)
         stages["training_s"][kind_name] = round(time.perf_counter() - t0, 2)
     stages["total_s"] = round(stages["records_s"] + sum(stages["identification_s"].values())
                               + sum(stages["training_s"].values()), 2)

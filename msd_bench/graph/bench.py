@@ -23,7 +23,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from msd_bench.core.agents import AGENT_KINDS, SURROGATES, check_agents
+from msd_bench.app.agents import PLANT, agent_kind
+from msd_bench.app.config import RunConfig
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.graph.record import paper_plan, record_experiments
 from msd_bench.launch import NodeProcess, ProcessSet
@@ -38,28 +39,12 @@ class StageError(MsdBenchError):
 
 @dataclass(frozen=True)
 class BenchConfig:
-    """One run of ``launch_scripts/bench.py``."""
+    """One run of ``launch_scripts/bench.py``: the application's run plus what a graph needs."""
 
     run_dir: Path
     """Everything of the run goes here (``bags/<run-id>`` by default)."""
-    preset: str = "default"
-    """Plant preset of the emulated plant."""
-    seeds: tuple[int, ...] = (0, 1, 2)
-    """Learning seeds per agent kind."""
-    agents: tuple[str, ...] = tuple(AGENT_KINDS)
-    """Agent kinds (Table 1 rows)."""
-    episodes: int = 300
-    """Training episodes (paper: 300)."""
-    dyna_episodes: int = 5
-    """Dyna-Q episodes; every step is a real interaction with the plant node (paper: 300)."""
-    samples: int = 12_000
-    """Samples per identification record (paper: 12,000)."""
-    val_samples: int = 2_000
-    """Samples per validation record."""
-    plan_seed: int = 1
-    """Seed of the excitation plan."""
-    nlarx_scale: float = 1.0
-    """NLARX training iterations multiplier (< 1 only for smoke runs)."""
+    run: RunConfig = field(default_factory=RunConfig)
+    """The method's configuration (one identification seed: bench.py records once)."""
     realtime: bool = False
     """Run the plant at true 100 Hz instead of lock-step."""
     via_ros: bool = False
@@ -68,8 +53,6 @@ class BenchConfig:
     """Identify from these existing experiment bags instead of recording."""
     stages: tuple[str, ...] = STAGES
     """Stages to run."""
-    validation_steps: int = 3000
-    """Closed-loop validation length on the plant (paper: 3,000)."""
     timings: dict[str, float] = field(default_factory=dict, compare=False)
     """Seconds per stage, filled in as the run goes."""
 
@@ -77,24 +60,23 @@ class BenchConfig:
         unknown = [s for s in self.stages if s not in STAGES]
         if unknown:
             raise ConfigError(f"unknown stage {unknown[0]!r}; choose from {', '.join(STAGES)}")
-        check_agents(self.agents)
-        if not self.seeds:
-            raise ConfigError("need at least one seed")
+        if self.run.id_seeds != 1:
+            raise ConfigError("bench.py records one identification seed; use msd-bench paper for --id-seeds")
+
+    @property
+    def seeds(self) -> list[int]:
+        """Learning seeds of every agent kind."""
+        return self.run.learning_seeds(0)
+
+    @property
+    def id_seed(self) -> int:
+        """The identification seed: it picks the excitation plan's seeds."""
+        return self.run.id_first_seed
 
     @property
     def excitation_dir(self) -> Path:
         """Where the experiment bags are (recorded here, or given with --bags)."""
         return self.bags if self.bags is not None else self.run_dir / "excitation"
-
-    @property
-    def window(self) -> int:
-        """Terminal SSE window: the last 500 samples (or the whole run if shorter)."""
-        return min(500, self.validation_steps)
-
-    def surrogates(self) -> list[str]:
-        """Surrogates the requested agents need."""
-        need = {AGENT_KINDS[a].surrogate for a in self.agents}
-        return [s for s in SURROGATES if s in need]
 
 
 Say = Callable[[str], None]
@@ -102,7 +84,7 @@ Say = Callable[[str], None]
 
 def plant_args(cfg: BenchConfig) -> list[str]:
     """ROS arguments of the emulated plant process."""
-    return ["-p", f"preset:={cfg.preset}", "-p", f"lockstep:={str(not cfg.realtime).lower()}"]
+    return ["-p", f"preset:={cfg.run.preset}", "-p", f"lockstep:={str(not cfg.realtime).lower()}"]
 
 
 def start_plant(procs: ProcessSet, cfg: BenchConfig) -> NodeProcess:
@@ -114,35 +96,37 @@ def start_plant(procs: ProcessSet, cfg: BenchConfig) -> NodeProcess:
 
 def stage_record(cfg: BenchConfig, procs: ProcessSet, bar: Callable[[int, int, str], None]) -> list[Path]:
     """Record the paper's experiments through the recorder and excitation processes."""
-    plan = paper_plan(cfg.plan_seed, cfg.samples, cfg.val_samples)
+    plan = paper_plan(cfg.id_seed, cfg.run.samples, cfg.run.val_samples)
     return record_experiments(plan, cfg.excitation_dir, procs, PLANT_NAMESPACE, not cfg.realtime, bar)
 
 
 def stage_identify(cfg: BenchConfig, procs: ProcessSet) -> dict[str, Any]:
     """Fit the surrogates from the bags in the identifier process."""
-    models = "[" + ",".join(cfg.surrogates()) + "]"
+    models = "[" + ",".join(cfg.run.surrogates_needed()) + "]"
+    p = cfg.run.plant
     args = ["-p", f"bags_dir:={cfg.excitation_dir}", "-p", f"out_dir:={cfg.run_dir / 'models'}",
-            "-p", f"models:={models}", "-p", f"nlarx_scale:={float(cfg.nlarx_scale)!r}"]
+            "-p", f"models:={models}", "-p", f"nlarx_scale:={float(cfg.run.nlarx_scale)!r}",
+            "-p", f"seed:={cfg.id_seed}", "-p", f"stroke:={p.L!r}", "-p", f"force:={p.F!r}"]
     _run_to_end(procs.start("identifier.py", args, name="identifier"), timeout=600.0)
     return json.loads((cfg.run_dir / "models" / "fits.json").read_text())  # type: ignore[no-any-return]
 
 
 def agent_args(cfg: BenchConfig, kind: str) -> list[str]:
-    """ROS arguments of the agent process of one agent kind."""
-    k = AGENT_KINDS[kind]
+    """ROS arguments of the agent process of one agent kind (the node derives its learner from ``kind``)."""
+    k, run = agent_kind(kind), cfg.run
     seeds = "[" + ",".join(str(s) for s in cfg.seeds) + "]"
-    args = ["-p", f"kind:={kind}", "-p", f"agent:={k.agent}", "-p", f"seeds:={seeds}",
+    args = ["-p", f"kind:={kind}", "-p", f"seeds:={seeds}",
             "-p", f"out_dir:={cfg.run_dir / 'agents' / kind}",
-            "-p", f"lockstep:={str(not cfg.realtime).lower()}",
-            "-p", f"validation_steps:={cfg.validation_steps}", "-p", f"window:={cfg.window}"]
+            "-p", f"lockstep:={str(not cfg.realtime).lower()}", "-p", f"steps:={run.steps}",
+            "-p", f"validation_steps:={run.validation_steps}", "-p", f"window:={run.window}",
+            "-p", f"target:={float(run.target)!r}", "-p", f"dt:={run.plant.dt!r}",
+            "-p", f"force:={run.plant.F!r}"]
     if k.dyna:
-        return [*args, "-p", "dyna:=true", "-p", f"episodes:={cfg.dyna_episodes}"]
-    if k.surrogate == "plant":  # on-plant Q-learning: the plant's own model, in-process
-        return [*args, "-p", f"model_path:={cfg.run_dir / 'models' / 'plant.json'}",
-                "-p", f"episodes:={cfg.episodes}"]
-    args += ["-p", f"model_path:={cfg.run_dir / 'models' / (k.surrogate + '.json')}",
-             "-p", f"episodes:={cfg.episodes}"]
-    if cfg.via_ros:
+        return [*args, "-p", f"episodes:={run.dyna_episodes}", "-p", f"planning_steps:={run.planning_steps}"]
+    model = "plant" if k.surrogate == PLANT else k.surrogate  # on-plant Q-learning: the plant's own model
+    args += ["-p", f"model_path:={cfg.run_dir / 'models' / (model + '.json')}",
+             "-p", f"episodes:={run.episodes}"]
+    if cfg.via_ros and k.surrogate != PLANT:
         args += ["-p", "via_ros:=true", "-p", f"surrogate_ns:=/surrogate/{k.surrogate}"]
     return args
 
@@ -150,17 +134,18 @@ def agent_args(cfg: BenchConfig, kind: str) -> list[str]:
 def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[int, int, str], None]) -> None:
     """One agent process per kind, one after another (they share the plant)."""
     if cfg.via_ros:
-        for name in {AGENT_KINDS[a].surrogate for a in cfg.agents} - {"plant"}:
+        for name in cfg.run.surrogates_needed():
             p = procs.start("surrogate.py", ["-p", f"model_path:={cfg.run_dir / 'models' / (name + '.json')}",
                                               "-p", "lockstep:=true", "-r", f"__ns:=/surrogate/{name}"],
                             name=f"surrogate-{name}")
             p.wait_for_line(r"ready \(", timeout=60.0)
-    for i, kind in enumerate(cfg.agents):
-        bar(i, len(cfg.agents), kind)
+    agents = cfg.run.agents
+    for i, kind in enumerate(agents):
+        bar(i, len(agents), kind)
         proc = procs.start("agent.py", agent_args(cfg, kind), name=f"agent-{kind}")
         _run_to_end(proc, timeout=3600.0)
         say(_last_line(proc, "agent done") or f"agent {kind} done")
-    bar(len(cfg.agents), len(cfg.agents), "done")
+    bar(len(agents), len(agents), "done")
 
 
 def _run_to_end(proc: NodeProcess, timeout: float) -> None:
@@ -178,7 +163,7 @@ def write_run_facts(cfg: BenchConfig, extra: dict[str, Any]) -> Path:
     """``run.json``: the configuration, the stage timings and anything else worth keeping."""
     path = cfg.run_dir / "run.json"
     previous = json.loads(path.read_text()) if path.is_file() else {}
-    doc = {k: (str(v) if isinstance(v, Path) else v) for k, v in asdict(cfg).items()}
+    doc = json.loads(json.dumps(asdict(cfg), default=str))
     doc["timings"] = {**previous.get("timings", {}), **cfg.timings}
     doc.update(extra)
     path.write_text(json.dumps(doc, indent=1, default=str) + "\n")

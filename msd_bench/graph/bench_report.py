@@ -1,8 +1,9 @@
 """The bench's report stage: read what the node processes wrote, write Table 1 and figures.
 
 Everything comes from files of the run (model artifacts, ``fits.json``, each
-agent's ``result.json``, Q-tables and validation bags), so the report can be
-rebuilt at any time with ``bench.py --stages report --out <run>``.
+agent's ``result.json``, Q-tables with their learner config, and validation
+bags), so the report can be rebuilt at any time with
+``bench.py --stages report --out <run>``.
 """
 
 from __future__ import annotations
@@ -12,17 +13,17 @@ from typing import Any
 
 import numpy as np
 
+from msd_bench.app.agents import agent_kind, budget_note, learner_from_meta
+from msd_bench.app.scoring import agent_result
 from msd_bench.core import robustness
 from msd_bench.core.identify import FitReport
-from msd_bench.core.pipeline import AGENT_KINDS, PaperConfig, PaperRun
-from msd_bench.core.plant import preset
-from msd_bench.core.qconfig import QConfig, improved_config
+from msd_bench.core.registry import needs_bias_records
 from msd_bench.core.results import AgentResult
 from msd_bench.io import artifacts
 from msd_bench.io.bag_records import load_records, roles_from_dir
 from msd_bench.io.bags import read_experiment
 from msd_bench.io.report import write_report, write_robustness
-from msd_bench.io.run_output import write_figures
+from msd_bench.io.run_output import FigureData, write_figures
 
 from .bench import BenchConfig
 
@@ -31,23 +32,16 @@ def load_results(cfg: BenchConfig) -> list[AgentResult]:
     """One Table-1 row per agent kind that wrote a result."""
     fits = _fits(cfg)
     rows = []
-    for kind in cfg.agents:
+    for kind in cfg.run.agents:
         path = cfg.run_dir / "agents" / kind / "result.json"
         if not path.is_file():
             continue
         doc = json.loads(path.read_text())
-        k = AGENT_KINDS[kind]
-        fit = fits.get(k.surrogate)
+        fit = fits.get(agent_kind(kind).surrogate)
         notes = [] if doc["training"] == "in-process" else [f"trained {doc['training']}"]
-        if k.dyna and cfg.dyna_episodes != 300:
-            notes.append(f"reduced budget: {cfg.dyna_episodes} Dyna-Q episodes instead of the paper's 300 "
-                         f"(every one is 3,000 real steps on the plant node)")
-        rows.append(AgentResult(
-            kind=kind, label=k.label, surrogate=k.surrogate, agent=k.agent,
-            identification_samples=int(fit.n_identification) if fit else 0,
-            fit_sim=fit.sim_fit if fit else None, fit_one_step=fit.one_step_fit if fit else None,
-            per_seed=tuple(doc["per_seed"]), real_interactions=int(doc["real_interactions"]),
-            notes="; ".join(notes)))
+        notes.append(budget_note(kind, cfg.run.dyna_episodes))
+        rows.append(agent_result(kind, doc["per_seed"], {cfg.id_seed: fit} if fit else {},
+                                 int(doc["real_interactions"]), notes))
     return rows
 
 
@@ -58,35 +52,38 @@ def _fits(cfg: BenchConfig) -> dict[str, FitReport]:
     return {name: FitReport(**doc) for name, doc in json.loads(path.read_text()).items()}
 
 
-def figure_run(cfg: BenchConfig, results: list[AgentResult]) -> PaperRun:
-    """A :class:`PaperRun` rebuilt from the run's files, for the shared figure writer."""
-    run = PaperRun(PaperConfig(preset=cfg.preset), results)
-    models = {name: artifacts.load_model(cfg.run_dir / "models" / f"{name}.json")
-              for name in cfg.surrogates() if (cfg.run_dir / "models" / f"{name}.json").is_file()}
-    run.models[0], run.fits[0] = models, _fits(cfg)
-    run.records[0] = load_records(roles_from_dir(cfg.excitation_dir), "plm" in models)
+def _qtables(cfg: BenchConfig, results: list[AgentResult]) -> dict[str, tuple[dict[str, Any], Any]]:
+    """Per agent kind: its Q-table arrays and the learner config stored beside them."""
+    out = {}
     for r in results:
-        agent_dir = cfg.run_dir / "agents" / r.kind
-        arrays, _ = artifacts.load_qtables(agent_dir / "qtables.npz")
-        run.qtables[r.kind] = arrays
-        run.responses[r.kind] = np.stack([
-            read_experiment(agent_dir / "validation" / f"seed_{s['seed']}")[0].y for s in r.per_seed])
-    return run
+        arrays, meta = artifacts.load_qtables(cfg.run_dir / "agents" / r.kind / "qtables.npz")
+        out[r.kind] = (arrays, learner_from_meta(meta))
+    return out
+
+
+def figure_data(cfg: BenchConfig, results: list[AgentResult],
+                qtables: dict[str, tuple[dict[str, Any], Any]]) -> FigureData:
+    """The figures' inputs rebuilt from the run's files."""
+    models_dir = cfg.run_dir / "models"
+    models = {name: artifacts.load_model(models_dir / f"{name}.json")
+              for name in cfg.run.surrogates_needed() if (models_dir / f"{name}.json").is_file()}
+    responses = {r.kind: np.stack([
+        read_experiment(cfg.run_dir / "agents" / r.kind / "validation" / f"seed_{s['seed']}")[0].y
+        for s in r.per_seed]) for r in results}
+    return FigureData(
+        target=cfg.run.target, dt=cfg.run.plant.dt, models=models, fits=_fits(cfg),
+        records=load_records(roles_from_dir(cfg.excitation_dir), needs_bias_records(models)),
+        qtables={k: a for k, (a, _) in qtables.items()}, responses=responses)
 
 
 def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any]:
-    """Table 1 (md/csv/json) and figures under ``report/``."""
+    """Table 1 (md/csv/json), robustness and figures under ``report/``."""
     results = load_results(cfg)
     out = cfg.run_dir / "report"
     paths: dict[str, Any] = {"table": write_report(out, results, facts)}
-    run = figure_run(cfg, results)
-    paths["figures"] = write_figures(out / "figures", run)
-    rob = {r.kind: robustness.evaluate(run.qtables[r.kind]["q"], _qconfig(r.agent), preset(cfg.preset),
-                                       steps=cfg.validation_steps, window=cfg.window) for r in results}
+    qtables = _qtables(cfg, results)
+    paths["figures"] = write_figures(out / "figures", figure_data(cfg, results, qtables))
+    rob = {kind: robustness.evaluate(arrays["q"], learner, cfg.run.plant, steps=cfg.run.validation_steps,
+                                     window=cfg.run.window) for kind, (arrays, learner) in qtables.items()}
     paths["robustness"] = write_robustness(out, rob, {r.kind: r.label for r in results})
     return paths
-
-
-def _qconfig(agent: str) -> QConfig:
-    """The learner settings an agent kind was trained with (its state encoder matters here)."""
-    return improved_config() if agent == "improved" else QConfig()

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from msd_bench.app import plan
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.io.bags import bag_info, read_experiment, read_topic
@@ -49,8 +50,6 @@ _KINDS: dict[str, type] = {
 }
 _TOPICS = (JOINT_STATES,)
 """Recorded for identification: each joint_states row holds x_k, v_k and the force applied."""
-PAPER_BIASES = (-10.0, -5.0, 0.0, 5.0, 10.0)
-"""Operating-point forces of the PLM experiments, N (paper §3.2)."""
 
 
 class RecordError(MsdBenchError):
@@ -113,27 +112,11 @@ def _ros_value(value: Any) -> str:
     return repr(float(value)) if isinstance(value, float) else str(value)
 
 
-def paper_plan(seed: int, n_samples: int = 12_000, val_samples: int = 4_000) -> list[ExperimentSpec]:
-    """The paper's records: five ±1 N PRBS at the biases, one broad multilevel, and validation twins.
-
-    Validation uses seeds offset by 500 (PRBS seeds repeat modulo 1023), so it
-    is other data than the training record of the same operating point.
-    """
-    plan: list[ExperimentSpec] = []
-    for role, prefix, n, offset in (("train", "", n_samples, 0), ("validation", "val_", val_samples, 500)):
-        common = {"role": role, "plan_seed": seed}
-        for i, bias in enumerate(PAPER_BIASES):
-            plan.append(ExperimentSpec(
-                f"{prefix}{_bias_name(bias)}", "prbs", exc.PrbsConfig(bias=bias, n_samples=n),
-                seed + offset + i, {**common, "bias": bias}))
-        plan.append(ExperimentSpec(f"{prefix}broad", "multilevel", exc.MultilevelConfig(n_samples=n),
-                                   seed + offset + len(PAPER_BIASES), {**common, "bias": None}))
-    return plan
-
-
-def _bias_name(bias: float) -> str:
-    sign = "m" if bias < 0 else "p" if bias > 0 else ""
-    return f"bias_{sign}{abs(bias):g}"
+def paper_plan(id_seed: int, n_samples: int = 12_000, val_samples: int = 4_000) -> list[ExperimentSpec]:
+    """The application's experiment plan (:func:`msd_bench.app.plan.paper_plan`) as recordable specs."""
+    return [ExperimentSpec(e.name, e.kind, e.signal, e.seed,
+                           {"role": e.role, "bias": e.bias, "id_seed": id_seed})
+            for e in plan.paper_plan(id_seed, n_samples, val_samples)]
 
 
 @dataclass(frozen=True)

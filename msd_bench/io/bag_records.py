@@ -17,7 +17,8 @@ import numpy as np
 
 from msd_bench.core.data import Experiment, IOData
 from msd_bench.core.excitation import signal_from_params
-from msd_bench.core.pipeline import PLM_BIASES, Records
+from msd_bench.core.plm import PLM_BIASES
+from msd_bench.core.records import Records
 from msd_bench.io.bags import BagError, read_experiment
 
 

@@ -17,7 +17,7 @@ writes ``qtables.npz`` and ``result.json`` under ``out_dir`` and exits.
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -25,14 +25,16 @@ import numpy as np
 from rclpy.node import Node
 from rclpy.task import Future
 
+from msd_bench.app.agents import agent_kind, learner_config
+from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.learner import GreedyPolicy, StepwiseLearner
-from msd_bench.core.metrics import compute
-from msd_bench.core.qconfig import QConfig, improved_config
+from msd_bench.core.qconfig import QConfig
 from msd_bench.core.qtrain import train
 from msd_bench.core.results import per_seed_row
 from msd_bench.io import artifacts
 from msd_bench.io.bag_writer import write_experiment
+from msd_bench.io.run_output import qtable_meta
 from msd_bench.nodes.episode_client import Episode, EpisodeClient
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import PLANT_NAMESPACE
@@ -43,11 +45,9 @@ class AgentNodeConfig:
     """What the agent node trains on, how, and where it validates."""
 
     kind: str = "plm"
-    """Agent kind label for the report (e.g. ``plm``, ``plm+improved``, ``dyna-q``)."""
+    """Agent kind (``plm``, ``plm+improved``, ``dyna-q``, ...): it fixes the learner and Dyna-Q."""
     model_path: str = ""
-    """Surrogate model artifact (JSON) to train on; unused for ``dyna``."""
-    agent: str = "paper"
-    """State design: ``paper`` (§4 as printed) or ``improved`` (our extension)."""
+    """Surrogate model artifact (JSON) to train on; unused by ``dyna-q``."""
     seeds: tuple[int, ...] = (0,)
     """Learning seeds; one agent per seed."""
     episodes: int = field(default=300, metadata={"range": (1, 100_000)})
@@ -58,8 +58,6 @@ class AgentNodeConfig:
     """Train over the surrogate node's topics (lock-step) instead of in-process."""
     surrogate_ns: str = "/surrogate"
     """Namespace of the surrogate node used when ``via_ros`` is set."""
-    dyna: bool = False
-    """Dyna-Q: real interactions go to the plant node, planning happens in-process."""
     planning_steps: int = field(default=100, metadata={"range": (0, 10_000)})
     """Dyna-Q planning updates per real step (paper: 100)."""
     plant_ns: str = PLANT_NAMESPACE
@@ -80,8 +78,7 @@ class AgentNodeConfig:
     """Where qtables.npz, result.json and the validation bags go (required)."""
 
     def __post_init__(self) -> None:
-        if self.agent not in ("paper", "improved"):
-            raise ConfigError(f"agent must be 'paper' or 'improved', got {self.agent!r}")
+        agent_kind(self.kind)  # one-line ConfigError naming the kinds
         if not self.out_dir:
             raise ConfigError("out_dir is required")
         if not self.dyna and not self.model_path:
@@ -91,10 +88,14 @@ class AgentNodeConfig:
         if self.window > self.validation_steps:
             raise ConfigError("window must not exceed validation_steps")
 
+    @property
+    def dyna(self) -> bool:
+        """Dyna-Q: real interactions go to the plant node, planning happens in-process."""
+        return agent_kind(self.kind).dyna
+
     def qconfig(self) -> QConfig:
-        """Learner settings (paper agent or improved agent) with this node's budgets."""
-        base = improved_config() if self.agent == "improved" else QConfig()
-        return replace(base, episodes=self.episodes, steps=self.steps, force=self.force)
+        """The kind's learner (chosen by the application layer) with this node's budgets."""
+        return learner_config(self.kind, self.episodes, self.steps, self.force)
 
 
 class _Learn:
@@ -182,7 +183,8 @@ class AgentNode(Node):
         prov = artifacts.Provenance(
             tuple(s for s in [self._source] if s is not None), _jsonable_config(cfg), cfg.seeds[0])
         artifacts.save_qtables(self.out / "qtables.npz", {"q": q, "first": first, "last": last},
-                               {"seeds": list(cfg.seeds), "provenance": prov.as_dict()})
+                               qtable_meta(cfg.qconfig(), cfg.seeds,
+                                           {"agent_kind": cfg.kind, "provenance": prov.as_dict()}))
         self.get_logger().info(f"trained; validating {len(cfg.seeds)} seed(s) on {cfg.plant_ns}")
         for i, seed in enumerate(cfg.seeds):
             policy = GreedyPolicy(cfg.qconfig(), q[i], cfg.target)
@@ -198,14 +200,13 @@ class AgentNode(Node):
         params = {"role": "validation", "kind": cfg.kind, "seed": seed, "target": cfg.target}
         write_experiment(self.out / "validation" / f"seed_{seed}", t, u, x, v, params=params,
                          namespace=cfg.plant_ns)
-        m = compute(x, cfg.target, cfg.dt, cfg.window)
-        metrics = {"mae": m.mae, "std": m.std, "po": m.po, "ts": m.ts2, "ts5": m.ts5, "sse": m.sse}
+        metrics = metric_row(x, cfg.target, cfg.dt, cfg.window)
         self.per_seed.append(per_seed_row(seed, 0, metrics))
-        self.get_logger().info(f"seed {seed}: SSE {m.sse:.2f} %  MAE {m.mae:.3f} m")
+        self.get_logger().info(f"seed {seed}: SSE {metrics['sse']:.2f} %  MAE {metrics['mae']:.3f} m")
 
     def _finish(self) -> None:
         cfg = self.config
-        doc = {"kind": cfg.kind, "agent": cfg.agent, "config": _jsonable_config(cfg),
+        doc = {"kind": cfg.kind, "agent": agent_kind(cfg.kind).agent, "config": _jsonable_config(cfg),
                "training": "dyna-q over the plant" if cfg.dyna else ("ros" if cfg.via_ros else "in-process"),
                "real_interactions": self.real_steps, "per_seed": self.per_seed}
         (self.out / "result.json").write_text(json.dumps(artifacts.jsonable(doc), indent=1) + "\n")

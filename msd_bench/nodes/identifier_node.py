@@ -2,7 +2,8 @@
 
 It reads the experiment bags of a run (ours describe themselves; a rig's are
 described by parameters), fits the requested surrogates (GLM, PLM, NLARX paper
-and improved; :func:`msd_bench.core.pipeline.identify_surrogates`), writes one
+and improved, grey-box: any kind of the model registry;
+:func:`msd_bench.app.pipeline.identify_surrogates`), writes one
 JSON artifact per model with provenance (bag paths and content hashes, the
 parameters, the seed) and ``fits.json``, then finishes. It is a ROS node so
 it runs, logs and is configured like every other part of the bench.
@@ -18,8 +19,10 @@ from typing import Any
 from rclpy.node import Node
 from rclpy.task import Future
 
+from msd_bench.app.pipeline import identify_surrogates
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.pipeline import SURROGATES, identify_surrogates
+from msd_bench.core.plant import PlantParams
+from msd_bench.core.registry import MODEL_KINDS, check_models, needs_bias_records
 from msd_bench.io import artifacts
 from msd_bench.io.bag_records import explicit_roles, load_records, roles_from_dir
 from msd_bench.io.run_output import write_models
@@ -41,12 +44,14 @@ class IdentifierConfig:
     """A rig's broad-range validation bag (fits are reported on it)."""
     settle_samples: int = field(default=0, metadata={"range": (0, 1_000_000)})
     """Leading samples dropped from each of a rig's bias bags (ours store their own)."""
-    models: tuple[str, ...] = SURROGATES
-    """Surrogates to fit: any of glm, plm, nlarx-paper, nlarx-improved."""
+    models: tuple[str, ...] = tuple(MODEL_KINDS)
+    """Surrogates to fit: any registered model kind (glm, plm, nlarx-paper, nlarx-improved, greybox)."""
     seed: int = field(default=0, metadata={"range": (0, 2**31 - 1)})
     """Seed of the NLARX training (same bags + same seed = same model)."""
     stroke: float = field(default=5.0, metadata={"range": (1e-3, 1e3)})
     """Stroke L of the rig, m: model outputs are projected on [-L/2, L/2]."""
+    force: float = field(default=10.0, metadata={"range": (1e-3, 1e4)})
+    """Actuator limit F of the rig, N (the grey-box model saturates its input there)."""
     nlarx_scale: float = field(default=1.0, metadata={"range": (1e-3, 10.0)})
     """Multiplies the NLARX training iterations (< 1 only for smoke runs)."""
     namespace: str = PLANT_NAMESPACE
@@ -59,10 +64,7 @@ class IdentifierConfig:
             raise ConfigError("out_dir is required")
         if not self.bags_dir and not self.broad_bag:
             raise ConfigError("give bags_dir (our bags) or broad_bag/validation_bag/bias_bags (a rig's)")
-        unknown = [m for m in self.models if m not in SURROGATES]
-        if unknown or not self.models:
-            which = unknown[0] if unknown else "(none)"
-            raise ConfigError(f"unknown model {which}; choose from {SURROGATES}")
+        check_models(self.models)
 
 
 def identify_from_bags(cfg: IdentifierConfig) -> dict[str, Any]:
@@ -71,8 +73,9 @@ def identify_from_bags(cfg: IdentifierConfig) -> dict[str, Any]:
         roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace)
     else:
         roles = explicit_roles(cfg.bias_bags, cfg.broad_bag, cfg.validation_bag, cfg.settle_samples)
-    records = load_records(roles, "plm" in cfg.models, cfg.namespace)
-    models, fits = identify_surrogates(records, cfg.models, cfg.seed, cfg.stroke, cfg.nlarx_scale)
+    records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace)
+    rig = PlantParams(L=cfg.stroke, F=cfg.force)  # only the stroke and the force limit are known
+    models, fits = identify_surrogates(records, cfg.models, cfg.seed, rig, cfg.nlarx_scale)
     prov = artifacts.Provenance(tuple(artifacts.source(r.path) for r in roles),
                                 {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()},
                                 cfg.seed)

@@ -9,11 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from msd_bench.app.config import RunConfig
+from msd_bench.app.pipeline import identify_surrogates, make_records
 from msd_bench.core.dyna import DynaConfig, train_dyna
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.metrics import compute
 from msd_bench.core.model import plant_model
-from msd_bench.core.pipeline import PaperConfig, identify_surrogates, make_records
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.qtrain import greedy_rollouts, train
 from msd_bench.io import artifacts
@@ -29,8 +30,8 @@ LOCKSTEP = PlantNodeConfig(lockstep=True, duplicate_check=0.0)
 
 @pytest.fixture(scope="module")
 def glm_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    cfg = PaperConfig(samples=2000, val_samples=600)
-    models, _ = identify_surrogates(make_records(cfg, 0), ["glm"], 0)
+    cfg = RunConfig(samples=2000, val_samples=600)
+    models, _ = identify_surrogates(make_records(cfg, 0), ["glm"], 0, cfg.plant)
     path = tmp_path_factory.mktemp("models") / "glm.json"
     return artifacts.save_model(models["glm"], path, artifacts.Provenance())
 
@@ -69,7 +70,7 @@ def test_ros_training_is_bit_identical_and_validation_matches_core(ctx, executor
 
 
 def test_dyna_q_interacts_with_the_plant_node(ctx, executor, tmp_path):
-    cfg = AgentNodeConfig(kind="dyna-q", dyna=True, planning_steps=5, seeds=(1,), episodes=2,
+    cfg = AgentNodeConfig(kind="dyna-q", planning_steps=5, seeds=(1,), episodes=2,
                           steps=100, validation_steps=200, window=50, out_dir=str(tmp_path))
     agent = _run(ctx, executor, cfg)
     ref = train_dyna(plant_model(PlantParams()), DynaConfig(replace(cfg.qconfig()), 5), [1])
@@ -80,8 +81,8 @@ def test_dyna_q_interacts_with_the_plant_node(ctx, executor, tmp_path):
 def test_bad_configuration_is_one_line(tmp_path):
     with pytest.raises(ConfigError, match="model_path is required"):
         AgentNodeConfig(out_dir=str(tmp_path))
-    with pytest.raises(ConfigError, match="agent must be"):
-        AgentNodeConfig(model_path="m.json", out_dir=str(tmp_path), agent="clever")
+    with pytest.raises(ConfigError, match=r"unknown agent kind 'clever'"):
+        AgentNodeConfig(model_path="m.json", out_dir=str(tmp_path), kind="clever")
 
 
 def test_missing_model_fails_before_any_traffic(ctx, tmp_path):

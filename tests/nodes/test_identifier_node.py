@@ -9,10 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from msd_bench.app.pipeline import identify_surrogates
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.excitation import MultilevelConfig, PrbsConfig, multilevel, prbs
-from msd_bench.core.pipeline import PLM_BIASES, Records, identify_surrogates
 from msd_bench.core.plant import PlantParams, simulate
+from msd_bench.core.plm import PLM_BIASES
+from msd_bench.core.records import Records
 from msd_bench.io import artifacts
 from msd_bench.io.bags import BagError, write_experiment
 from msd_bench.nodes.identifier_node import IdentifierConfig, IdentifierNode, identify_from_bags
@@ -57,7 +59,7 @@ def _in_process_reference(bag_dir: Path) -> Records:
 def test_models_from_our_bags_equal_the_in_process_fit(bag_dir, tmp_path):
     cfg = IdentifierConfig(bags_dir=str(bag_dir), models=("glm", "plm"), out_dir=str(tmp_path))
     report = identify_from_bags(cfg)
-    models, fits = identify_surrogates(_in_process_reference(bag_dir), ["glm", "plm"], 0)
+    models, fits = identify_surrogates(_in_process_reference(bag_dir), ["glm", "plm"], 0, P)
     for name in ("glm", "plm"):
         saved = artifacts.load_model(tmp_path / f"{name}.json")
         assert np.array_equal(saved.params, models[name].params)
@@ -90,7 +92,7 @@ def test_config_errors_are_one_line(tmp_path):
         IdentifierConfig(bags_dir="x")
     with pytest.raises(ConfigError, match="give bags_dir"):
         IdentifierConfig(out_dir=str(tmp_path))
-    with pytest.raises(ConfigError, match="unknown model arx"):
+    with pytest.raises(ConfigError, match=r"unknown model kind .arx.; choose from glm, plm"):
         IdentifierConfig(bags_dir="x", out_dir=str(tmp_path), models=("arx",))
 
 

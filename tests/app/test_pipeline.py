@@ -11,16 +11,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from msd_bench.app.agents import AGENT_KINDS
+from msd_bench.app.config import RunConfig as PaperConfig
+from msd_bench.app.pipeline import make_records, run_paper
+from msd_bench.app.plan import record_seeds
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.metrics import compute
-from msd_bench.core.pipeline import (
-    AGENT_KINDS,
-    PLM_BIASES,
-    PaperConfig,
-    make_records,
-    record_seeds,
-    run_paper,
-)
+from msd_bench.core.plm import PLM_BIASES
 from msd_bench.core.results import METRIC_KEYS, by_kind
 
 TINY = PaperConfig(
@@ -90,11 +87,15 @@ def test_config_errors_are_user_errors():
 def test_surrogates_needed_follow_the_requested_kinds_in_a_fixed_order():
     cfg = PaperConfig(agents=("nlarx-improved+improved", "plant", "glm", "plm+improved"))
     assert cfg.surrogates_needed() == ["glm", "plm", "nlarx-improved"]
+    assert PaperConfig(agents=("greybox+improved", "glm")).surrogates_needed() == ["glm", "greybox"]
     assert PaperConfig(agents=("dyna-q", "plant")).surrogates_needed() == []
 
 
-def test_learning_seeds_start_at_first_seed():
-    assert PaperConfig(seeds=3, first_seed=7).learning_seeds() == [7, 8, 9]
+def test_learning_seeds_start_at_first_seed_and_never_repeat_across_id_seeds():
+    cfg = PaperConfig(seeds=3, first_seed=7, id_seeds=2, id_first_seed=4)
+    assert cfg.learning_seeds(0) == [7, 8, 9]
+    assert cfg.learning_seeds(1) == [10, 11, 12]
+    assert cfg.id_seed_values() == [4, 5]
 
 
 # --- records -----------------------------------------------------------------------------------
@@ -151,7 +152,7 @@ def test_surrogate_rows_hold_seeds_times_id_seeds(tiny_run):
         r = rows[kind]
         assert r.n == TINY.seeds * TINY.id_seeds
         pairs = [(s["id_seed"], s["seed"]) for s in r.per_seed]
-        assert pairs == [(i, s) for i in range(TINY.id_seeds) for s in TINY.learning_seeds()]
+        assert pairs == [(i, s) for i in range(TINY.id_seeds) for s in TINY.learning_seeds(i)]
         assert len(r.fit_by_id_seed) == TINY.id_seeds
 
 

@@ -1,0 +1,102 @@
+"""One run configuration for every way of running the method.
+
+``msd-bench paper`` (in-process) and bench.py (node processes) both run a
+:class:`RunConfig`; bench.py wraps it with what only a graph needs (run
+directory, stages, real-time mode). Budgets default to the paper's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from msd_bench.app.agents import AGENT_KINDS, PLANT, agent_kind, check_agents, learner_config, surrogates_of
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.plant import PlantParams, preset
+from msd_bench.core.qconfig import QConfig
+
+_POSITIVE = ("seeds", "id_seeds", "episodes", "steps", "dyna_episodes", "samples", "val_samples",
+             "validation_steps", "window")
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """What one run of the method does (defaults = the paper's budgets)."""
+
+    preset: str = "default"
+    """Plant preset (``default`` or ``mild``; docs/design.md §The plant)."""
+    seeds: int = 20
+    """Learning seeds per identification seed and agent kind."""
+    first_seed: int = 0
+    """First learning seed; identification seed i uses first_seed + i·seeds … (never reused)."""
+    id_seeds: int = 1
+    """Identification seeds: each re-records and re-identifies every surrogate."""
+    id_first_seed: int = 0
+    """First identification seed; they are id_first_seed, id_first_seed + 1, …"""
+    agents: tuple[str, ...] = tuple(AGENT_KINDS)
+    """Agent kinds (rows) to run, from :data:`msd_bench.app.agents.AGENT_KINDS`."""
+    episodes: int = 300
+    """Training episodes per agent (paper: 300)."""
+    steps: int = 3000
+    """Steps per training episode (paper: 3,000)."""
+    dyna_episodes: int = 300
+    """Dyna-Q episodes on the true plant (paper: 300; each is 3,000 real interactions)."""
+    planning_steps: int = 100
+    """Dyna-Q planning updates per real step (paper: 100)."""
+    samples: int = 12_000
+    """Samples per identification record (paper: 12,000)."""
+    val_samples: int = 4_000
+    """Samples per validation record (separate seeds from the training records)."""
+    validation_steps: int = 3000
+    """Closed-loop validation length on the true plant (paper: 3,000)."""
+    target: float = 1.0
+    """Validation set-point, m (paper: unit step)."""
+    window: int = 500
+    """Terminal window of the SSE, samples (paper: not given)."""
+    nlarx_scale: float = 1.0
+    """Multiplies the NLARX training iterations (< 1 for smoke runs)."""
+
+    def __post_init__(self) -> None:
+        check_agents(self.agents)
+        preset(self.preset)  # an unknown preset fails here, naming the choices
+        for name in _POSITIVE:
+            if int(getattr(self, name)) < 1:
+                raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if self.first_seed < 0 or self.id_first_seed < 0:
+            raise ConfigError("first_seed and id_first_seed must be >= 0")
+        if self.planning_steps < 0:
+            raise ConfigError(f"planning_steps must be >= 0, got {self.planning_steps}")
+        if self.window > self.validation_steps:
+            raise ConfigError("window must not exceed validation_steps")
+        if not 0 < self.nlarx_scale <= 10:
+            raise ConfigError(f"nlarx_scale must be in (0, 10], got {self.nlarx_scale}")
+
+    @property
+    def plant(self) -> PlantParams:
+        """The true plant's parameters."""
+        return preset(self.preset)
+
+    def id_seed_values(self) -> list[int]:
+        """The identification seeds of the run."""
+        return list(range(self.id_first_seed, self.id_first_seed + self.id_seeds))
+
+    def learning_seeds(self, id_index: int = 0) -> list[int]:
+        """Learning seeds of the ``id_index``-th identification seed: disjoint across them."""
+        start = self.first_seed + id_index * self.seeds
+        return list(range(start, start + self.seeds))
+
+    def qconfig(self, kind: str) -> QConfig:
+        """The learner of agent kind ``kind`` at this run's budget (Dyna-Q: its own episodes)."""
+        episodes = self.dyna_episodes if agent_kind(kind).dyna else self.episodes
+        return learner_config(kind, episodes, self.steps, self.plant.F)
+
+    def surrogates_needed(self) -> list[str]:
+        """Model kinds that at least one requested agent kind trains on."""
+        return surrogates_of(self.agents)
+
+    def surrogate_agents(self) -> list[str]:
+        """Requested kinds that train on an identified model (one batch per identification seed)."""
+        return [a for a in self.agents if agent_kind(a).surrogate != PLANT]
+
+    def plant_agents(self) -> list[str]:
+        """Requested kinds that learn on the true plant (once, not per identification seed)."""
+        return [a for a in self.agents if agent_kind(a).surrogate == PLANT]

@@ -1,0 +1,54 @@
+"""Command-line options of a run, shared by ``msd-bench paper`` and bench.py.
+
+One definition, so the two entry points cannot drift; each may change a
+default (bench.py runs fewer seeds because every stage is a process).
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from msd_bench.app.agents import AGENT_KINDS, parse_agents
+from msd_bench.app.config import RunConfig
+
+
+def add_run_arguments(p: argparse.ArgumentParser, **defaults: Any) -> None:
+    """Budgets, seeds, agent kinds and preset; ``defaults`` overrides RunConfig's defaults."""
+    base = {name: f.default for name, f in RunConfig.__dataclass_fields__.items()}
+    base.update(defaults)
+    kinds = ", ".join(AGENT_KINDS)
+    p.add_argument("--seeds", type=int, default=base["seeds"],
+                   help=f"learning seeds per identification seed and agent kind ({base['seeds']})")
+    p.add_argument("--first-seed", type=int, default=base["first_seed"], help="first learning seed (0)")
+    p.add_argument("--id-seeds", type=int, default=base["id_seeds"],
+                   help=f"identification seeds: re-record and re-identify each ({base['id_seeds']})")
+    p.add_argument("--id-first-seed", type=int, default=base["id_first_seed"],
+                   help="first identification seed (0)")
+    p.add_argument("--preset", default=base["preset"], help="plant preset: default or mild")
+    p.add_argument("--agents", default=",".join(base["agents"]),
+                   help=f"comma-separated agent kinds (default: all): {kinds}")
+    p.add_argument("--episodes", type=int, default=base["episodes"],
+                   help=f"training episodes ({base['episodes']})")
+    p.add_argument("--steps", type=int, default=base["steps"], help=f"steps per episode ({base['steps']})")
+    p.add_argument("--dyna-episodes", type=int, default=base["dyna_episodes"],
+                   help=f"Dyna-Q episodes (paper: 300; default {base['dyna_episodes']})")
+    p.add_argument("--samples", type=int, default=base["samples"],
+                   help=f"samples per identification record ({base['samples']})")
+    p.add_argument("--val-samples", type=int, default=base["val_samples"],
+                   help=f"samples per validation record ({base['val_samples']})")
+    p.add_argument("--validation-steps", type=int, default=base["validation_steps"],
+                   help=f"closed-loop validation steps (paper: 3000; {base['validation_steps']})")
+    p.add_argument("--nlarx-scale", type=float, default=base["nlarx_scale"],
+                   help="scale NLARX training iterations (smoke runs: 0.05)")
+
+
+def run_config_from_args(args: argparse.Namespace) -> RunConfig:
+    """A validated :class:`RunConfig` from parsed options (one-line ConfigError otherwise)."""
+    return RunConfig(
+        preset=args.preset, seeds=args.seeds, first_seed=args.first_seed, id_seeds=args.id_seeds,
+        id_first_seed=args.id_first_seed, agents=parse_agents(str(args.agents)), episodes=args.episodes,
+        steps=args.steps, dyna_episodes=args.dyna_episodes, samples=args.samples,
+        val_samples=args.val_samples, validation_steps=args.validation_steps,
+        window=min(500, max(1, args.validation_steps)), nlarx_scale=args.nlarx_scale,
+    )

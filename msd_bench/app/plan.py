@@ -1,0 +1,66 @@
+"""The experiment plan of one identification seed: which records, their signals, lengths and seeds.
+
+Shared by the in-process run (which simulates each experiment) and bench.py's
+recording stage (which plays each through an excitation node and records a
+bag), so both identify from the same signals. Paper §3.2/§3.4: five ±1 N PRBS
+experiments around the bias forces for the PLM's local models, one multilevel
+record over the whole alphabet for GLM, NLARX and the grey-box model, and
+validation twins of each with other seeds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from msd_bench.core.excitation import MultilevelConfig, PrbsConfig
+from msd_bench.core.plm import PLM_BIASES
+
+TRAIN, VALIDATION = "train", "validation"
+
+
+@dataclass(frozen=True)
+class PlannedExperiment:
+    """One excitation experiment of the plan."""
+
+    name: str
+    """Directory-safe name, e.g. ``bias_m10``, ``broad``, ``val_bias_p5``."""
+    role: str
+    """``train`` or ``validation``."""
+    bias: float | None
+    """Operating-point force of a PRBS experiment, N; None for the broad record."""
+    signal: PrbsConfig | MultilevelConfig
+    """The excitation signal's configuration."""
+    seed: int
+    """Seed of the signal generator."""
+
+    @property
+    def kind(self) -> str:
+        """Signal kind: ``prbs`` or ``multilevel``."""
+        return "prbs" if isinstance(self.signal, PrbsConfig) else "multilevel"
+
+
+def record_seeds(id_seed: int) -> tuple[int, int]:
+    """(training, validation) base excitation seeds of an identification seed: never equal.
+
+    PRBS seeds repeat modulo 1023; the offset 4,000 is not a multiple of it, so
+    a validation record is always other data than the training record beside it.
+    """
+    return 1000 + 10 * id_seed, 5000 + 10 * id_seed
+
+
+def paper_plan(id_seed: int, samples: int = 12_000, val_samples: int = 4_000) -> list[PlannedExperiment]:
+    """Training experiments then their validation twins, for identification seed ``id_seed``."""
+    plan: list[PlannedExperiment] = []
+    for role, prefix, n, base in ((TRAIN, "", samples, record_seeds(id_seed)[0]),
+                                  (VALIDATION, "val_", val_samples, record_seeds(id_seed)[1])):
+        for i, bias in enumerate(PLM_BIASES):
+            plan.append(PlannedExperiment(f"{prefix}{bias_name(bias)}", role, bias,
+                                          PrbsConfig(bias=bias, n_samples=n), base + i))
+        plan.append(PlannedExperiment(f"{prefix}broad", role, None, MultilevelConfig(n_samples=n), base + 7))
+    return plan
+
+
+def bias_name(bias: float) -> str:
+    """``-10`` → ``bias_m10``, ``5`` → ``bias_p5``, ``0`` → ``bias_0``."""
+    sign = "m" if bias < 0 else "p" if bias > 0 else ""
+    return f"bias_{sign}{abs(bias):g}"
