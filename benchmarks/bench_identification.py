@@ -21,7 +21,6 @@ from dataclasses import asdict
 from msd_bench.core import plant
 from msd_bench.core.identify import (
     GlmConfig,
-    NlarxConfig,
     PlmConfig,
     bias_record,
     broad_record,
@@ -30,6 +29,7 @@ from msd_bench.core.identify import (
     identify_nlarx,
     identify_plm,
 )
+from msd_bench.core.nlarx import NlarxConfig
 from msd_bench.core.plm import PLM_BIASES
 
 BUDGET_S = 30.0

@@ -9,9 +9,9 @@ the command line lists and checks kinds instantly.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.qconfig import QConfig, improved_config
@@ -112,9 +112,13 @@ def budget_note(kind: str, dyna_episodes: int) -> str:
     return ""
 
 
-def learner_from_meta(meta: dict[str, object]) -> QConfig:
+def learner_from_meta(meta: Mapping[str, Any]) -> QConfig:
     """The learner config stored with a Q-table artifact (JSON lists back to tuples)."""
     doc = meta.get("learner")
     if not isinstance(doc, dict):
         raise ConfigError("Q-table artifact carries no learner config (written by an older msd-bench)")
-    return QConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()})
+    fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()}
+    try:
+        return QConfig(**fields)
+    except TypeError as exc:
+        raise ConfigError(f"Q-table artifact's learner config does not fit this msd-bench: {exc}") from None

@@ -15,7 +15,7 @@ from msd_bench.app.config import RunConfig
 
 def add_run_arguments(p: argparse.ArgumentParser, **defaults: Any) -> None:
     """Budgets, seeds, agent kinds and preset; ``defaults`` overrides RunConfig's defaults."""
-    base = {name: f.default for name, f in RunConfig.__dataclass_fields__.items()}
+    base: dict[str, Any] = {name: f.default for name, f in RunConfig.__dataclass_fields__.items()}
     base.update(defaults)
     kinds = ", ".join(AGENT_KINDS)
     p.add_argument("--seeds", type=int, default=base["seeds"],
@@ -26,7 +26,7 @@ def add_run_arguments(p: argparse.ArgumentParser, **defaults: Any) -> None:
     p.add_argument("--id-first-seed", type=int, default=base["id_first_seed"],
                    help="first identification seed (0)")
     p.add_argument("--preset", default=base["preset"], help="plant preset: default or mild")
-    p.add_argument("--agents", default=",".join(base["agents"]),
+    p.add_argument("--agents", default=",".join(str(a) for a in base["agents"]),
                    help=f"comma-separated agent kinds (default: all): {kinds}")
     p.add_argument("--episodes", type=int, default=base["episodes"],
                    help=f"training episodes ({base['episodes']})")

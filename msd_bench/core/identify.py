@@ -22,6 +22,7 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,15 +33,16 @@ from msd_bench.core.excitation import MultilevelConfig, PrbsConfig, multilevel, 
 from msd_bench.core.fit import fit_percent
 from msd_bench.core.linear import LinearFit, oe_fit
 from msd_bench.core.model import StepModel
-from msd_bench.core.nlarx import NlarxConfig, fit_nlarx
 from msd_bench.core.plm import PLM_BIASES, blend, fit_local
+
+if TYPE_CHECKING:  # the NLARX trains with torch: imported only when one is fitted
+    from msd_bench.core.nlarx import NlarxConfig
 
 FloatArray = np.ndarray
 
 __all__ = [
     "FitReport",
     "GlmConfig",
-    "NlarxConfig",
     "PlmConfig",
     "bias_record",
     "broad_record",
@@ -153,6 +155,8 @@ def identify_plm(
 
 def identify_nlarx(train: IOData, cfg: NlarxConfig | None = None, stroke: float = 5.0) -> StepModel:
     """NLARX sigmoid network, ``paper`` or ``improved`` form (see :mod:`msd_bench.core.nlarx`)."""
+    from msd_bench.core.nlarx import NlarxConfig, fit_nlarx
+
     cfg = cfg or NlarxConfig()
     _positive(stroke, "stroke")
     t0 = time.perf_counter()

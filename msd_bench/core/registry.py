@@ -92,8 +92,9 @@ def _nlarx_fitter(form: str) -> Fitter:
         from dataclasses import replace
 
         from msd_bench.core import identify
+        from msd_bench.core.nlarx import NlarxConfig
 
-        base = identify.NlarxConfig(form=form, seed=req.seed)
+        base = NlarxConfig(form=form, seed=req.seed)
         cfg = replace(base, one_step_iters=max(1, round(base.one_step_iters * req.nlarx_scale)),
                       sim_iters=round(base.sim_iters * req.nlarx_scale))
         return identify.identify_nlarx(req.records.broad_train, cfg, req.stroke)

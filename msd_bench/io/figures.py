@@ -11,6 +11,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
@@ -54,7 +55,7 @@ def qtable_figure(path: Path, title: str, first: FloatArray, last: FloatArray) -
 
 def step_response_figure(
     path: Path,
-    responses: Mapping[str, Sequence[FloatArray]],
+    responses: Mapping[str, FloatArray],
     target: float = 1.0,
     dt: float = 0.01,
     band: float = 0.02,
@@ -89,7 +90,7 @@ def step_response_figure(
     return _save(fig, path)
 
 
-def _save(fig: plt.Figure, path: Path) -> Path:
+def _save(fig: Figure, path: Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
