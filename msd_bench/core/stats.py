@@ -65,3 +65,27 @@ def _json_number(v: float | int) -> float | int | None:
     if isinstance(v, float) and not math.isfinite(v):
         return None
     return v
+
+
+def wilson(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson score interval of a success rate k/n (95 % by default), as fractions.
+
+    Why Wilson: with n in the tens and rates near 0 or 1 (the regime of every
+    row here), the normal interval leaves [0, 1] and is far too narrow; Wilson
+    keeps close to nominal coverage down to k = 0 or k = n.
+    """
+    if n <= 0 or not 0 <= k <= n:
+        return (float("nan"), float("nan"))
+    p = k / n
+    denom = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def rate_text(k: int, n: int) -> str:
+    """``k/n (p %, 95 % CI lo–hi %)``: how every success rate is printed."""
+    lo, hi = wilson(k, n)
+    if n <= 0:
+        return f"{k}/{n}"
+    return f"{k}/{n} ({100 * k / n:.0f} %, CI {100 * lo:.0f}–{100 * hi:.0f} %)"

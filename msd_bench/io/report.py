@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from msd_bench.core.results import METRIC_KEYS, AgentResult
+from msd_bench.core.stats import rate_text, wilson
 from msd_bench.io.artifacts import jsonable
 
 TABLE_SCHEMA = "msd-bench/table1"
@@ -51,6 +52,7 @@ def _agent_json(r: AgentResult) -> dict[str, Any]:
             "n": r.n,
             "n_success": r.n_success,
             "success_rate": r.success_rate,
+            "ci95": list(wilson(r.n_success, r.n)),
             "summary": {k: s.as_dict() for k, s in r.summary().items()},
             "per_seed": list(r.per_seed),
         }
@@ -76,7 +78,7 @@ def table_markdown(results: Sequence[AgentResult], run: Mapping[str, Any]) -> st
             _fmt(r.fit_one_step),
             str(r.identification_samples) if r.identification_samples else "—",
             *(summ[k].text(3 if k in ("mae", "std") else 1) for k in METRIC_KEYS),
-            f"{r.n_success}/{r.n} ({100 * r.success_rate:.0f} %)",
+            rate_text(r.n_success, r.n),
         ]
         lines.append("| " + " | ".join(cells) + " |")
     notes = [f"- {r.label}: {r.notes}" for r in results if r.notes]
@@ -128,15 +130,20 @@ def robustness_markdown(rob: Mapping[str, Mapping[str, Mapping[str, Any]]],
     scenarios = list(next(iter(rob.values())))
     lines = [
         "Robustness — the trained tables held fixed, validated on perturbed plants and other "
-        "set-points (no retraining); cells are successes/n (median SSE %).",
+        "set-points (no retraining); cells are successes/n (Wilson 95 % interval, %; median SSE %).",
         "",
         "| Agent | " + " | ".join(scenarios) + " |",
         "|" + "---|" * (len(scenarios) + 1),
     ]
     for kind, by_scenario in rob.items():
-        cells = [f"{r['n_success']}/{r['n']} ({r['median_sse']:.1f})" for r in by_scenario.values()]
+        cells = [_rob_cell(r) for r in by_scenario.values()]
         lines.append(f"| {labels.get(kind, kind)} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+def _rob_cell(r: Mapping[str, Any]) -> str:
+    lo, hi = wilson(int(r["n_success"]), int(r["n"]))
+    return f"{r['n_success']}/{r['n']} ({100 * lo:.0f}–{100 * hi:.0f}; {r['median_sse']:.1f})"
 
 
 def write_robustness(out_dir: Path, rob: Mapping[str, Any], labels: Mapping[str, str]) -> dict[str, Path]:

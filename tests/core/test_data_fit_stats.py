@@ -67,3 +67,14 @@ def test_agent_result_success_rate() -> None:
     r = AgentResult("plm", "PLM", "plm", "paper", 60_000, 95.0, 99.0, rows)
     assert r.n == 4 and r.n_success == 2 and r.success_rate == 0.5
     assert r.summary()["ts"].n_defined == 0
+
+
+def test_wilson_interval_matches_hand_computed_values():
+    from msd_bench.core.stats import rate_text, wilson
+
+    lo, hi = wilson(55, 60)  # the reviewer quoted 82-96 % for 55/60
+    assert (round(100 * lo), round(100 * hi)) == (82, 96)
+    assert wilson(0, 20)[0] == 0.0 and 0.15 < wilson(0, 20)[1] < 0.17
+    assert wilson(20, 20)[1] == 1.0 and 0.83 < wilson(20, 20)[0] < 0.85
+    assert rate_text(55, 60) == "55/60 (92 %, CI 82–96 %)"
+    assert all(v != v for v in wilson(1, 0))  # no trials: no interval

@@ -79,4 +79,4 @@ def test_report_files_agree(tmp_path: Path) -> None:
         lines = list(csv.DictReader(fh))
     assert [float(x["sse"]) for x in lines] == [0.5, 20.0]
     md = paths["md"].read_text()
-    assert "PLM (paper agent)" in md and "1/2 (50 %)" in md
+    assert "PLM (paper agent)" in md and "1/2 (50 %, CI 9–91 %)" in md
