@@ -1,0 +1,109 @@
+"""Run a named results command and store what it wrote as ``docs/results/<name>.json``.
+
+Every number in the README comes from one of these files (through
+``scripts/readme_results.py``), and each file records the command, the commit
+and the machine that produced it, so a reader can rerun it:
+
+    python scripts/make_results.py table1_default     # runs msd-bench paper ..., writes the JSON
+    python scripts/make_results.py --list
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import datetime as dt
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+RESULTS = REPO / "docs" / "results"
+
+PAPER = [sys.executable, "-m", "msd_bench.cli", "paper", "--no-figures"]
+COMMANDS: dict[str, list[str]] = {
+    "table1_default": [*PAPER, "--seeds", "64"],
+    "table1_idseeds": [*PAPER, "--seeds", "64", "--id-seeds", "3", "--id-first-seed", "1",
+                       "--first-seed", "1000", "--agents",
+                       "plm,nlarx-improved,greybox,plm+improved,nlarx-improved+improved,greybox+improved"],
+    "table1_mild": [*PAPER, "--seeds", "20", "--preset", "mild"],
+}
+"""Named results: the exact ``msd-bench paper`` arguments behind each README table (``--out`` added)."""
+
+
+def machine() -> dict[str, str | int | None]:
+    """What the numbers were measured on (seeds reproduce bit for bit only on the same CPU)."""
+    cpu = ""
+    with contextlib.suppress(OSError, StopIteration):
+        cpu = next(ln.split(":", 1)[1].strip() for ln in Path("/proc/cpuinfo").read_text().splitlines()
+                   if ln.startswith("model name"))
+    return {"cpu": cpu or platform.processor(), "cores": os.cpu_count(), "python": platform.python_version(),
+            "system": platform.platform()}
+
+
+def commit() -> str:
+    """The commit the numbers came from (``+dirty`` when the tree had uncommitted changes)."""
+    head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True,
+                          text=True).stdout.strip()
+    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=REPO,
+                           capture_output=True, text=True).stdout.strip()
+    return head + ("+dirty" if dirty else "")
+
+
+def run(name: str) -> Path:
+    """Run the named command into a temporary directory and store its JSON outputs."""
+    with tempfile.TemporaryDirectory(prefix=f"results_{name}_") as tmp:
+        out = Path(tmp) / "out"
+        argv = [*COMMANDS[name], "--out", str(out)]
+        t0 = time.perf_counter()
+        proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True)
+        seconds = time.perf_counter() - t0
+        if proc.returncode != 0:
+            sys.exit(f"{name}: command failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
+        doc = {
+            "name": name,
+            "command": " ".join(["msd-bench", *argv[3:-2]]),
+            "commit": commit(),
+            "machine": machine(),
+            "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+            "seconds": round(seconds, 1),
+            "table1": json.loads((out / "table1.json").read_text()),
+            "robustness": json.loads((out / "robustness.json").read_text()),
+        }
+    for agent in doc["table1"]["agents"]:
+        agent.pop("per_seed", None)  # the summary stays; per-seed rows stay in the run's own files
+    for cells in doc["robustness"]["agents"].values():
+        for cell in cells.values():
+            cell.pop("sse", None)
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    path = RESULTS / f"{name}.json"
+    path.write_text(json.dumps(doc, indent=1) + "\n")
+    return path
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("names", nargs="*", help=f"results to make: {', '.join(COMMANDS)}")
+    p.add_argument("--list", action="store_true", help="print the named commands and exit")
+    args = p.parse_args()
+    if args.list or not args.names:
+        for name, argv in COMMANDS.items():
+            print(f"{name}: msd-bench {' '.join(argv[3:])}")
+        return 0
+    unknown = [n for n in args.names if n not in COMMANDS]
+    if unknown:
+        print(f"make_results: error: unknown result {unknown[0]!r}; choose from {', '.join(COMMANDS)}",
+              file=sys.stderr)
+        return 2
+    for name in args.names:
+        print(run(name))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,33 @@
+"""Every number in the README is generated: the README agrees with docs/results, and drift is caught."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "scripts"))
+
+import readme_results  # noqa: E402
+
+
+def test_readme_agrees_with_the_stored_results():
+    assert readme_results.main(["--check"]) == 0
+
+
+def test_a_drifted_number_is_caught(tmp_path):
+    results = tmp_path / "results"
+    shutil.copytree(REPO / "docs" / "results", results)
+    readme = tmp_path / "README.md"
+    readme.write_text(
+        "x\n<!-- results:demo:table -->\nstale\n<!-- /results -->\ny\n")
+    (results / "demo.json").write_text(json.dumps({
+        "command": "demo", "commit": "abc", "machine": {"cpu": "c", "cores": 2}, "seconds": 1,
+        "table": [{"a": 1, "b": 2.5}]}))
+    args = ["--readme", str(readme), "--results", str(results)]
+    assert readme_results.main([*args, "--check"]) == 1
+    assert readme_results.main(args) == 0
+    assert "| 1 | 2.50 |" in readme.read_text()
+    assert readme_results.main([*args, "--check"]) == 0
