@@ -47,7 +47,7 @@ class PaperConfig:
     """A run of ``msd-bench paper`` / ``bench.py`` (defaults = the paper's budgets)."""
 
     preset: str = "default"
-    """Plant preset (``default`` or ``mild``, DESIGN.md §2)."""
+    """Plant preset (``default`` or ``mild``, docs/design.md §Plant)."""
     seeds: int = 20
     """Learning seeds per identification seed and agent kind."""
     first_seed: int = 0
