@@ -17,13 +17,13 @@ import random
 import time
 from typing import Any
 
-from msd_bench.core import plant
+from msd_bench.core import plant, robustness
 from msd_bench.core.dyna import DynaConfig, train_dyna
 from msd_bench.core.model import plant_model
 from msd_bench.core.plant import PlantParams, preset
 from msd_bench.core.qconfig import QConfig, improved_config
 from msd_bench.core.qtrain import train
-from msd_bench.core.validate import summary, validate
+from msd_bench.core.stats import summarize
 
 
 def python_loop_steps_per_s(params: PlantParams, cfg: QConfig, n_steps: int) -> float:
@@ -110,11 +110,18 @@ def success(n: int, first: int) -> list[dict[str, Any]]:
     rows = []
     seeds = list(range(first, first + n))
     for name in ("default", "mild"):
-        model = plant_model(preset(name))
+        params = preset(name)
+        model = plant_model(params)
         for agent, cfg in (("paper", QConfig()), ("improved", improved_config())):
-            s = summary(validate(model, train(model, cfg, seeds).q, cfg))
+            # The nominal scenario is the ordinary validation: unit step, 3,000 steps, SSE window 500.
+            nominal = robustness.evaluate(train(model, cfg, seeds).q, cfg, params,
+                                          robustness.SCENARIOS[:1])["nominal"]
+            sse = summarize(nominal["sse"])
             rows.append({"preset": name, "agent": agent, "seeds": f"{first}..{first + n - 1}",
-                         **{k: round(v, 3) for k, v in s.items()}})
+                         "n": nominal["n"], "n_success": nominal["n_success"],
+                         "success_rate": round(nominal["success_rate"], 3),
+                         "sse_median": round(sse.median, 3), "sse_mean": round(sse.mean, 3),
+                         "sse_sd": round(sse.sd, 3)})
     return rows
 
 

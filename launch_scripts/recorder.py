@@ -1,6 +1,6 @@
 """Start the recorder node: ``python launch_scripts/recorder.py --ros-args -p bag_path:=bags/x``.
 
-Thin entry point (STYLE.md §9) over :func:`msd_bench.nodes.spin.main`:
+Thin entry point (docs/design.md §Conventions) over :func:`msd_bench.nodes.spin.main`:
 ``with rclpy.init(args=args):``, spin until shutdown or until the recorder
 reaches its limit, catch ``KeyboardInterrupt`` and ``ExternalShutdownException``.
 rclpy's own SIGINT/SIGTERM handlers shut the context down; the node is then

@@ -1,7 +1,7 @@
 """The wire contract of msd-bench: topic names, message types, QoS and conversions.
 
 This is the only place that names a topic, a message type or a QoS profile
-(DESIGN.md §3). A real rig that speaks these topics can replace the plant.
+(docs/design.md §Contract). A real rig that speaks these topics can replace the plant.
 """
 
 from msd_msgs_py.contract import (
@@ -13,7 +13,6 @@ from msd_msgs_py.contract import (
     POSITION,
     REFERENCE,
     RESET,
-    TELEMETRY_TOPICS,
     TopicSpec,
 )
 
@@ -26,6 +25,5 @@ __all__ = [
     "POSITION",
     "REFERENCE",
     "RESET",
-    "TELEMETRY_TOPICS",
     "TopicSpec",
 ]

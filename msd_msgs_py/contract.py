@@ -66,5 +66,4 @@ RECORDER_READY = TopicSpec(
 )
 CLOCK = TopicSpec("/clock", "rosgraph_msgs/msg/Clock", TELEMETRY_DEPTH, "sim time, lock-step mode only")
 
-TELEMETRY_TOPICS = (POSITION, JOINT_STATES)
 ALL_TOPICS = (POSITION, JOINT_STATES, FORCE, REFERENCE, RESET, CLOCK)

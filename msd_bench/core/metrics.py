@@ -12,7 +12,7 @@ Conventions (the paper leaves them open; these are ours, stated once here):
   print N/A then, as the paper's Table 1 does.
 * ts is ``k dt`` for the first sample k after which ``|e_j| <= ε |x*|`` for all
   j >= k (to the end of the run); NaN when the last sample is outside the band
-  (report as N/A). Given for ε = 2 % (the paper's) and 5 % (PAPER_NOTES: the
+  (report as N/A). Given for ε = 2 % (the paper's) and 5 % (docs/decisions.md §Metrics: the
   paper's ts ≈ 7 s is inconsistent with a 3 % SSE under a 2 % band).
 * SSE is ``100 |mean(e over the last W samples)| / |x*|``, W = 500 (5 s) by
   default; success means SSE < 5 %.

@@ -5,7 +5,7 @@
 ``x_k = F(x_{k-1}, x_{k-2}, u_{k-1}, u_{k-2})`` shifted by one sample, and
 exactly the ``KIND_NLARX`` kernel layout (:mod:`msd_bench.core.kernels`).
 
-Two forms (PAPER_NOTES.md, "NLARX"):
+Two forms (docs/decisions.md §NLARX):
 
 * ``paper`` — sigmoid units only (``w = 0``), trained on the one-step
   prediction error with mild weight decay (full-batch L-BFGS). Excellent

@@ -21,7 +21,7 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class PlantParams:
-    """Physical parameters of the NL-MSD (DESIGN.md §2)."""
+    """Physical parameters of the NL-MSD (docs/design.md §Plant)."""
 
     m: float = 1.0
     """Mass in kg; > 0."""

@@ -5,7 +5,7 @@ B ∈ {-10, -5, 0, 5, 10} N (PRBS of ±1 N around each bias, 12,000 samples afte
 the settling segment is dropped), and blended at run time by the paper's
 triangular memberships f1..f5 of the current position.
 
-Decision on coordinates (PAPER_NOTES.md, "PLM coordinates"): the paper prints
+Decision on coordinates (docs/decisions.md §PLM): the paper prints
 the local recursions in absolute coordinates without saying where a local
 model's operating point goes. We fit each local model in *deviation
 coordinates* around its own operating point, ``u0 = B`` and ``y0`` started at
@@ -19,7 +19,7 @@ fit 35 % instead of 96 % at B = 10 N on the default plant). At run time all
 five are evaluated on the *shared blended* position history (the surrogate's
 own past outputs, not five private recursions) and their predictions blended
 by f1..f5 of the current position (:func:`msd_bench.core.kernels.membership`).
-PAPER_NOTES reports about 98 % simulation fit this way against about 80 % for
+An earlier implementation measured about 98 % simulation fit this way against 80 % for
 five parallel recursions each on its own outputs (we measured 97.4 % on the
 mild preset and 92.5 % on the default one, broad-range validation record).
 With f1..f5 as printed the weights always sum to > 0; the kernel still falls

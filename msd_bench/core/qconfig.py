@@ -1,7 +1,7 @@
 """Configuration of the tabular Q-learning agent (paper §4) and its packed form.
 
 :class:`QConfig` holds every choice of the paper's learner, with the values the
-paper prints (or, where it prints none, the ones PAPER_NOTES found to behave).
+paper prints (or, where it prints none, the ones docs/decisions.md §Reward found to behave).
 :func:`encoding` packs a config into plain arrays for the compiled kernels of
 :mod:`msd_bench.core.qlearning`, so a config never crosses into numba as an
 object and one compiled kernel serves every config.
@@ -17,7 +17,7 @@ Two state encoders:
   times the sign of the last position change and a coarse reference bin. The
   paper's state cannot tell an approach from a retreat and its 0.1 m bins park
   the mass at a bin edge, so which action wins just below the target is a coin
-  flip across seeds (PAPER_NOTES). Switching on the lead error is a sliding
+  flip across seeds (docs/decisions.md §Distributions). Switching on the lead error is a sliding
   surface: the sign of the right action follows from the bin alone. Use
   :func:`improved_config`, which also lowers α to 0.1 so each cell averages
   over more of its aliased transitions. On the true plant (64 seeds) the
@@ -68,7 +68,7 @@ class QConfig:
     reward_gain: float = 1.0
     """Reward amplification A > 0 (paper: 'A > 0', value not given; 1)."""
     g: float = 1.0
-    """Weight g > 0 of the closeness term g/(1+E) (not given; 1 per PAPER_NOTES)."""
+    """Weight g > 0 of the closeness term g/(1+E) (not given; 1, docs/decisions.md §Reward)."""
     zeta: float = 10.0
     """Weight ζ >= 0 of the error-change term ζ ΔE/E_max (not given; 0..50 behaved alike)."""
     e_max: float = 5.0
@@ -78,14 +78,14 @@ class QConfig:
 
     The paper prints ``+ η φ(s,a)`` with φ >= 0 yet calls it a penalty; as
     printed it is a bonus. We subtract it, which is what the text means
-    (PAPER_NOTES: success rose from ~25 % to ~69 % with η = 0.05). 0 disables it."""
+    (docs/decisions.md §Shaping: success rose from ~25 % to ~69 % with η = 0.05). 0 disables it."""
     force: float = 10.0
     """Force magnitude F in N: actions are {-F, -F/2, 0, F/2, F} (paper: 10)."""
     target_low: float = -2.0
     """Lower end of the uniform training-target draw, m.
 
     The paper draws targets 'within the admissible range' without numbers;
-    ±2 m is what the ±F alphabet can hold on our plant (DESIGN §2), so every
+    ±2 m is what the ±F alphabet can hold on our plant (docs/design.md §Plant), so every
     drawn target is reachable and the unit validation step lies inside."""
     target_high: float = 2.0
     """Upper end of the uniform training-target draw, m (> target_low, or equal for a fixed target)."""

@@ -1,6 +1,6 @@
 """Summaries across seeds: the result is a distribution, not a number.
 
-PAPER_NOTES: the seed alone moves the paper agent's SSE from under 1 % to over
+docs/decisions.md §Distributions: the seed alone moves the paper agent's SSE from under 1 % to over
 40 %, so every reported metric is summarised as n, mean ± sd and median over
 the seeds, and N/A values (a settling time that never happens) are counted
 rather than silently dropped.

@@ -1,4 +1,4 @@
 """File input/output: rosbag2 (MCAP) bags, model and Q-table artifacts, reports.
 
-The only package that touches files (DESIGN.md §1).
+The only package that touches files (docs/design.md §Layers).
 """

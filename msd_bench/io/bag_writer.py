@@ -36,7 +36,7 @@ from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
 from msd_bench.io.errors import BagError
-from msd_msgs_py.contract import FORCE, JOINT_NAME, JOINT_STATES, PLANT_NAMESPACE, POSITION
+from msd_msgs_py.contract import FORCE, JOINT_NAME, JOINT_STATES, PLANT_NAMESPACE, POSITION, REFERENCE
 
 PARAMS_KEY = "msd_bench.params"
 """rosbag2 ``custom_data`` key holding the experiment parameters as JSON."""
@@ -217,11 +217,13 @@ def write_experiment(
     params: Mapping[str, Any],
     namespace: str = PLANT_NAMESPACE,
     overwrite: bool = False,
+    reference: float | None = None,
 ) -> Path:
     """Write one experiment as the plant would publish it: joint_states, position, force.
 
     ``u[k]`` is the force applied over the sample after ``t_ns[k]`` (the
     ``effort`` of the same JointState), so identification gets exact alignment.
+    A closed-loop run also gets its set-point: one ``reference`` message at ``t_ns[0]``.
     """
     t_ns, u, x, v = (np.asarray(a).ravel() for a in (t_ns, u, x, v))
     if not (t_ns.size == u.size == x.size == v.size):
@@ -231,6 +233,9 @@ def write_experiment(
     state_t, f64_t = JOINT_STATES.ros_type, POSITION.ros_type
     topics = (JOINT_STATES.resolve(namespace), POSITION.resolve(namespace), FORCE.resolve(namespace))
     with BagRecorder(path, params=params, overwrite=overwrite) as rec:
+        if reference is not None and t_ns.size:
+            ref = store.serialize_cdr(types[f64_t](data=float(reference)), f64_t)
+            rec.write(REFERENCE.resolve(namespace), REFERENCE.ros_type, int(t_ns[0]), ref)
         for k in range(t_ns.size):
             ns = int(t_ns[k])
             stamp = types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)

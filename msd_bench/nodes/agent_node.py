@@ -10,13 +10,15 @@ Training (one of):
   (the baseline of paper §3.4.2), planning in-process.
 
 Then every seed's greedy table runs once on the plant topics (unit step,
-3,000 steps), each run is written as a bag, scored (paper §5), and the node
-writes ``qtables.npz`` and ``result.json`` under ``out_dir`` and exits.
+3,000 steps): the set-point goes out on ``<plant_ns>/reference`` as each run
+starts, each run is written as a bag (with that reference), scored (paper §5),
+and the node writes ``qtables.npz`` and ``result.json`` under ``out_dir`` and exits.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,6 +26,7 @@ from typing import Any
 import numpy as np
 from rclpy.node import Node
 from rclpy.task import Future
+from std_msgs.msg import Float64
 
 from msd_bench.app.agents import agent_kind, learner_config
 from msd_bench.app.scoring import metric_row
@@ -37,7 +40,8 @@ from msd_bench.io.bag_writer import write_experiment
 from msd_bench.io.run_output import qtable_meta
 from msd_bench.nodes.episode_client import Episode, EpisodeClient
 from msd_bench.nodes.params import declare_from_dataclass
-from msd_msgs_py.contract import PLANT_NAMESPACE
+from msd_msgs_py.contract import PLANT_NAMESPACE, REFERENCE
+from msd_msgs_py.ros import float64, qos
 
 
 @dataclass(frozen=True)
@@ -115,14 +119,16 @@ class _Learn:
 
 
 class _Greedy:
-    """Episode controller adapter for a fixed greedy table."""
+    """Episode controller adapter for a fixed greedy table; announces its set-point at the start."""
 
-    def __init__(self, policy: GreedyPolicy) -> None:
+    def __init__(self, policy: GreedyPolicy, announce: Callable[[float], None]) -> None:
         self.policy = policy
+        self.announce = announce
         self.x = 0.0
 
     def start(self, x0: float) -> None:
         self.x = x0
+        self.announce(self.policy.target)
 
     def act(self) -> float:
         return self.policy.force(self.x)
@@ -144,6 +150,8 @@ class AgentNode(Node):
         self.real_steps = 0
         self._learners: list[StepwiseLearner] = []
         self._client = EpisodeClient(self, lockstep=self.config.lockstep)
+        self._reference = self.create_publisher(
+            Float64, REFERENCE.resolve(self.config.plant_ns), qos(REFERENCE))
         self._source = self._check_inputs()
         self._start_timer = self.create_timer(0.01, self._start)
 
@@ -188,10 +196,14 @@ class AgentNode(Node):
         self.get_logger().info(f"trained; validating {len(cfg.seeds)} seed(s) on {cfg.plant_ns}")
         for i, seed in enumerate(cfg.seeds):
             policy = GreedyPolicy(cfg.qconfig(), q[i], cfg.target)
-            ep = Episode(_Greedy(policy), cfg.plant_ns, cfg.validation_steps, record=True,
+            ep = Episode(_Greedy(policy, self._announce), cfg.plant_ns, cfg.validation_steps, record=True,
                          on_done=lambda e, s=seed: self._validated(s, e))
             self._client.submit(ep)
         self._client.on_idle = self._finish
+
+    def _announce(self, target: float) -> None:
+        """Publish the validation set-point, so the graph (and a recorder) sees what the agent tracks."""
+        self._reference.publish(float64(target))
 
     def _validated(self, seed: int, ep: Episode) -> None:
         cfg = self.config
@@ -199,7 +211,7 @@ class AgentNode(Node):
         t, x, v, u = rows[:, 0].astype(np.int64), rows[:, 1], rows[:, 2], rows[:, 3]
         params = {"role": "validation", "kind": cfg.kind, "seed": seed, "target": cfg.target}
         write_experiment(self.out / "validation" / f"seed_{seed}", t, u, x, v, params=params,
-                         namespace=cfg.plant_ns)
+                         namespace=cfg.plant_ns, reference=cfg.target)
         metrics = metric_row(x, cfg.target, cfg.dt, cfg.window)
         self.per_seed.append(per_seed_row(seed, 0, metrics))
         self.get_logger().info(f"seed {seed}: SSE {metrics['sse']:.2f} %  MAE {metrics['mae']:.3f} m")

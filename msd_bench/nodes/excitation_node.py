@@ -1,4 +1,4 @@
-"""The excitation node: plays one seeded core signal on ``<ns>/force`` (DESIGN.md §4).
+"""The excitation node: plays one seeded core signal on ``<ns>/force`` (docs/design.md §Nodes).
 
 It does not start until its force publisher is matched by a subscriber (the
 plant) — a reliable publisher with no reader silently drops the first

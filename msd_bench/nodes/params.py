@@ -1,4 +1,4 @@
-"""Map a frozen config dataclass 1:1 onto declared ROS parameters (STYLE.md §3).
+"""Map a frozen config dataclass 1:1 onto declared ROS parameters (docs/design.md §Conventions).
 
 Why generic: every node (plant, excitation, surrogate, agent, recorder) has a
 config dataclass in ``core`` with a docstring under each field. Declaring the

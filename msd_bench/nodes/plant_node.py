@@ -1,4 +1,4 @@
-"""The plant-like node: any :class:`StepModel` behind the topic contract (DESIGN.md §3).
+"""The plant-like node: any :class:`StepModel` behind the topic contract (docs/design.md §Contract).
 
 The same class serves the emulated NL-MSD (:func:`true_plant_spec`) and, later,
 every identified surrogate: it only steps ``model`` and translates messages.

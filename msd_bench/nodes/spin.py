@@ -1,4 +1,4 @@
-"""The one thin ``main()`` every node process shares (ros2/examples pattern, STYLE.md §9).
+"""The one thin ``main()`` every node process shares (ros2/examples pattern, docs/design.md §Conventions).
 
 ``with rclpy.init(args=args):`` build the node, spin, and end cleanly on
 Ctrl-C (``KeyboardInterrupt``), SIGTERM (rclpy's handler shuts the context

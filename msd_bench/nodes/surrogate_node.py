@@ -1,4 +1,4 @@
-"""The surrogate node: an identified model artifact served as a plant-like node (DESIGN.md §4).
+"""The surrogate node: an identified model artifact served as a plant-like node (docs/design.md §Nodes).
 
 It is :class:`PlantNode` with a different :class:`ModelSpec`: the model comes
 from ``model_path`` (:func:`msd_bench.io.artifacts.load_model`), so a surrogate

@@ -51,7 +51,7 @@ def test_paper_form_one_step_fit_is_excellent(records):
     assert model.name == "nlarx-paper" and model.info["form"] == "paper"
     np.testing.assert_array_equal(model.params[5:9], 0.0)
     assert report.one_step_fit > 99.0
-    # The paper form's known weakness (PAPER_NOTES): free run is far worse than one step.
+    # The paper form's known weakness (docs/decisions.md §NLARX): free run is far worse than one step.
     assert report.sim_fit < report.one_step_fit - 5.0
 
 

@@ -78,7 +78,7 @@ def test_plant_model_steps_like_the_plant() -> None:
 
 
 def test_bias_forces_hold_the_mass_near_the_membership_centres() -> None:
-    # DESIGN.md §2: ±10 N holds the mass near ±2 m, ±5 N near ±1.4 m, 1 m needs ~3 N.
+    # docs/design.md §Plant: ±10 N holds the mass near ±2 m, ±5 N near ±1.4 m, 1 m needs ~3 N.
     assert plant.equilibrium(10.0, P) == pytest.approx(1.98, abs=0.02)
     assert plant.equilibrium(-5.0, P) == pytest.approx(-1.38, abs=0.02)
     assert float(plant.spring_force(1.0, P)) == pytest.approx(3.02, abs=0.01)

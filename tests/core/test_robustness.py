@@ -6,11 +6,11 @@ import pytest
 
 from msd_bench.core import robustness
 from msd_bench.core.errors import ConfigError
+from msd_bench.core.metrics import compute
 from msd_bench.core.model import plant_model
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.qconfig import QConfig
-from msd_bench.core.qtrain import train
-from msd_bench.core.validate import validate
+from msd_bench.core.qtrain import greedy_rollouts, train
 
 P = PlantParams()
 CFG = QConfig(episodes=20, steps=1000)
@@ -23,7 +23,8 @@ def tables():
 
 def test_nominal_scenario_is_the_ordinary_validation(tables) -> None:
     rob = robustness.evaluate(tables, CFG, P, [robustness.Scenario("nominal")], steps=1500, window=300)
-    expected = [m.sse for m in validate(plant_model(P), tables, CFG, 1.0, 1500, 300)]
+    xs, _ = greedy_rollouts(plant_model(P), tables, CFG, 1.0, 1500)
+    expected = [compute(x, 1.0, P.dt, 300).sse for x in xs]
     assert rob["nominal"]["sse"] == expected
     assert rob["nominal"]["n_success"] == sum(s < 5.0 for s in expected)
 

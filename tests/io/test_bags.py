@@ -1,4 +1,4 @@
-"""Bytes-level tests of the bag layer (STYLE.md §8): round trip, truncation, corruption, topics."""
+"""Bytes-level tests of the bag layer (docs/design.md §Tests): round trip, truncation, corruption, topics."""
 
 from __future__ import annotations
 

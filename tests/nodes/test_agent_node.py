@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rclpy.node import Node
 
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import identify_surrogates, make_records
@@ -19,9 +20,11 @@ from msd_bench.core.plant import PlantParams
 from msd_bench.core.qtrain import greedy_rollouts, train
 from msd_bench.io import artifacts
 from msd_bench.io.artifacts import ArtifactError
-from msd_bench.io.bags import read_experiment
+from msd_bench.io.bags import read_experiment, read_topic
 from msd_bench.nodes.agent_node import AgentNode, AgentNodeConfig
 from msd_bench.nodes.plant_node import ModelSpec, PlantNode, PlantNodeConfig, true_plant_spec
+from msd_msgs_py.contract import PLANT_NAMESPACE, REFERENCE
+from msd_msgs_py.ros import msg_class, qos
 from tests.nodes.conftest import spin_until
 
 pytestmark = pytest.mark.ros
@@ -76,6 +79,25 @@ def test_dyna_q_interacts_with_the_plant_node(ctx, executor, tmp_path):
     ref = train_dyna(plant_model(PlantParams()), DynaConfig(replace(cfg.qconfig()), 5), [1])
     assert np.array_equal(agent.q, ref.q)
     assert agent.real_steps == 200
+
+
+def test_validation_announces_the_set_point_and_bags_it(ctx, executor, tmp_path):
+    """Each validation run publishes its set-point on <plant_ns>/reference; its bag carries it at t_0."""
+    heard: list[float] = []
+    listener = Node("reference_listener", context=ctx)
+    listener.create_subscription(msg_class(REFERENCE), REFERENCE.resolve(PLANT_NAMESPACE),
+                                 lambda m: heard.append(m.data), qos(REFERENCE))
+    executor.add_node(listener)
+    cfg = AgentNodeConfig(kind="dyna-q", planning_steps=0, seeds=(5, 6), episodes=2,
+                          steps=100, target=0.8, validation_steps=120, window=50, out_dir=str(tmp_path))
+    _run(ctx, executor, cfg)
+    assert spin_until(executor, lambda: len(heard) >= 2, timeout=2.0)
+    assert heard == [0.8, 0.8]  # once per validation run, none during training
+    for seed in cfg.seeds:
+        bag = tmp_path / "validation" / f"seed_{seed}"
+        stamps, msgs = read_topic(bag, REFERENCE.resolve(PLANT_NAMESPACE))
+        rows, _ = read_topic(bag, "/msd/joint_states")
+        assert [m.data for m in msgs] == [0.8] and stamps[0] == rows.min()
 
 
 def test_bad_configuration_is_one_line(tmp_path):
