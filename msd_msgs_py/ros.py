@@ -33,7 +33,8 @@ def qos(spec: TopicSpec) -> QoSProfile:
 
 def msg_class(spec: TopicSpec) -> type:
     """The generated Python class of the topic's type."""
-    return MESSAGE_CLASSES[spec.ros_type]
+    cls: type = MESSAGE_CLASSES[spec.ros_type]
+    return cls
 
 
 def nanoseconds_to_stamp(ns: int, stamp: object) -> None:

@@ -109,8 +109,9 @@ def save_qtables(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]
     """Write Q-tables (and snapshots) as ``.npz`` with JSON metadata; refuses to overwrite."""
     path = _fresh(Path(path))
     doc = {"schema": QTABLE_SCHEMA, "schema_version": SCHEMA_VERSION, **jsonable(meta)}
+    payload: dict[str, Any] = {"meta": np.array(json.dumps(doc)), **arrays}
     with path.open("wb") as fh:
-        np.savez_compressed(fh, meta=np.array(json.dumps(doc)), **arrays)
+        np.savez_compressed(fh, **payload)
     return path
 
 

@@ -37,7 +37,7 @@ def table_json(results: Sequence[AgentResult], run: Mapping[str, Any]) -> dict[s
 
 
 def _agent_json(r: AgentResult) -> dict[str, Any]:
-    return jsonable(
+    doc: dict[str, Any] = jsonable(
         {
             "kind": r.kind,
             "label": r.label,
@@ -57,6 +57,7 @@ def _agent_json(r: AgentResult) -> dict[str, Any]:
             "per_seed": list(r.per_seed),
         }
     )
+    return doc
 
 
 def table_markdown(results: Sequence[AgentResult], run: Mapping[str, Any]) -> str:
