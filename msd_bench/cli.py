@@ -1,4 +1,4 @@
-"""The ``msd-bench`` console script: ``paper``, ``bag``, ``echo``, ``hz``.
+"""The ``msd-bench`` console script: ``paper``, ``efficiency``, ``bag``, ``echo``, ``hz``.
 
 Every subcommand module exposes ``register(subparsers)`` and sets ``func`` on
 its parser. A user mistake (:class:`MsdBenchError`) prints one line on stderr
@@ -16,11 +16,11 @@ from msd_bench.core.errors import MsdBenchError
 
 def build_parser() -> argparse.ArgumentParser:
     """The full parser with every subcommand registered."""
-    from msd_bench.commands import bag, paper, topics
+    from msd_bench.commands import bag, efficiency, paper, topics
 
     parser = argparse.ArgumentParser(prog="msd-bench", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (paper, bag, topics):
+    for module in (paper, efficiency, bag, topics):
         module.register(sub)
     return parser
 

@@ -55,6 +55,8 @@ def _kinds() -> dict[str, AgentKind]:
                 AgentKind(PLANT, "Q-learning on the true plant (reference)", PLANT, "paper")]
     improved = [AgentKind(f"{m.name}+improved", f"{m.label} (improved agent)", m.name, "improved")
                 for m in MODEL_KINDS.values()]
+    improved.append(AgentKind(f"{PLANT}+improved", "Q-learning on the true plant (improved agent)", PLANT,
+                              "improved"))
     return {k.kind: k for k in (*paper, *on_plant, *improved)}
 
 

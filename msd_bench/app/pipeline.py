@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from msd_bench.app.agents import PLANT, agent_kind, budget_note
 from msd_bench.app.config import RunConfig
-from msd_bench.app.plan import TRAIN, paper_plan
+from msd_bench.app.plan import TRAIN, PlannedExperiment, paper_plan
 from msd_bench.app.scoring import agent_result, metric_row
 from msd_bench.core import identify, robustness
 from msd_bench.core.data import IOData
@@ -62,10 +62,14 @@ class PaperRun:
 
 def make_records(cfg: RunConfig, id_seed: int) -> Records:
     """Drive the true plant with the plan's excitations (in-process)."""
-    p = cfg.plant
+    return records_from_plan(cfg.plant, paper_plan(id_seed, cfg.samples, cfg.val_samples))
+
+
+def records_from_plan(p: PlantParams, plan: Sequence[PlannedExperiment]) -> Records:
+    """Simulate every planned experiment on the plant ``p``."""
     bias: dict[str, dict[float, IOData]] = {"train": {}, "validation": {}}
     broad: dict[str, IOData] = {}
-    for exp in paper_plan(id_seed, cfg.samples, cfg.val_samples):
+    for exp in plan:
         if isinstance(exp.signal, MultilevelConfig):
             broad[exp.role] = identify.broad_record(p, exp.seed, exp.signal)
         elif exp.bias is not None:

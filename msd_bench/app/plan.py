@@ -48,16 +48,38 @@ def record_seeds(id_seed: int) -> tuple[int, int]:
     return 1000 + 10 * id_seed, 5000 + 10 * id_seed
 
 
-def paper_plan(id_seed: int, samples: int = 12_000, val_samples: int = 4_000) -> list[PlannedExperiment]:
-    """Training experiments then their validation twins, for identification seed ``id_seed``."""
+def paper_plan(id_seed: int, samples: int = 12_000, val_samples: int = 4_000,
+               settle: int = PrbsConfig.settle) -> list[PlannedExperiment]:
+    """Training experiments then their validation twins, for identification seed ``id_seed``.
+
+    ``settle`` samples at the bias force precede each PRBS record (dropped for
+    identification, but real samples all the same: the data-efficiency curve
+    counts them).
+    """
     plan: list[PlannedExperiment] = []
     for role, prefix, n, base in ((TRAIN, "", samples, record_seeds(id_seed)[0]),
                                   (VALIDATION, "val_", val_samples, record_seeds(id_seed)[1])):
         for i, bias in enumerate(PLM_BIASES):
             plan.append(PlannedExperiment(f"{prefix}{bias_name(bias)}", role, bias,
-                                          PrbsConfig(bias=bias, n_samples=n), base + i))
+                                          PrbsConfig(bias=bias, n_samples=n, settle=settle), base + i))
         plan.append(PlannedExperiment(f"{prefix}broad", role, None, MultilevelConfig(n_samples=n), base + 7))
     return plan
+
+
+def real_samples(plan: list[PlannedExperiment], records: str) -> int:
+    """Plant samples a model kind consumes: its training records plus the broad validation record.
+
+    ``records`` is the registry's ``broad`` or ``bias``; every kind is scored on
+    the broad validation record, so that counts for every kind.
+    """
+    total = 0
+    for e in plan:
+        wanted = (e.role == VALIDATION and e.bias is None) or (
+            e.role == TRAIN and (e.bias is None) == (records == "broad"))
+        if wanted:
+            settle = e.signal.settle if isinstance(e.signal, PrbsConfig) else 0
+            total += e.signal.n_samples + settle
+    return total
 
 
 def bias_name(bias: float) -> str:

@@ -35,12 +35,12 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _check_out(out: Path) -> None:
-    """Refuse an --out that is a file, holds a report already, or cannot be created."""
+def check_out(out: Path, marker: str = "table1.json") -> None:
+    """Refuse an --out that is a file, holds a report (``marker``) already, or cannot be created."""
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out} is a file, not a directory")
-    if (out / "table1.json").exists():
-        raise ConfigError(f"{out} already holds a table1.json; choose another --out")
+    if (out / marker).exists():
+        raise ConfigError(f"{out} already holds a {marker}; choose another --out")
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     """Run, write, print the table."""
     cfg = run_config_from_args(args)
     out = Path(args.out)
-    _check_out(out)
+    check_out(out)
     from msd_bench.app.output import write_all
     from msd_bench.app.pipeline import run_paper  # torch and control: seconds to import
     from msd_bench.progress import StageProgress

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -87,6 +88,27 @@ def step_response_figure(
     for ax in axes[:, 0]:
         ax.set_ylabel("x (blue), |e| (red), m")
     fig.suptitle(f"Closed loop on the true plant, unit step (±{100 * band:.0f} % band shaded)")
+    return _save(fig, path)
+
+
+def efficiency_figure(path: Path, methods: Sequence[Mapping[str, Any]]) -> Path:
+    """Success rate against real-plant samples, log x-axis, a line per method with its 95 % band."""
+    fig, ax = plt.subplots(figsize=(8, 4.8))
+    for m in methods:
+        pts = sorted(m["points"], key=lambda p: p["real_samples"])
+        x = np.array([p["real_samples"] for p in pts], dtype=float)
+        rate = np.array([p["n_success"] / p["n"] for p in pts])
+        lo = np.array([p["ci95"][0] for p in pts])
+        hi = np.array([p["ci95"][1] for p in pts])
+        (line,) = ax.plot(x, 100 * rate, marker="o", label=m.get("label", m["name"]))
+        ax.fill_between(x, 100 * lo, 100 * hi, color=line.get_color(), alpha=0.15)
+    ax.set_xscale("log")
+    ax.set_xlabel("real-plant samples used (identification records, or training steps)")
+    ax.set_ylabel("success rate (%), Wilson 95 % band")
+    ax.set_ylim(-2, 102)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    fig.suptitle("Data efficiency: success on the true plant vs real samples")
     return _save(fig, path)
 
 
