@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core import kernels, metrics
+from msd_bench.core import metrics
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import QConfig
@@ -23,8 +23,7 @@ def validate(plant_model: StepModel, q_tables: FloatArray, cfg: QConfig, target:
              n_steps: int = 3000, window: int = 500) -> list[metrics.Metrics]:
     """Metrics of each table's greedy run on ``plant_model`` (usually the true plant)."""
     xs, _ = greedy_rollouts(plant_model, q_tables, cfg, target, n_steps)
-    dt = _dt(plant_model)
-    return [metrics.compute(x, target, dt=dt, window=window) for x in xs]
+    return [metrics.compute(x, target, dt=plant_model.dt, window=window) for x in xs]
 
 
 def summary(results: list[metrics.Metrics]) -> dict[str, float]:
@@ -40,7 +39,3 @@ def summary(results: list[metrics.Metrics]) -> dict[str, float]:
         "sse_sd": float(sse.std(ddof=1)) if sse.size > 1 else 0.0,
     }
 
-
-def _dt(model: StepModel) -> float:
-    """Sample time: the plant carries it; identified models are sampled at the paper's 0.01 s."""
-    return float(model.params[7]) if model.kind == kernels.KIND_PLANT else 0.01
