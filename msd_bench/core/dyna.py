@@ -25,9 +25,9 @@ from numpy.typing import NDArray
 from msd_bench.core import rng
 from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.model import StepModel
-from msd_bench.core.qconfig import QConfig, encoding
+from msd_bench.core.qconfig import QConfig, packed
 from msd_bench.core.qlearning import train_batch
-from msd_bench.core.qtrain import LearnedTables
+from msd_bench.core.qtrain import LearnedTables, budget
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -65,10 +65,7 @@ def train_dyna(plant: StepModel, cfg: DynaConfig, seeds: Sequence[int]) -> DynaR
         raise InvalidInputError("need at least one seed")
     stream = rng.seed_states(seeds)
     qc = cfg.learner
-    enc = encoding(qc)
-    snap_at = np.array(qc.snapshots(), dtype=np.int64)
-    q, snaps, returns, counts = train_batch(
-        plant.kind, plant.params, enc.mode, enc.n_states, enc.hp, enc.err_edges, enc.ref_edges,
-        enc.phi, enc.actions, qc.episodes, qc.steps, cfg.planning_steps, snap_at, stream)
+    q, snaps, returns, counts = train_batch(plant.kernel, packed(qc),
+                                            budget(qc, cfg.planning_steps), stream)
     return DynaResult(q, snaps, qc.snapshots(), returns, tuple(int(s) for s in seeds),
                       counts[:, 0].copy(), counts[:, 1].copy(), cfg)

@@ -1,24 +1,34 @@
 """Compiled one-step kernels shared by the plant, every surrogate and the learners.
 
 Why one module: Q-learning runs ~10^6 sequential steps per agent, so the model
-it learns on must be stepped in compiled code. Every plant-like model is
-therefore packed into ``(kind, params)`` — an integer and a flat float64
-array — and advanced by :func:`advance`, which numba compiles once. The same
-kernel serves the in-process trainer, the ROS surrogate node and the tests,
-so a model behaves identically wherever it runs.
+it learns on must be stepped in compiled code. Every plant-like model reaches
+compiled code as one :class:`Kernel` — a kind, a flat float64 parameter array
+and the force limit — and is advanced by :func:`advance`, which numba compiles
+once. The same kernel serves the in-process trainer, the ROS nodes, the
+Python-facing :mod:`msd_bench.core.plant` and the tests, so a model behaves
+identically wherever it runs. The plant's physics exists once, in
+:func:`plant_step`.
+
+Force policy, the same on every path: a non-finite force raises
+:class:`InvalidInputError` here, inside the compiled step, before any state is
+touched (so not even a direct kernel call can move the mass on a NaN); a
+finite force beyond ``±force_limit`` acts exactly as the bound, for the plant
+and for every surrogate (the surrogate stands in for a plant with that F). A
+non-finite position (only reachable from a non-finite state) raises too,
+rather than being parked somewhere.
 
 State layout (float64[4], zeros = at rest at the origin):
 
 * ``KIND_PLANT``: ``[x_k, v_k, 0, 0]``
 * ARX-type models (linear, PLM, NLARX): ``[x_k, x_{k-1}, u_{k-1}, 0]``
 
-``advance(kind, p, state, u_k)`` applies force ``u_k`` over one sample,
+``advance(model, state, u_k)`` applies force ``u_k`` over one sample,
 updates ``state`` in place and returns ``x_{k+1}``. Every model's output is
 projected on the stroke ``[-L/2, L/2]`` like the plant's hard stops.
 
-Parameter layouts (``p``):
+Parameter layouts (``Kernel.params``):
 
-* plant: ``[m, c, k, g, h, L, F, dt]`` (see :meth:`PlantParams.as_array`)
+* plant: the fields of :class:`Plant` in order, ``[m, c, k, g, h, L, F, dt]``
 * linear: ``[L, n1, n2, d1, d2, u0, y0]`` — deviation form
   ``(y-y0)[k+1] = n1 (u-u0)[k] + n2 (u-u0)[k-1] - d1 (y-y0)[k] - d2 (y-y0)[k-1]``
 * PLM: ``[L, 5 x (n1, n2, d1, d2, u0, y0)]`` — five local linear models in
@@ -33,10 +43,15 @@ Parameter layouts (``p``):
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from msd_bench.core.errors import InvalidInputError
+
+FloatArray = NDArray[np.float64]
 
 KIND_PLANT = 0
 KIND_LINEAR = 1
@@ -48,11 +63,69 @@ KIND_NAMES = {KIND_PLANT: "plant", KIND_LINEAR: "linear", KIND_PLM: "plm", KIND_
 PLM_CENTRES = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
 """Nominal centres of f1..f5 (f1 is 1 below -2, f5 is 1 above 1.5)."""
 
+PLANT_SIZE = 8
 LINEAR_SIZE = 7
 PLM_LOCAL_SIZE = 6
 PLM_SIZE = 1 + 5 * PLM_LOCAL_SIZE
 NLARX_HEAD = 9
 NLARX_UNIT = 6
+
+
+class Plant(NamedTuple):
+    """The NL-MSD's parameters as compiled code reads them (units and ranges: ``PlantParams``).
+
+    The field order is the plant's packed layout in :attr:`Kernel.params`.
+    """
+
+    m: float
+    c: float
+    k: float
+    g: float
+    h: float
+    L: float
+    F: float
+    dt: float
+
+
+class Kernel(NamedTuple):
+    """A plant-like model as compiled code sees it."""
+
+    kind: int
+    """``KIND_*``: which step :func:`advance` runs."""
+    params: FloatArray
+    """Parameters in the kind's layout (module docstring), contiguous float64."""
+    force_limit: float
+    """Forces saturate to ±force_limit before they act (the plant's F, for every kind)."""
+
+
+@numba.njit(cache=True)
+def plant_of(p: FloatArray) -> Plant:
+    """The plant's packed parameters as a :class:`Plant` (the one place that knows the slots)."""
+    return Plant(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
+
+
+@numba.njit(cache=True)
+def saturate(u: float, limit: float) -> float:
+    """The force that acts: ``u`` clipped to ±limit; a non-finite ``u`` is refused."""
+    if not math.isfinite(u):
+        raise InvalidInputError("force must be finite")
+    if u > limit:
+        return limit
+    if u < -limit:
+        return -limit
+    return u
+
+
+@numba.njit(cache=True)
+def on_stroke(x: float, half_stroke: float) -> float:
+    """``x`` projected on [-half_stroke, half_stroke]; NaN (a non-finite state) is refused."""
+    if x > half_stroke:
+        return half_stroke
+    if x < -half_stroke:
+        return -half_stroke
+    if x != x:
+        raise InvalidInputError("model produced a non-finite position (was its state finite?)")
+    return x
 
 
 @numba.njit(cache=True)
@@ -100,42 +173,47 @@ def membership(i: int, x: float) -> float:
 
 
 @numba.njit(cache=True)
-def _clip(x: float, lim: float) -> float:
-    if x > lim:
-        return lim
-    if x < -lim:
-        return -lim
-    if x != x:  # NaN from a diverged model: park it at the origin rather than poison the run
-        return 0.0
-    return x
+def plant_step(plant: Plant, x: float, v: float, u: float) -> tuple[float, float]:
+    """One Euler step of ``m x'' = u - c x' - k sin(g x) - h x^3`` from (x, v); the new (x, v).
 
-
-@numba.njit(cache=True)
-def _plant(p: NDArray[np.float64], s: NDArray[np.float64], u: float) -> float:
-    m, c, k, g, h, L, F, dt = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]
-    if u > F:
-        u = F
-    elif u < -F:
-        u = -F
-    x, v = s[0], s[1]
-    v_new = v + dt * (u - c * v - k * math.sin(g * x) - h * x * x * x) / m
-    x_free = x + dt * v_new
-    x_new = _clip(x_free, 0.5 * L)
+    The force is saturated to ±F (non-finite: refused); velocity is updated
+    first and the position moves with the new velocity; a position beyond a
+    hard stop is projected on it and the velocity zeroed.
+    """
+    u = saturate(u, plant.F)
+    # Operation order is part of the pinned results: dt * (net force) first, then / m.
+    v_new = v + plant.dt * (u - plant.c * v - plant.k * math.sin(plant.g * x)
+                            - plant.h * x * x * x) / plant.m
+    x_free = x + plant.dt * v_new
+    x_new = on_stroke(x_free, 0.5 * plant.L)
     if x_new != x_free:
         v_new = 0.0
-    s[0] = x_new
-    s[1] = v_new
-    return x_new
+    return x_new, v_new
 
 
 @numba.njit(cache=True)
-def _local(p: NDArray[np.float64], o: int, s: NDArray[np.float64], u: float) -> float:
+def plant_step_batch(plant: Plant, x: FloatArray, v: FloatArray,
+                     u: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """:func:`plant_step` of independent plants, element by element (equal to the scalar step)."""
+    n = x.shape[0]
+    x_new = np.empty(n)
+    v_new = np.empty(n)
+    for i in range(n):
+        x_new[i], v_new[i] = plant_step(plant, x[i], v[i], u[i])
+    return x_new, v_new
+
+
+@numba.njit(cache=True)
+def _local(p: FloatArray, o: int, s: FloatArray, u: float) -> float:
+    """Local linear model at offset ``o`` of ``p`` in deviation form (linear and PLM kinds)."""
     n1, n2, d1, d2, u0, y0 = p[o], p[o + 1], p[o + 2], p[o + 3], p[o + 4], p[o + 5]
-    return y0 + n1 * (u - u0) + n2 * (s[2] - u0) - d1 * (s[0] - y0) - d2 * (s[1] - y0)
+    y: float = y0 + n1 * (u - u0) + n2 * (s[2] - u0) - d1 * (s[0] - y0) - d2 * (s[1] - y0)
+    return y
 
 
 @numba.njit(cache=True)
-def _plm(p: NDArray[np.float64], s: NDArray[np.float64], u: float) -> float:
+def _plm(p: FloatArray, s: FloatArray, u: float) -> float:
+    """Membership-weighted blend of the five local models at the current position."""
     xi = s[0]
     num = 0.0
     den = 0.0
@@ -154,30 +232,45 @@ def _plm(p: NDArray[np.float64], s: NDArray[np.float64], u: float) -> float:
 
 
 @numba.njit(cache=True)
-def _nlarx(p: NDArray[np.float64], s: NDArray[np.float64], u: float) -> float:
+def _nlarx(p: FloatArray, s: FloatArray, u: float) -> float:
+    """Linear term plus sigmoid units on the scaled regressors (layout in the module doc)."""
     n_units = int(p[1])
     xs, us = p[2], p[3]
+    c0, w1, w2, w3, w4 = p[4], p[5], p[6], p[7], p[8]
     f0, f1, f2, f3 = s[0] / xs, s[1] / xs, u / us, s[2] / us
-    out = p[4] + p[5] * f0 + p[6] * f1 + p[7] * f2 + p[8] * f3
+    out = c0 + w1 * f0 + w2 * f1 + w3 * f2 + w4 * f3
     for j in range(n_units):
         o = NLARX_HEAD + NLARX_UNIT * j
-        z = p[o + 1] * f0 + p[o + 2] * f1 + p[o + 3] * f2 + p[o + 4] * f3 + p[o + 5]
-        out += p[o] / (1.0 + math.exp(-z))
-    return xs * out
+        alpha, b1, b2, b3, b4, b0 = p[o], p[o + 1], p[o + 2], p[o + 3], p[o + 4], p[o + 5]
+        z = b1 * f0 + b2 * f1 + b3 * f2 + b4 * f3 + b0
+        out += alpha / (1.0 + math.exp(-z))
+    y: float = xs * out
+    return y
 
 
 @numba.njit(cache=True)
-def advance(kind: int, p: NDArray[np.float64], s: NDArray[np.float64], u: float) -> float:
-    """Apply force ``u`` for one sample; update ``s`` in place; return the new position."""
+def advance(model: Kernel, s: FloatArray, u: float) -> float:
+    """Apply force ``u`` for one sample; update ``s`` in place; return the new position.
+
+    ``u`` is saturated to ±``model.force_limit`` (a non-finite one raises before
+    ``s`` changes); an unknown kind raises rather than running another kind's maths.
+    """
+    u = saturate(u, model.force_limit)
+    kind, p = model.kind, model.params
     if kind == KIND_PLANT:
-        return _plant(p, s, u)
+        x, v = plant_step(plant_of(p), s[0], s[1], u)
+        s[0] = x
+        s[1] = v
+        return x
     if kind == KIND_LINEAR:
         y = _local(p, 1, s, u)
     elif kind == KIND_PLM:
         y = _plm(p, s, u)
-    else:
+    elif kind == KIND_NLARX:
         y = _nlarx(p, s, u)
-    y = _clip(y, 0.5 * p[0])
+    else:
+        raise InvalidInputError("unknown model kind")
+    y = on_stroke(y, 0.5 * p[0])
     s[1] = s[0]
     s[0] = y
     s[2] = u
@@ -185,40 +278,33 @@ def advance(kind: int, p: NDArray[np.float64], s: NDArray[np.float64], u: float)
 
 
 @numba.njit(cache=True)
-def rollout(
-    kind: int, p: NDArray[np.float64], u: NDArray[np.float64], state: NDArray[np.float64]
-) -> NDArray[np.float64]:
+def rollout(model: Kernel, u: FloatArray, state: FloatArray) -> FloatArray:
     """Free-run simulation: ``x[k]`` is the position before ``u[k]`` acts (``x[0]`` = state)."""
     n = u.shape[0]
     x = np.empty(n)
     for k in range(n):
         x[k] = state[0]
-        advance(kind, p, state, u[k])
+        advance(model, state, u[k])
     return x
 
 
 @numba.njit(cache=True)
-def simulate_plant(
-    p: NDArray[np.float64], u: NDArray[np.float64], x0: float, v0: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def simulate_plant(plant: Plant, u: FloatArray, x0: float,
+                   v0: float) -> tuple[FloatArray, FloatArray]:
     """Plant trajectory (x, v) sampled before each force acts."""
     n = u.shape[0]
     x = np.empty(n)
     v = np.empty(n)
-    s = np.zeros(4)
-    s[0] = x0
-    s[1] = v0
+    xk, vk = x0, v0
     for k in range(n):
-        x[k] = s[0]
-        v[k] = s[1]
-        _plant(p, s, u[k])
+        x[k] = xk
+        v[k] = vk
+        xk, vk = plant_step(plant, xk, vk, u[k])
     return x, v
 
 
 @numba.njit(cache=True)
-def one_step(
-    kind: int, p: NDArray[np.float64], x: NDArray[np.float64], u: NDArray[np.float64]
-) -> NDArray[np.float64]:
+def one_step(model: Kernel, x: FloatArray, u: FloatArray) -> FloatArray:
     """One-step-ahead prediction from measured history (ARX-type kinds only).
 
     ``yhat[k]`` predicts ``x[k]`` from ``x[k-1], x[k-2], u[k-1], u[k-2]``;
@@ -231,5 +317,5 @@ def one_step(
         s[0] = x[k - 1]
         s[1] = x[k - 2]
         s[2] = u[k - 2]
-        yhat[k] = advance(kind, p, s, u[k - 1])
+        yhat[k] = advance(model, s, u[k - 1])
     return yhat

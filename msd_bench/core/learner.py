@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from msd_bench.core import qlearning, rng
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.qconfig import HP_EPS, N_ACTIONS, QConfig, encoding
+from msd_bench.core.qconfig import N_ACTIONS, QConfig, packed
 
 FloatArray = NDArray[np.float64]
 
@@ -33,15 +33,11 @@ class StepwiseLearner:
         self.cfg = cfg
         self.planning_steps = int(planning_steps)
         self.real_steps = 0
-        self._enc = encoding(cfg)
-        n_pairs = self._enc.n_states * N_ACTIONS
-        self._model_r = np.zeros(n_pairs)
-        self._model_s = np.zeros(n_pairs, dtype=np.int64)
-        self._visited = np.zeros(n_pairs, dtype=np.int64)
-        self._seen = np.zeros(n_pairs, dtype=bool)
-        self._n_visited = 0
+        self._lr = packed(cfg)
+        n_states = self._lr.enc.n_states
+        self._memory = qlearning.new_memory(n_states * N_ACTIONS if planning_steps else 0)
         self._stream = rng.seed_states([seed])
-        self.q = np.zeros((self._enc.n_states, N_ACTIONS))
+        self.q = np.zeros((n_states, N_ACTIONS))
         self.returns: list[float] = []
         self.snapshots: dict[int, FloatArray] = {}
         self._snap_at = set(cfg.snapshots())
@@ -65,8 +61,7 @@ class StepwiseLearner:
 
     def start_episode(self, x0: float = 0.0) -> float:
         """Draw the episode's target from the agent's stream; the model must be at rest at ``x0``."""
-        e = self._enc
-        self._target = float(qlearning.draw_target(e.hp, self._stream, 0))
+        self._target = float(qlearning.draw_target(self._lr, self._stream, 0))
         self._x = float(x0)
         self._err = abs(self._x - self._target)
         self._s = self._encode(self._x - self._target, 0.0)
@@ -78,8 +73,8 @@ class StepwiseLearner:
         """ε-greedy force for the current state (N); call :meth:`learn` with the next position."""
         if self._steps_left <= 0:
             raise InvalidInputError("episode is over: call start_episode first")
-        self._a = int(qlearning.choose(self.q, self._s, self._enc.hp[HP_EPS], self._stream, 0))
-        return float(self._enc.actions[self._a])
+        self._a = int(qlearning.choose(self.q, self._s, self._lr.epsilon, self._stream, 0))
+        return float(self._lr.actions[self._a])
 
     def learn(self, x_new: float) -> None:
         """Reward and temporal-difference update for the transition to ``x_new``."""
@@ -89,10 +84,11 @@ class StepwiseLearner:
             raise InvalidInputError(f"position must be finite, got {x_new}")
         e_new = x_new - self._target
         s2 = self._encode(e_new, x_new - self._x)
-        r = float(qlearning.reward(self._enc.hp, abs(e_new), self._err))
-        qlearning.td_update(self.q, self._s, self._a, r, s2, self._enc.hp, self._enc.phi)
+        r = float(qlearning.reward(self._lr, abs(e_new), self._err))
+        qlearning.td_update(self.q, self._s, self._a, r, s2, self._lr)
         if self.planning_steps:
-            self._plan(r, s2)
+            qlearning.remember(self._memory, self._s * N_ACTIONS + self._a, r, s2)
+            qlearning.plan(self.q, self.planning_steps, self._memory, self._lr, self._stream, 0)
         self.real_steps += 1
         self._total += r
         self._x, self._err, self._s, self._a = x_new, abs(e_new), s2, -1
@@ -100,47 +96,32 @@ class StepwiseLearner:
         if self._steps_left == 0:
             self._end_episode()
 
-    def _plan(self, r: float, s2: int) -> None:
-        """Dyna-Q: remember (r, s') of this pair, then replay remembered pairs."""
-        j = self._s * N_ACTIONS + self._a
-        if not self._seen[j]:
-            self._seen[j] = True
-            self._visited[self._n_visited] = j
-            self._n_visited += 1
-        self._model_r[j] = r
-        self._model_s[j] = s2
-        qlearning.plan(self.q, self.planning_steps, self._visited, self._n_visited, self._model_r,
-                  self._model_s, self._enc.hp, self._enc.phi, self._stream, 0)
-
     def _end_episode(self) -> None:
         self.returns.append(self._total)
         if len(self.returns) in self._snap_at:
             self.snapshots[len(self.returns)] = self.q.copy()
 
     def _encode(self, e: float, dx: float) -> int:
-        enc = self._enc
-        return int(qlearning.encode(enc.mode, enc.n_states, enc.hp, enc.err_edges, enc.ref_edges,
-                                    e, dx, self._target))
+        return int(qlearning.encode(self._lr.enc, e, dx, self._target))
 
 
 class GreedyPolicy:
     """A trained table held fixed (paper §5): deterministic greedy force per position."""
 
     def __init__(self, cfg: QConfig, q: FloatArray, target: float) -> None:
-        self._enc = encoding(cfg)
+        self._lr = packed(cfg)
         self.q = np.ascontiguousarray(q, dtype=np.float64)
-        if self.q.shape != (self._enc.n_states, N_ACTIONS):
+        n_states = self._lr.enc.n_states
+        if self.q.shape != (n_states, N_ACTIONS):
             raise InvalidInputError(
                 f"Q-table shape {self.q.shape} does not fit state {cfg.state!r} "
-                f"({self._enc.n_states} x {N_ACTIONS})")
+                f"({n_states} x {N_ACTIONS})")
         self.target = float(target)
         self._x: float | None = None
 
     def force(self, x: float) -> float:
         """Greedy force for position ``x`` (the direction term uses the previous call's x)."""
-        enc = self._enc
         dx = 0.0 if self._x is None else x - self._x
         self._x = x
-        s = qlearning.encode(enc.mode, enc.n_states, enc.hp, enc.err_edges, enc.ref_edges,
-                             x - self.target, dx, self.target)
-        return float(enc.actions[qlearning.greedy(self.q, s)])
+        s = qlearning.encode(self._lr.enc, x - self.target, dx, self.target)
+        return float(self._lr.actions[qlearning.greedy(self.q, s)])

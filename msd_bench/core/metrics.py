@@ -69,8 +69,8 @@ class Metrics:
         return asdict(self)
 
 
-def compute(x: FloatArray, target: float, dt: float = 0.01, window: int = 500) -> Metrics:
-    """All §5 metrics of trajectory ``x`` tracking the constant ``target``."""
+def compute(x: FloatArray, target: float, dt: float, window: int = 500) -> Metrics:
+    """All §5 metrics of trajectory ``x`` sampled every ``dt`` s, tracking the constant ``target``."""
     x = _check(x, target, dt, window)
     e = x - target
     ae = np.abs(e)

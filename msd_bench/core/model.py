@@ -2,12 +2,19 @@
 
 A :class:`StepModel` is what Q-learning trains on, what the surrogate node
 serves and what the identifier writes: a kernel kind, its packed parameters
-(see :mod:`msd_bench.core.kernels`) and a little metadata. Keeping models as
-plain arrays makes them cheap to save, hash, and step in compiled code.
+(see :mod:`msd_bench.core.kernels`), the sample time and force limit of the
+plant it stands for, and a little metadata. Keeping models as plain arrays
+makes them cheap to save, hash, and step in compiled code.
+
+Every stepping method goes through the compiled :func:`kernels.advance`, so the
+model contract is the kernel's: a non-finite force raises
+:class:`InvalidInputError`, a force beyond ±``force_limit`` acts as the bound,
+and the output stays on the stroke.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -16,9 +23,12 @@ from numpy.typing import NDArray
 
 from msd_bench.core import kernels
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.plant import PlantParams
+from msd_bench.core.plant import DT, PlantParams
 
 FloatArray = NDArray[np.float64]
+
+NOMINAL_FORCE = PlantParams().F
+"""Force limit of a surrogate whose maker does not say: the nominal plant's F."""
 
 
 @dataclass(frozen=True)
@@ -33,14 +43,29 @@ class StepModel:
     """Human label, e.g. ``"glm"``, ``"plm"``, ``"nlarx-paper"``."""
     info: dict[str, Any] = field(default_factory=dict)
     """Free-form facts worth reporting (fit %, sample counts, coefficients)."""
+    dt: float = DT
+    """Sample time in s of one step (for the plant: its ``dt`` parameter, which must agree)."""
+    force_limit: float = NOMINAL_FORCE
+    """Forces saturate to ±force_limit N before they act, as on the plant the model stands
+    for (for the plant: its ``F`` parameter, which must agree)."""
+    kernel: kernels.Kernel = field(init=False, repr=False, compare=False)
+    """The model as compiled code takes it (built from the fields above)."""
 
     def __post_init__(self) -> None:
         if self.kind not in kernels.KIND_NAMES:
-            raise InvalidInputError(f"unknown model kind {self.kind}")
+            raise InvalidInputError(f"unknown model kind {self.kind}; known: {kernels.KIND_NAMES}")
         p = np.ascontiguousarray(self.params, dtype=np.float64)
         if p.ndim != 1 or not np.all(np.isfinite(p)):
             raise InvalidInputError(f"model {self.name!r}: parameters must be a finite 1-D array")
+        for what, value in (("dt", self.dt), ("force_limit", self.force_limit)):
+            if not (math.isfinite(value) and value > 0):
+                raise InvalidInputError(f"model {self.name!r}: {what} must be finite and > 0, "
+                                        f"got {value}")
+        if self.kind == kernels.KIND_PLANT:
+            _check_plant(p, self.dt, self.force_limit)
         object.__setattr__(self, "params", p)
+        object.__setattr__(self, "kernel",
+                           kernels.Kernel(self.kind, p, float(self.force_limit)))
 
     @property
     def x_max(self) -> float:
@@ -53,13 +78,13 @@ class StepModel:
 
     def step(self, state: FloatArray, u: float) -> float:
         """Advance ``state`` in place under force ``u``; return the new position."""
-        return float(kernels.advance(self.kind, self.params, state, float(u)))
+        return float(kernels.advance(self.kernel, state, float(u)))
 
     def simulate(self, u: FloatArray, state: FloatArray | None = None) -> FloatArray:
         """Free-run response to ``u`` from ``state`` (rest if None); ``x[0]`` is the start."""
         u = _as_signal(u, "force")
-        s = self.initial_state() if state is None else np.array(state, dtype=float)
-        return kernels.rollout(self.kind, self.params, u, s)
+        s = self.initial_state() if state is None else _as_state(state)
+        return kernels.rollout(self.kernel, u, s)
 
     def predict_one_step(self, x: FloatArray, u: FloatArray) -> FloatArray:
         """One-step-ahead prediction from the measured history (ARX-type models)."""
@@ -68,12 +93,32 @@ class StepModel:
         x, u = _as_signal(x, "position"), _as_signal(u, "force")
         if x.shape != u.shape:
             raise InvalidInputError(f"position and force lengths differ: {x.size} vs {u.size}")
-        return kernels.one_step(self.kind, self.params, x, u)
+        return kernels.one_step(self.kernel, x, u)
 
 
 def plant_model(params: PlantParams) -> StepModel:
     """The true plant as a :class:`StepModel` (for Dyna-Q and on-plant baselines)."""
-    return StepModel(kernels.KIND_PLANT, params.as_array(), name="plant")
+    return StepModel(kernels.KIND_PLANT, params.as_array(), name="plant", dt=params.dt,
+                     force_limit=params.F)
+
+
+def _check_plant(p: FloatArray, dt: float, force_limit: float) -> None:
+    """A plant model's dt and force limit are its own parameters; a mismatch is a mistake."""
+    if p.size != kernels.PLANT_SIZE:
+        raise InvalidInputError(f"plant parameters must have {kernels.PLANT_SIZE} values "
+                                f"{kernels.Plant._fields}, got {p.size}")
+    plant = kernels.Plant(*(float(v) for v in p))
+    if (plant.dt, plant.F) != (dt, force_limit):
+        raise InvalidInputError(
+            f"plant model: dt={dt}, force_limit={force_limit} disagree with its parameters "
+            f"dt={plant.dt}, F={plant.F}; build it with plant_model(params)")
+
+
+def _as_state(state: FloatArray) -> FloatArray:
+    s = np.array(state, dtype=np.float64)
+    if s.shape != (4,) or not np.all(np.isfinite(s)):
+        raise InvalidInputError(f"model state must be 4 finite values, got {state!r}")
+    return s
 
 
 def _as_signal(a: FloatArray, what: str) -> FloatArray:
@@ -81,5 +126,5 @@ def _as_signal(a: FloatArray, what: str) -> FloatArray:
     if arr.ndim != 1 or arr.size == 0:
         raise InvalidInputError(f"{what} must be a non-empty 1-D array")
     if not np.all(np.isfinite(arr)):
-        raise InvalidInputError(f"{what} contains a non-finite value")
+        raise InvalidInputError(f"{what} must be finite: it contains a non-finite value")
     return arr

@@ -4,6 +4,12 @@
 (velocity first, then position with the new velocity), the position projected
 on ``[-L/2, L/2]`` and the velocity zeroed when the projection bites. Time is
 always passed in as ``dt``: nothing here reads a clock.
+
+The transition itself is :func:`msd_bench.core.kernels.plant_step`, the one
+definition of the physics: :func:`step`, :func:`step_batch`, :func:`simulate`
+and every compiled learner run it, so they cannot drift apart. A non-finite
+force raises :class:`InvalidInputError` on every path; a force beyond ±F acts
+as ±F.
 """
 
 from __future__ import annotations
@@ -14,14 +20,20 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from msd_bench.core import kernels
 from msd_bench.core.errors import ConfigError, InvalidInputError
 
 FloatArray = NDArray[np.float64]
 
+DT = 0.01
+"""Sample time of the bench in s (the paper's 100 Hz): the one place it is written.
+
+Configurations and models carry their own ``dt``; this is only their default."""
+
 
 @dataclass(frozen=True)
 class PlantParams:
-    """Physical parameters of the NL-MSD (docs/design.md §Plant)."""
+    """Physical parameters of the NL-MSD (docs/design.md §Plant; field order = :class:`kernels.Plant`)."""
 
     m: float = 1.0
     """Mass in kg; > 0."""
@@ -37,7 +49,7 @@ class PlantParams:
     """Stroke in m: the position is confined to [-L/2, L/2] by hard stops."""
     F: float = 10.0
     """Force magnitude in N: the action alphabet is {-F, -F/2, 0, F/2, F}; commands saturate at ±F."""
-    dt: float = 0.01
+    dt: float = DT
     """Sample time of the Euler step in s."""
 
     def __post_init__(self) -> None:
@@ -54,9 +66,14 @@ class PlantParams:
         """The paper's five-force alphabet {-F, -F/2, 0, F/2, F}."""
         return np.array([-self.F, -self.F / 2, 0.0, self.F / 2, self.F])
 
+    def kernel(self) -> kernels.Plant:
+        """These parameters as the compiled step reads them."""
+        return kernels.Plant(m=self.m, c=self.c, k=self.k, g=self.g, h=self.h, L=self.L, F=self.F,
+                             dt=self.dt)
+
     def as_array(self) -> FloatArray:
-        """Parameters packed for compiled kernels: [m, c, k, g, h, L, F, dt]."""
-        return np.array([self.m, self.c, self.k, self.g, self.h, self.L, self.F, self.dt])
+        """Parameters packed for :class:`kernels.Kernel`: [m, c, k, g, h, L, F, dt]."""
+        return np.array(self.kernel(), dtype=np.float64)
 
 
 PRESETS: dict[str, PlantParams] = {
@@ -75,10 +92,8 @@ def preset(name: str, **overrides: float) -> PlantParams:
 
 
 def check_force(u: float, params: PlantParams) -> float:
-    """Reject a non-finite force and saturate a finite one to ±F."""
-    if not math.isfinite(u):
-        raise InvalidInputError(f"force must be finite, got {u}")
-    return min(max(u, -params.F), params.F)
+    """The force that acts: ``u`` saturated to ±F; a non-finite ``u`` raises InvalidInputError."""
+    return float(kernels.saturate(float(u), params.F))
 
 
 def spring_force(x: FloatArray | float, params: PlantParams) -> FloatArray | float:
@@ -89,32 +104,22 @@ def spring_force(x: FloatArray | float, params: PlantParams) -> FloatArray | flo
 def step(x: float, v: float, u: float, params: PlantParams) -> tuple[float, float]:
     """One Euler step from (x, v) under force u; returns the new (x, v).
 
-    The force is checked (finite) and saturated to ±F before it acts.
+    The force is saturated to ±F before it acts; a non-finite one raises
+    :class:`InvalidInputError` (from the compiled step, like every other path).
     """
-    u = check_force(u, params)
-    acc = (u - params.c * v - params.k * math.sin(params.g * x) - params.h * x**3) / params.m
-    v_new = v + params.dt * acc
-    x_free = x + params.dt * v_new
-    x_new = min(max(x_free, -params.x_max), params.x_max)
-    if x_new != x_free:
-        v_new = 0.0
-    return x_new, v_new
+    x_new, v_new = kernels.plant_step(params.kernel(), float(x), float(v), float(u))
+    return float(x_new), float(v_new)
 
 
 def step_batch(
     x: FloatArray, v: FloatArray, u: FloatArray, params: PlantParams
 ) -> tuple[FloatArray, FloatArray]:
-    """Vectorized :func:`step` over any number of independent plants."""
-    u = np.asarray(u, dtype=float)
-    if not np.all(np.isfinite(u)):
-        raise InvalidInputError("force must be finite in every element of the batch")
-    u = np.clip(u, -params.F, params.F)
-    acc = (u - params.c * v - spring_force(x, params)) / params.m
-    v_new = v + params.dt * acc
-    x_free = x + params.dt * v_new
-    x_new = np.clip(x_free, -params.x_max, params.x_max)
-    v_new = np.where(x_new != x_free, 0.0, v_new)
-    return x_new, v_new
+    """:func:`step` over any number of independent plants (element-wise equal to it)."""
+    xs, vs, us = (np.ascontiguousarray(a, dtype=np.float64) for a in (x, v, u))
+    if not (xs.ndim == 1 and xs.shape == vs.shape == us.shape):
+        raise InvalidInputError(
+            f"x, v and u must be 1-D arrays of one length, got {xs.shape}, {vs.shape}, {us.shape}")
+    return kernels.plant_step_batch(params.kernel(), xs, vs, us)
 
 
 def simulate(
@@ -126,23 +131,21 @@ def simulate(
     force ``u[k]`` acts (so ``x[0] = x0``), the sampling a recorder sees: the
     output at k and the command held over [k, k+1).
     """
-    u = np.asarray(u, dtype=float)
+    u = np.ascontiguousarray(u, dtype=np.float64)
     if u.ndim != 1 or u.size == 0:
         raise InvalidInputError("force sequence must be a non-empty 1-D array")
-    if not np.all(np.isfinite(u)):
-        raise InvalidInputError("force sequence contains a non-finite value")
-    from msd_bench.core.kernels import simulate_plant
-
-    u_applied = np.clip(u, -params.F, params.F)
-    x, v = simulate_plant(params.as_array(), u_applied, x0, v0)
-    return x, v, u_applied
+    x, v = kernels.simulate_plant(params.kernel(), u, float(x0), float(v0))
+    return x, v, np.clip(u, -params.F, params.F)
 
 
 def equilibrium(u: float, params: PlantParams) -> float:
     """Static position where the spring balances the constant force u (bisection)."""
     u = check_force(u, params)
     lo, hi = -params.x_max, params.x_max
-    f = lambda x: float(spring_force(x, params)) - u  # noqa: E731
+
+    def f(x: float) -> float:
+        return float(spring_force(x, params)) - u
+
     if f(lo) >= 0:
         return lo
     if f(hi) <= 0:

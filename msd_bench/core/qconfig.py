@@ -2,9 +2,10 @@
 
 :class:`QConfig` holds every choice of the paper's learner, with the values the
 paper prints (or, where it prints none, the ones docs/decisions.md §Reward found to behave).
-:func:`encoding` packs a config into plain arrays for the compiled kernels of
-:mod:`msd_bench.core.qlearning`, so a config never crosses into numba as an
-object and one compiled kernel serves every config.
+:func:`packed` turns a config into a :class:`Learner` — named tuples of scalars
+and arrays, which numba compiles against by type, not by value — so one
+compiled kernel of :mod:`msd_bench.core.qlearning` serves every config and the
+kernels read ``learner.alpha``, not a hand-numbered slot.
 
 Two state encoders:
 
@@ -44,11 +45,6 @@ MODE_IMPROVED = 1
 STATE_MODES = {"paper": MODE_PAPER, "improved": MODE_IMPROVED}
 N_ACTIONS = 5
 N_DIRECTIONS = 3
-
-# Layout of the packed hyper-parameter vector read by the kernels.
-HP_ALPHA, HP_GAMMA, HP_EPS, HP_GAIN, HP_G, HP_ZETA = 0, 1, 2, 3, 4, 5
-HP_EMAX, HP_ETA, HP_TLOW, HP_THIGH, HP_DIRTOL, HP_LEAD, HP_NDIR = 6, 7, 8, 9, 10, 11, 12
-HP_SIZE = 13
 
 
 @dataclass(frozen=True)
@@ -148,18 +144,51 @@ def improved_config(**overrides: object) -> QConfig:
 
 
 class Encoding(NamedTuple):
-    """A config packed into arrays for the compiled kernels."""
+    """The state encoder of a config, as the compiled :func:`qlearning.encode` reads it."""
 
     mode: int
     """``MODE_PAPER`` or ``MODE_IMPROVED``."""
     n_states: int
     """Rows of the Q-table."""
-    hp: FloatArray
-    """Hyper-parameters in the ``HP_*`` layout."""
+    e_max: float
+    """Paper grid: errors are clipped to ±e_max before binning."""
+    lead_steps: float
+    """Improved: the binned quantity is e + lead_steps · (x_k - x_{k-1})."""
+    n_directions: int
+    """Improved: 3 with direction bins (falling / still / rising), else 1."""
+    direction_tol: float
+    """Improved: |x_k - x_{k-1}| at or below this counts as still, m."""
     err_edges: FloatArray
-    """Improved encoder: full mirrored error edges (empty for the paper grid)."""
+    """Improved: full mirrored error edges (empty for the paper grid)."""
     ref_edges: FloatArray
-    """Improved encoder: reference edges (may be empty)."""
+    """Improved: reference edges (may be empty)."""
+
+
+class Learner(NamedTuple):
+    """Everything the compiled learner reads: encoder, update and reward weights, φ, forces."""
+
+    enc: Encoding
+    """The state encoder."""
+    alpha: float
+    """Learning rate α."""
+    gamma: float
+    """Discount γ."""
+    epsilon: float
+    """ε-greedy exploration probability."""
+    reward_gain: float
+    """Reward amplification A."""
+    g: float
+    """Weight of the closeness term g/(1+E)."""
+    zeta: float
+    """Weight of the error-change term ζ ΔE/E_max."""
+    e_max: float
+    """Reward normalisation E_max, m."""
+    eta: float
+    """Weight of the shaping penalty η φ(s, a)."""
+    target_low: float
+    """Lower end of the episode-target draw, m."""
+    target_high: float
+    """Upper end of the episode-target draw, m."""
     phi: FloatArray
     """Shaping indicator φ(s, a) in {0, 1}, shape (n_states, 5)."""
     actions: FloatArray
@@ -167,31 +196,38 @@ class Encoding(NamedTuple):
 
 
 def encoding(cfg: QConfig) -> Encoding:
-    """Pack ``cfg`` for the kernels, including the φ table of the chosen encoder."""
-    hp = np.zeros(HP_SIZE)
-    hp[[HP_ALPHA, HP_GAMMA, HP_EPS, HP_GAIN, HP_G, HP_ZETA]] = (
-        cfg.alpha, cfg.gamma, cfg.epsilon, cfg.reward_gain, cfg.g, cfg.zeta)
+    """The state encoder of ``cfg``."""
     n_dir = N_DIRECTIONS if cfg.direction_bins else 1
-    hp[[HP_EMAX, HP_ETA, HP_TLOW, HP_THIGH, HP_DIRTOL, HP_LEAD, HP_NDIR]] = (
-        cfg.e_max, cfg.eta, cfg.target_low, cfg.target_high, cfg.direction_tol, cfg.lead_steps,
-        n_dir)
-    actions = cfg.actions()
     if cfg.state == "paper":
+        return Encoding(MODE_PAPER, cfg.n_states, cfg.e_max, cfg.lead_steps, n_dir,
+                        cfg.direction_tol, np.zeros(0), np.zeros(0))
+    pos = np.asarray(cfg.error_edges, dtype=np.float64)
+    edges = np.concatenate([-pos[::-1], [0.0], pos])
+    ref = np.asarray(cfg.reference_edges, dtype=np.float64)
+    n_states = (edges.size + 1) * n_dir * (ref.size + 1)
+    return Encoding(MODE_IMPROVED, n_states, cfg.e_max, cfg.lead_steps, n_dir, cfg.direction_tol,
+                    edges, ref)
+
+
+def packed(cfg: QConfig) -> Learner:
+    """``cfg`` as the compiled kernels take it, including the φ table of its encoder."""
+    enc = encoding(cfg)
+    actions = cfg.actions()
+    return Learner(enc, cfg.alpha, cfg.gamma, cfg.epsilon, cfg.reward_gain, cfg.g, cfg.zeta,
+                   cfg.e_max, cfg.eta, cfg.target_low, cfg.target_high,
+                   _phi_table(_error_side(cfg, enc), actions), actions)
+
+
+def _error_side(cfg: QConfig, enc: Encoding) -> NDArray[np.int64]:
+    """Per state: -1 below the zero-error bins, 0 inside them, +1 above."""
+    if enc.mode == MODE_PAPER:
         n = cfg.n_states
         # Bin i has centre -e_max + i * step; it is a zero bin when |centre| < step.
-        side = np.array([_side(2 * i - (n - 1), 2) for i in range(n)])
-        phi = _phi_table(side, actions)
-        return Encoding(MODE_PAPER, n, hp, np.zeros(0), np.zeros(0), phi, actions)
-    pos = np.asarray(cfg.error_edges, dtype=float)
-    edges = np.concatenate([-pos[::-1], [0.0], pos])
-    n_err = edges.size + 1
-    zero = pos.size + 1  # bins zero-1 = [-e1, 0) and zero = [0, e1) touch zero error
-    err_side = np.array([_side(2 * i - (2 * zero - 1), 2) for i in range(n_err)])
-    ref = np.asarray(cfg.reference_edges, dtype=float)
-    per_bin = n_dir * (ref.size + 1)
-    side = np.repeat(err_side, per_bin)
-    return Encoding(MODE_IMPROVED, n_err * per_bin, hp, edges, ref, _phi_table(side, actions),
-                    actions)
+        return np.array([_side(2 * i - (n - 1), 2) for i in range(n)], dtype=np.int64)
+    n_err = enc.err_edges.size + 1
+    zero = len(cfg.error_edges) + 1  # bins zero-1 = [-e1, 0) and zero = [0, e1) touch zero error
+    err_side = np.array([_side(2 * i - (2 * zero - 1), 2) for i in range(n_err)], dtype=np.int64)
+    return np.repeat(err_side, enc.n_directions * (enc.ref_edges.size + 1))
 
 
 def _side(twice_offset: int, width: int) -> int:

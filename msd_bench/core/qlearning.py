@@ -3,10 +3,12 @@
 Why compiled: one paper-sized run is 900,000 strictly sequential steps, each a
 model step, a state encoding, an ε-greedy choice and a TD update; plain Python
 manages 0.05–0.25 M steps/s (benchmarks/bench_training.py). Every function
-here is ``numba.njit(cache=True)``, takes the packed arrays of
-:func:`msd_bench.core.qconfig.encoding` and steps the model through
-:func:`msd_bench.core.kernels.advance`, so the learner trains on any
-plant-like model. The Python-facing API is in :mod:`msd_bench.core.qtrain`.
+here is ``numba.njit(cache=True)``, reads the learner's settings by name from
+the :class:`~msd_bench.core.qconfig.Learner` of
+:func:`msd_bench.core.qconfig.packed`, and steps the model (a
+:class:`~msd_bench.core.kernels.Kernel`) through
+:func:`msd_bench.core.kernels.advance`, so the learner trains on any plant-like
+model. The Python-facing API is in :mod:`msd_bench.core.qtrain`.
 
 Conventions: ``x[k]`` is the position before action ``k`` acts; the reward of
 step k is computed from ``E_{k+1} = |e_{k+1}|`` and ``E_k`` (the *unclipped* error:
@@ -18,60 +20,44 @@ all its randomness (targets, exploration, ties) from its own stream ``rng[i]``.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core import kernels, rng
-from msd_bench.core.qconfig import (
-    HP_ALPHA,
-    HP_DIRTOL,
-    HP_EMAX,
-    HP_EPS,
-    HP_ETA,
-    HP_G,
-    HP_GAIN,
-    HP_GAMMA,
-    HP_LEAD,
-    HP_NDIR,
-    HP_THIGH,
-    HP_TLOW,
-    HP_ZETA,
-    MODE_PAPER,
-    N_ACTIONS,
-)
+from msd_bench.core.kernels import Kernel
+from msd_bench.core.qconfig import MODE_PAPER, N_ACTIONS, Encoding, Learner
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
 
 
 @numba.njit(cache=True)
-def encode(mode: int, n_states: int, hp: FloatArray, err_edges: FloatArray,
-           ref_edges: FloatArray, e: float, dx: float, target: float) -> int:
+def encode(enc: Encoding, e: float, dx: float, target: float) -> int:
     """State index of error ``e`` (paper), or of (lead error, sign of ``dx``, target bin) (improved)."""
-    emax = hp[HP_EMAX]
-    if mode == MODE_PAPER:
+    if enc.mode == MODE_PAPER:
+        emax = enc.e_max
         ec = min(max(e, -emax), emax)
-        return math.floor((n_states - 1) * (ec + emax) / (2.0 * emax) + 0.5)
-    eb = np.searchsorted(err_edges, e + hp[HP_LEAD] * dx, side="right")
-    n_dir = int(hp[HP_NDIR])
+        return math.floor((enc.n_states - 1) * (ec + emax) / (2.0 * emax) + 0.5)
+    eb = np.searchsorted(enc.err_edges, e + enc.lead_steps * dx, side="right")
     db = 0
-    if n_dir > 1:
-        tol = hp[HP_DIRTOL]
+    if enc.n_directions > 1:
         db = 1
-        if dx < -tol:
+        if dx < -enc.direction_tol:
             db = 0
-        elif dx > tol:
+        elif dx > enc.direction_tol:
             db = 2
-    rb = np.searchsorted(ref_edges, target, side="right")
-    return int((eb * n_dir + db) * (ref_edges.size + 1) + rb)
+    rb = np.searchsorted(enc.ref_edges, target, side="right")
+    return int((eb * enc.n_directions + db) * (enc.ref_edges.size + 1) + rb)
 
 
 @numba.njit(cache=True)
-def reward(hp: FloatArray, err: float, err_prev: float) -> float:
+def reward(lr: Learner, err: float, err_prev: float) -> float:
     """``g / (1 + E_k) - ζ (E_k - E_{k-1}) / E_max`` with ``E = |e|`` (paper eq. 19)."""
-    return hp[HP_G] / (1.0 + err) - hp[HP_ZETA] * (err - err_prev) / hp[HP_EMAX]
+    return lr.g / (1.0 + err) - lr.zeta * (err - err_prev) / lr.e_max
 
 
 @numba.njit(cache=True)
@@ -108,118 +94,148 @@ def greedy(q: FloatArray, s: int) -> int:
 
 
 @numba.njit(cache=True)
-def td_update(q: FloatArray, s: int, a: int, r: float, s2: int, hp: FloatArray,
-              phi: FloatArray) -> None:
+def td_update(q: FloatArray, s: int, a: int, r: float, s2: int, lr: Learner) -> None:
     """``Q[s,a] += α(A r + γ max Q[s'] − Q[s,a]) − η φ(s,a)`` (shaping as a penalty)."""
     nxt = q[s2, 0]
     for b in range(1, N_ACTIONS):
         nxt = max(nxt, q[s2, b])
-    td = hp[HP_GAIN] * r + hp[HP_GAMMA] * nxt - q[s, a]
-    q[s, a] += hp[HP_ALPHA] * td - hp[HP_ETA] * phi[s, a]
+    td = lr.reward_gain * r + lr.gamma * nxt - q[s, a]
+    q[s, a] += lr.alpha * td - lr.eta * lr.phi[s, a]
 
 
 @numba.njit(cache=True)
-def draw_target(hp: FloatArray, state: rng.U64Array, i: int) -> float:
+def draw_target(lr: Learner, state: rng.U64Array, i: int) -> float:
     """Episode target, uniform in [target_low, target_high]."""
-    return hp[HP_TLOW] + (hp[HP_THIGH] - hp[HP_TLOW]) * rng.uniform(state, i)
+    return lr.target_low + (lr.target_high - lr.target_low) * rng.uniform(state, i)
 
 
 @numba.njit(cache=True)
-def transition(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray,
-               err_edges: FloatArray, ref_edges: FloatArray, phi: FloatArray, actions: FloatArray,
-               q: FloatArray, plant: FloatArray, s: int, x: float, err: float, target: float,
-               state: rng.U64Array, i: int) -> tuple[int, float, float, int, float]:
-    """One learning step: act ε-greedily, advance the model, score, update Q.
+def transition(model: Kernel, lr: Learner, q: FloatArray, plant: FloatArray, s: int, x: float,
+               err: float, target: float, state: rng.U64Array,
+               i: int) -> tuple[int, float, float, int, float]:
+    """One learning step from state ``s`` at ``x``: act ε-greedily, advance, score, update Q.
 
-    Returns ``(a, x_new, |e_new|, s_new, r)``. Shared by Q-learning and Dyna-Q so
-    both take exactly the same step.
+    ``plant`` is the model's state (advanced in place). Returns
+    ``(a, x_new, |e_new|, s_new, r)``. Shared by Q-learning and Dyna-Q so both
+    take exactly the same step.
     """
-    a = choose(q, s, hp[HP_EPS], state, i)
-    x_new = kernels.advance(kind, p, plant, actions[a])
+    a = choose(q, s, lr.epsilon, state, i)
+    x_new = kernels.advance(model, plant, lr.actions[a])
     e_new = x_new - target
-    s2 = encode(mode, n_states, hp, err_edges, ref_edges, e_new, x_new - x, target)
-    r = reward(hp, abs(e_new), err)
-    td_update(q, s, a, r, s2, hp, phi)
+    s2 = encode(lr.enc, e_new, x_new - x, target)
+    r = reward(lr, abs(e_new), err)
+    td_update(q, s, a, r, s2, lr)
     return a, x_new, abs(e_new), s2, r
 
 
+class Memory(NamedTuple):
+    """Dyna-Q's tabular model: the last (r, s') of every visited (s, a) pair ``j = s·5 + a``."""
+
+    reward: FloatArray
+    """Last reward seen after pair j."""
+    next_state: IntArray
+    """Last next state seen after pair j."""
+    seen: BoolArray
+    """Whether pair j was ever visited."""
+    visited: IntArray
+    """The visited pairs in order of first visit; the first ``n_visited[0]`` entries are valid."""
+    n_visited: IntArray
+    """One element: how many pairs were visited."""
+
+
 @numba.njit(cache=True)
-def plan(q: FloatArray, n_plan: int, visited: IntArray, n_vis: int, mr: FloatArray,
-         ms: IntArray, hp: FloatArray, phi: FloatArray, state: rng.U64Array, i: int) -> None:
+def new_memory(n_pairs: int) -> Memory:
+    """An empty Dyna-Q memory for ``n_pairs`` state-action pairs (0 for plain Q-learning)."""
+    return Memory(np.zeros(n_pairs), np.zeros(n_pairs, dtype=np.int64),
+                  np.zeros(n_pairs, dtype=np.bool_), np.zeros(n_pairs, dtype=np.int64),
+                  np.zeros(1, dtype=np.int64))
+
+
+@numba.njit(cache=True)
+def remember(mem: Memory, j: int, r: float, s2: int) -> None:
+    """Store the outcome (r, s') of pair ``j``."""
+    if not mem.seen[j]:
+        mem.seen[j] = True
+        mem.visited[mem.n_visited[0]] = j
+        mem.n_visited[0] += 1
+    mem.reward[j] = r
+    mem.next_state[j] = s2
+
+
+@numba.njit(cache=True)
+def plan(q: FloatArray, n_plan: int, mem: Memory, lr: Learner, state: rng.U64Array,
+         i: int) -> None:
     """Dyna-Q: replay ``n_plan`` remembered transitions of uniformly drawn visited pairs."""
     for _ in range(n_plan):
-        j = visited[rng.below(state, i, n_vis)]
-        td_update(q, j // N_ACTIONS, j % N_ACTIONS, mr[j], ms[j], hp, phi)
+        j = mem.visited[rng.below(state, i, mem.n_visited[0])]
+        td_update(q, j // N_ACTIONS, j % N_ACTIONS, mem.reward[j], mem.next_state[j], lr)
+
+
+class Budget(NamedTuple):
+    """How long one agent learns."""
+
+    episodes: int
+    """Episodes, each from rest with a freshly drawn target."""
+    steps: int
+    """Real steps per episode."""
+    planning: int
+    """Dyna-Q planning updates after each real step (0 = plain Q-learning)."""
+    snap_at: IntArray
+    """Episode counts (1-based, increasing) after which the Q-table is copied."""
 
 
 @numba.njit(cache=True)
-def learn_one(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray,
-              err_edges: FloatArray, ref_edges: FloatArray, phi: FloatArray,
-              actions: FloatArray, steps: int, n_plan: int, snap_at: IntArray, q: FloatArray,
-              snaps: FloatArray, returns: FloatArray, counts: IntArray,
-              state: rng.U64Array, i: int) -> None:
-    """All episodes of one agent; with ``n_plan > 0`` it is Dyna-Q (Q-learning is n_plan = 0).
+def learn_one(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, snaps: FloatArray,
+              returns: FloatArray, counts: IntArray, state: rng.U64Array, i: int) -> None:
+    """All episodes of agent ``i``; with ``budget.planning > 0`` it is Dyna-Q.
 
-    ``counts`` receives (real steps, planning updates).
+    Writes the final table to ``q``, snapshots to ``snaps``, per-episode return
+    sums to ``returns`` and (real steps, planning updates) to ``counts``.
     """
-    n_pairs = n_states * N_ACTIONS
-    mr = np.zeros(n_pairs if n_plan > 0 else 0)
-    ms = np.zeros(n_pairs if n_plan > 0 else 0, dtype=np.int64)
-    seen = np.zeros(n_pairs if n_plan > 0 else 0, dtype=np.bool_)
-    visited = np.zeros(n_pairs if n_plan > 0 else 0, dtype=np.int64)
-    n_vis = 0
+    n_plan = budget.planning
+    mem = new_memory(lr.enc.n_states * N_ACTIONS if n_plan > 0 else 0)
     plant = np.zeros(4)
     k_snap = 0
-    for ep in range(returns.size):
-        target = draw_target(hp, state, i)
+    for ep in range(budget.episodes):
+        target = draw_target(lr, state, i)
         plant[:] = 0.0
         x = 0.0
         err = abs(x - target)
-        s = encode(mode, n_states, hp, err_edges, ref_edges, x - target, 0.0, target)
+        s = encode(lr.enc, x - target, 0.0, target)
         total = 0.0
-        for _ in range(steps):
-            a, x, err, s2, r = transition(kind, p, mode, n_states, hp, err_edges, ref_edges, phi,
-                                          actions, q, plant, s, x, err, target, state, i)
+        for _ in range(budget.steps):
+            a, x, err, s2, r = transition(model, lr, q, plant, s, x, err, target, state, i)
             if n_plan > 0:
-                j = s * N_ACTIONS + a
-                if not seen[j]:
-                    seen[j] = True
-                    visited[n_vis] = j
-                    n_vis += 1
-                mr[j] = r
-                ms[j] = s2
-                plan(q, n_plan, visited, n_vis, mr, ms, hp, phi, state, i)
+                remember(mem, s * N_ACTIONS + a, r, s2)
+                plan(q, n_plan, mem, lr, state, i)
             counts[0] += 1
             counts[1] += n_plan
             total += r
             s = s2
         returns[ep] = total
-        if k_snap < snap_at.size and snap_at[k_snap] == ep + 1:
+        if k_snap < budget.snap_at.size and budget.snap_at[k_snap] == ep + 1:
             snaps[k_snap] = q
             k_snap += 1
 
 
 @numba.njit(cache=True)
-def train_batch(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray,
-                err_edges: FloatArray, ref_edges: FloatArray, phi: FloatArray,
-                actions: FloatArray, episodes: int, steps: int, n_plan: int, snap_at: IntArray,
+def train_batch(model: Kernel, lr: Learner, budget: Budget,
                 state: rng.U64Array) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
     """One independent agent per stream word; returns (Q, snapshots, returns, counts)."""
     n = state.size
+    n_states = lr.enc.n_states
     q = np.zeros((n, n_states, N_ACTIONS))
-    snaps = np.zeros((n, snap_at.size, n_states, N_ACTIONS))
-    returns = np.zeros((n, episodes))
+    snaps = np.zeros((n, budget.snap_at.size, n_states, N_ACTIONS))
+    returns = np.zeros((n, budget.episodes))
     counts = np.zeros((n, 2), dtype=np.int64)
     for i in range(n):
-        learn_one(kind, p, mode, n_states, hp, err_edges, ref_edges, phi, actions, steps, n_plan,
-                  snap_at, q[i], snaps[i], returns[i], counts[i], state, i)
+        learn_one(model, lr, budget, q[i], snaps[i], returns[i], counts[i], state, i)
     return q, snaps, returns, counts
 
 
 @numba.njit(cache=True)
-def greedy_batch(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatArray,
-                 err_edges: FloatArray, ref_edges: FloatArray, actions: FloatArray,
-                 q: FloatArray, target: float, n_steps: int) -> tuple[FloatArray, FloatArray]:
+def greedy_batch(model: Kernel, lr: Learner, q: FloatArray, target: float,
+                 n_steps: int) -> tuple[FloatArray, FloatArray]:
     """Fixed-table greedy closed loop from rest for each table ``q[j]``; returns (x, u)."""
     n = q.shape[0]
     xs = np.empty((n, n_steps))
@@ -228,13 +244,12 @@ def greedy_batch(kind: int, p: FloatArray, mode: int, n_states: int, hp: FloatAr
     for j in range(n):
         plant[:] = 0.0
         x = 0.0
-        s = encode(mode, n_states, hp, err_edges, ref_edges, x - target, 0.0, target)
+        s = encode(lr.enc, x - target, 0.0, target)
         for k in range(n_steps):
-            u = actions[greedy(q[j], s)]
+            u = lr.actions[greedy(q[j], s)]
             xs[j, k] = x
             us[j, k] = u
-            x_new = kernels.advance(kind, p, plant, u)
-            s = encode(mode, n_states, hp, err_edges, ref_edges, x_new - target, x_new - x,
-                       target)
+            x_new = kernels.advance(model, plant, u)
+            s = encode(lr.enc, x_new - target, x_new - x, target)
             x = x_new
     return xs, us

@@ -1,7 +1,8 @@
 """Train Q-learning agents on a plant-like model and run them greedily (paper §4, §5).
 
 The Python face of :mod:`msd_bench.core.qlearning`: it checks inputs, packs
-the config and calls one compiled kernel for the whole batch of seeds. Agents
+the config (:func:`qconfig.packed`) and calls one compiled kernel for the
+whole batch of seeds. Agents
 in a batch never share randomness, so the batch result for seed k equals a
 single run of seed k bit for bit.
 """
@@ -17,7 +18,7 @@ from numpy.typing import NDArray
 from msd_bench.core import qlearning, rng
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.model import StepModel
-from msd_bench.core.qconfig import N_ACTIONS, QConfig, encoding
+from msd_bench.core.qconfig import N_ACTIONS, QConfig, packed
 
 FloatArray = NDArray[np.float64]
 
@@ -51,11 +52,8 @@ class TrainResult(LearnedTables):
 def train(model: StepModel, cfg: QConfig, seeds: Sequence[int]) -> TrainResult:
     """Train one agent per seed on ``model`` in a single compiled call."""
     seeds = tuple(int(s) for s in _check_seeds(seeds))
-    enc = encoding(cfg)
-    snap_at = np.array(cfg.snapshots(), dtype=np.int64)
-    q, snaps, returns, _ = qlearning.train_batch(
-        model.kind, model.params, enc.mode, enc.n_states, enc.hp, enc.err_edges, enc.ref_edges,
-        enc.phi, enc.actions, cfg.episodes, cfg.steps, 0, snap_at, rng.seed_states(seeds))
+    q, snaps, returns, _ = qlearning.train_batch(model.kernel, packed(cfg), budget(cfg, 0),
+                                                 rng.seed_states(seeds))
     return TrainResult(q, snaps, cfg.snapshots(), returns, seeds, cfg, model.name)
 
 
@@ -66,11 +64,12 @@ def greedy_rollouts(model: StepModel, q_tables: FloatArray, cfg: QConfig, target
     ``x[j, k]`` is the position before force ``u[j, k]`` acts, so ``x[:, 0] = 0``.
     Equal Q-values resolve to the lowest action index, keeping validation deterministic.
     """
-    enc = encoding(cfg)
+    lr = packed(cfg)
+    n_states = lr.enc.n_states
     q = np.ascontiguousarray(q_tables, dtype=np.float64)
-    if q.ndim != 3 or q.shape[1:] != (enc.n_states, N_ACTIONS):
+    if q.ndim != 3 or q.shape[1:] != (n_states, N_ACTIONS):
         raise InvalidInputError(
-            f"Q-tables must have shape (n, {enc.n_states}, {N_ACTIONS}) for state "
+            f"Q-tables must have shape (n, {n_states}, {N_ACTIONS}) for state "
             f"{cfg.state!r}, got {q.shape}")
     if not np.all(np.isfinite(q)):
         raise InvalidInputError("Q-tables contain a non-finite value")
@@ -78,9 +77,7 @@ def greedy_rollouts(model: StepModel, q_tables: FloatArray, cfg: QConfig, target
         raise InvalidInputError(f"target must be finite, got {target}")
     if n_steps < 1:
         raise InvalidInputError(f"n_steps must be >= 1, got {n_steps}")
-    return qlearning.greedy_batch(model.kind, model.params, enc.mode, enc.n_states, enc.hp,
-                                  enc.err_edges, enc.ref_edges, enc.actions, q, float(target),
-                                  int(n_steps))
+    return qlearning.greedy_batch(model.kernel, lr, q, float(target), int(n_steps))
 
 
 def greedy_rollout(model: StepModel, q: FloatArray, cfg: QConfig, target: float = 1.0,
@@ -91,6 +88,12 @@ def greedy_rollout(model: StepModel, q: FloatArray, cfg: QConfig, target: float 
         raise InvalidInputError(f"a single Q-table must be 2-D, got shape {q.shape}")
     xs, us = greedy_rollouts(model, q[None], cfg, target, n_steps)
     return xs[0], us[0]
+
+
+def budget(cfg: QConfig, planning_steps: int) -> qlearning.Budget:
+    """The episode budget of ``cfg`` (with ``planning_steps`` Dyna-Q updates per real step)."""
+    return qlearning.Budget(cfg.episodes, cfg.steps, int(planning_steps),
+                            np.array(cfg.snapshots(), dtype=np.int64))
 
 
 def _check_seeds(seeds: Sequence[int]) -> Sequence[int]:

@@ -49,7 +49,8 @@ def next_u64(state: U64Array, i: int) -> np.uint64:
     state[i] = z
     z = (z ^ (z >> _S30)) * _MIX1
     z = (z ^ (z >> _S27)) * _MIX2
-    return z ^ (z >> _S31)
+    bits: np.uint64 = z ^ (z >> _S31)
+    return bits
 
 
 @numba.njit(cache=True)

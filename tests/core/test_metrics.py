@@ -10,13 +10,13 @@ import pytest
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.metrics import MetricsInputError, compute, settling_time
 from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PlantParams
+from msd_bench.core.plant import DT, PlantParams
 from msd_bench.core.qconfig import QConfig
 from msd_bench.core.qtrain import greedy_rollouts
 
 
 def test_mae_and_std_by_hand() -> None:
-    m = compute(np.array([0.0, 1.0, 2.0]), 1.0, window=3)
+    m = compute(np.array([0.0, 1.0, 2.0]), 1.0, DT, window=3)
     # |e| = [1, 0, 1]: MAE = 2/3; STD = sqrt(((1/3)^2 + (2/3)^2 + (1/3)^2) / 2) = sqrt(1/3)
     assert m.mae == pytest.approx(2 / 3)
     assert m.std == pytest.approx(math.sqrt(1 / 3))
@@ -30,28 +30,28 @@ def test_settling_time_enters_band_at_known_index() -> None:
 
 
 def test_never_settles_is_nan_and_always_inside_is_zero() -> None:
-    assert math.isnan(compute(np.array([0.0, 0.5, 0.9]), 1.0, window=1).ts2)
+    assert math.isnan(compute(np.array([0.0, 0.5, 0.9]), 1.0, DT, window=1).ts2)
     assert settling_time(np.array([0.01, 0.0]), 1.0, 0.02, 0.01) == 0.0
 
 
 def test_overshoot_positive_and_negative_steps() -> None:
-    assert compute(np.array([0.0, 1.2, 1.0, 1.0]), 1.0, window=2).po == pytest.approx(20.0)
-    assert compute(np.array([0.0, -1.1, -1.0, -1.0]), -1.0, window=2).po == pytest.approx(10.0)
-    assert compute(np.array([0.0, 0.5, 0.9]), 1.0, window=1).po == 0.0
+    assert compute(np.array([0.0, 1.2, 1.0, 1.0]), 1.0, DT, window=2).po == pytest.approx(20.0)
+    assert compute(np.array([0.0, -1.1, -1.0, -1.0]), -1.0, DT, window=2).po == pytest.approx(10.0)
+    assert compute(np.array([0.0, 0.5, 0.9]), 1.0, DT, window=1).po == 0.0
 
 
 def test_sse_of_constant_offset_and_success() -> None:
     x = np.concatenate([np.zeros(10), np.full(500, 0.9)])
-    m = compute(x, 1.0)
+    m = compute(x, 1.0, DT)
     assert m.sse == pytest.approx(10.0) and not m.success
-    m = compute(np.concatenate([np.zeros(10), np.full(500, 1.03)]), 1.0)
+    m = compute(np.concatenate([np.zeros(10), np.full(500, 1.03)]), 1.0, DT)
     assert m.sse == pytest.approx(3.0) and m.success
     # window covers the transient when it is too long: mean of the last 510 samples
-    assert compute(x, 1.0, window=510).sse == pytest.approx(100 * (10 + 500 * 0.1) / 510)
+    assert compute(x, 1.0, DT, window=510).sse == pytest.approx(100 * (10 + 500 * 0.1) / 510)
 
 
 def test_as_dict_is_plain() -> None:
-    d = compute(np.array([0.0, 1.0, 1.0]), 1.0, window=2).as_dict()
+    d = compute(np.array([0.0, 1.0, 1.0]), 1.0, DT, window=2).as_dict()
     assert set(d) >= {"mae", "std", "po", "ts2", "ts5", "sse", "success"}
     assert d["success"] is True
 
@@ -62,7 +62,7 @@ def test_as_dict_is_plain() -> None:
     (np.array([0.0, 1.0]), 1.0, 3), (np.array([0.0, 1.0]), 1.0, 0), (np.zeros((2, 2)), 1.0, 1)])
 def test_bad_inputs_raise(x: np.ndarray, target: float, window: int) -> None:
     with pytest.raises(MetricsInputError):
-        compute(x, target, window=window)
+        compute(x, target, DT, window=window)
     assert issubclass(MetricsInputError, MsdBenchError)
 
 
@@ -79,6 +79,6 @@ def test_hand_built_tables_score_as_their_physics_says() -> None:
     q[0, 50:, 2] = 1.0
     q[1, :, 4] = 1.0  # always +F
     xs, _ = greedy_rollouts(plant_model(PlantParams()), q, QConfig(), 1.0, 1500)
-    held, pinned = compute(xs[0], 1.0), compute(xs[1], 1.0)
+    held, pinned = compute(xs[0], 1.0, DT), compute(xs[1], 1.0, DT)
     assert held.success and held.sse < 0.1
     assert not pinned.success and 95.0 < pinned.sse < 100.0

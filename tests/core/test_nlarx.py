@@ -38,7 +38,8 @@ def test_torch_forward_equals_kernel(improved):
         phi = torch.tensor([[x / xs, xp / xs, u / us, up / us]], dtype=torch.float64)
         with torch.no_grad():
             want = xs * float(net(phi)[0])
-        got = kernels.advance(kernels.KIND_NLARX, params, np.array([x, xp, up, 0.0]), u)
+        model = kernels.Kernel(kernels.KIND_NLARX, params, 10.0)
+        got = kernels.advance(model, np.array([x, xp, up, 0.0]), u)
         assert got == pytest.approx(want, abs=1e-9)
     if not improved:
         np.testing.assert_array_equal(params[5:9], 0.0)  # paper form: no linear term

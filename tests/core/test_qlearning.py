@@ -11,7 +11,7 @@ from msd_bench.core import kernels, qlearning, rng
 from msd_bench.core.errors import ConfigError, InvalidInputError, MsdBenchError
 from msd_bench.core.model import StepModel, plant_model
 from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import QConfig, encoding, improved_config
+from msd_bench.core.qconfig import QConfig, encoding, improved_config, packed
 from msd_bench.core.qtrain import greedy_rollout, greedy_rollouts, train
 
 GAIN = 0.01  # x_{k+1} = GAIN * u_k: a model whose next state is known by hand
@@ -23,9 +23,7 @@ def _linear_model() -> StepModel:
 
 
 def _paper_index(e: float) -> int:
-    enc = encoding(QConfig())
-    return qlearning.encode(enc.mode, enc.n_states, enc.hp, enc.err_edges, enc.ref_edges,
-                            e, 0.0, 1.0)
+    return qlearning.encode(encoding(QConfig()), e, 0.0, 1.0)
 
 
 @pytest.mark.parametrize(("e", "s"), [(-5.0, 0), (0.0, 50), (5.0, 99), (-7.3, 0), (12.0, 99),
@@ -42,25 +40,23 @@ def test_improved_state_uses_lead_error() -> None:
     assert enc.n_states == 2 * len(cfg.error_edges) + 2
     edges = cfg.error_edges
     # e = -0.03 moving up 1 mm/step: lead error -0.03 + 0.05 = 0.02 -> bin [0.02, 0.04)
-    s = qlearning.encode(enc.mode, enc.n_states, enc.hp, enc.err_edges, enc.ref_edges,
-                         -0.03, 0.001, 1.0)
+    s = qlearning.encode(enc, -0.03, 0.001, 1.0)
     assert s == len(edges) + 1 + edges.index(0.02) + 1
     # with direction bins, rising is the third of three
     enc3 = encoding(improved_config(direction_bins=True, lead_steps=0.0))
-    s3 = qlearning.encode(enc3.mode, enc3.n_states, enc3.hp, enc3.err_edges, enc3.ref_edges,
-                          0.005, 0.001, 1.0)
+    s3 = qlearning.encode(enc3, 0.005, 0.001, 1.0)
     assert s3 == (len(edges) + 1) * 3 + 2
 
 
 def test_reward_by_hand() -> None:
-    hp = encoding(QConfig(g=1.0, zeta=10.0)).hp
-    assert qlearning.reward(hp, 0.5, 1.0) == pytest.approx(1 / 1.5 + 10 * 0.5 / 5)
-    assert qlearning.reward(hp, 1.0, 0.5) == pytest.approx(1 / 2.0 - 10 * 0.5 / 5)
-    assert qlearning.reward(hp, 0.0, 0.0) == pytest.approx(1.0)
+    lr = packed(QConfig(g=2.0, zeta=10.0, e_max=4.0))
+    assert qlearning.reward(lr, 0.5, 1.0) == pytest.approx(2 / 1.5 + 10 * 0.5 / 4)
+    assert qlearning.reward(lr, 1.0, 0.5) == pytest.approx(2 / 2.0 - 10 * 0.5 / 4)
+    assert qlearning.reward(lr, 0.0, 0.0) == pytest.approx(2.0)
 
 
 def test_shaping_table_marks_actions_pushing_away() -> None:
-    phi = encoding(QConfig()).phi
+    phi = packed(QConfig()).phi
     assert phi[49].sum() == 0 and phi[50].sum() == 0  # the zero-error bins
     assert list(phi[40]) == [1, 1, 0, 0, 0]  # below target: negative forces push away
     assert list(phi[60]) == [0, 0, 0, 1, 1]  # above target: positive forces push away
@@ -69,7 +65,7 @@ def test_shaping_table_marks_actions_pushing_away() -> None:
 def test_one_update_by_hand() -> None:
     cfg = QConfig(episodes=1, steps=1, epsilon=0.0, target_low=1.0, target_high=1.0)
     forces = cfg.actions()
-    phi = encoding(cfg).phi
+    phi = packed(cfg).phi
     seen = set()
     for seed in range(40):
         q = train(_linear_model(), cfg, [seed]).q[0]
@@ -88,7 +84,7 @@ def test_shaping_lowers_penalised_values() -> None:
     free = train(plant_model(PlantParams()), base, [5]).q[0]
     shaped_cfg = QConfig(episodes=2, steps=400, epsilon=1.0, eta=0.05)
     shaped = train(plant_model(PlantParams()), shaped_cfg, [5]).q[0]
-    phi = encoding(shaped_cfg).phi
+    phi = packed(shaped_cfg).phi
     hit = (free != 0) & (phi == 1)
     assert hit.sum() > 5
     assert np.all(shaped[hit] < free[hit])
