@@ -23,6 +23,7 @@ from msd_bench.core.model import plant_model
 from msd_bench.core.plant import PlantParams, preset
 from msd_bench.core.qconfig import QConfig, improved_config
 from msd_bench.core.qtrain import train
+from msd_bench.core.scenarios import parse
 from msd_bench.core.stats import summarize
 
 
@@ -114,12 +115,12 @@ def success(n: int, first: int) -> list[dict[str, Any]]:
         model = plant_model(params)
         for agent, cfg in (("paper", QConfig()), ("improved", improved_config())):
             # The nominal scenario is the ordinary validation: unit step, 3,000 steps, SSE window 500.
-            nominal = robustness.evaluate(train(model, cfg, seeds).q, cfg, params,
-                                          robustness.SCENARIOS[:1])["nominal"]
+            nominal = robustness.evaluate(train(model, cfg, seeds).q, cfg, params, seeds,
+                                          [parse("nominal")])["nominal"]
             sse = summarize(nominal["sse"])
             rows.append({"preset": name, "agent": agent, "seeds": f"{first}..{first + n - 1}",
                          "n": nominal["n"], "n_success": nominal["n_success"],
-                         "success_rate": round(nominal["success_rate"], 3),
+                         "success_rate": round(nominal["n_success"] / nominal["n"], 3),
                          "sse_median": round(sse.median, 3), "sse_mean": round(sse.mean, 3),
                          "sse_sd": round(sse.sd, 3)})
     return rows

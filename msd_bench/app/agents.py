@@ -23,11 +23,25 @@ if TYPE_CHECKING:  # Dyna-Q's module loads the compiled learner (numba)
 PLANT = "plant"
 """Surrogate name of the on-plant learners (Q-learning on the true plant, Dyna-Q)."""
 
+def robust_config() -> QConfig:
+    """Our robust agent: the improved agent's grid, seen through an α-β observer, trained under noise
+    and delay drawn per episode (docs/decisions.md §Robust agent says how the values were chosen)."""
+    return improved_config(**ROBUST)
+
+
+ROBUST: dict[str, object] = {"obs_gain": 0.25, "obs_velocity_gain": 0.02, "train_noise": 0.006,
+                             "train_delay": 1}
+"""The robust agent's observer gains and training perturbations (chosen on surrogates, see docs)."""
+
 LEARNERS: dict[str, Callable[[], QConfig]] = {
     "paper": QConfig,
     "improved": improved_config,
+    "robust": robust_config,
 }
-"""Learner designs: ``paper`` is §4 as printed; ``improved`` is our extension (lead-error state)."""
+"""Learner designs: ``paper`` is §4 as printed; ``improved`` and ``robust`` are our extensions."""
+
+SHAPINGS = ("away", "toward")
+"""Readings of the paper's shaping term (docs/decisions.md §Shaping); kinds may pin one with ``@``."""
 
 PAPER_BUDGET_EPISODES = 300
 """The paper's training budget in episodes (each 3,000 steps)."""
@@ -47,21 +61,30 @@ class AgentKind:
     """Learner design, a key of :data:`LEARNERS`."""
     dyna: bool = False
     """Dyna-Q with planning on the true plant (paper §3.4.2)."""
+    shaping: str | None = None
+    """Shaping reading pinned by the kind (``plm@away``); None = the run's ``--shaping``."""
 
 
 def _kinds() -> dict[str, AgentKind]:
-    paper = [AgentKind(m.name, f"{m.label} (paper agent)", m.name, "paper") for m in MODEL_KINDS.values()]
+    surfaces = [(m.name, m.label) for m in MODEL_KINDS.values()]
+    paper = [AgentKind(name, f"{label} (paper agent)", name, "paper") for name, label in surfaces]
     on_plant = [AgentKind("dyna-q", "Dyna-Q on the plant (paper agent)", PLANT, "paper", dyna=True),
                 AgentKind(PLANT, "Q-learning on the true plant (reference)", PLANT, "paper")]
-    improved = [AgentKind(f"{m.name}+improved", f"{m.label} (improved agent)", m.name, "improved")
-                for m in MODEL_KINDS.values()]
-    improved.append(AgentKind(f"{PLANT}+improved", "Q-learning on the true plant (improved agent)", PLANT,
-                              "improved"))
-    return {k.kind: k for k in (*paper, *on_plant, *improved)}
+    everywhere = [*surfaces, (PLANT, "Q-learning on the true plant")]
+    ours = [AgentKind(f"{name}+{design}", f"{label} ({design} agent)", name, design)
+            for design in ("improved", "robust") for name, label in everywhere]
+    readings = [AgentKind(f"{name}@{reading}", f"{label} (paper agent, shaping '{reading}')", name, "paper",
+                          shaping=reading) for name, label in everywhere for reading in SHAPINGS]
+    return {k.kind: k for k in (*paper, *on_plant, *ours, *readings)}
 
 
 AGENT_KINDS: dict[str, AgentKind] = _kinds()
 """Every agent kind, in report order."""
+
+DEFAULT_AGENTS: tuple[str, ...] = tuple(
+    k for k in AGENT_KINDS if "@" not in k and k not in ("plant+improved", "plant+robust"))
+"""What a run does unless ``--agents`` says otherwise: every surrogate under every design, and the
+paper's on-plant baselines; the ``@`` readings and our agents on the true plant are opt-in."""
 
 
 def agent_kind(name: str) -> AgentKind:
@@ -93,9 +116,16 @@ def surrogates_of(agents: Sequence[str]) -> list[str]:
     return [m for m in MODEL_KINDS if m in need]
 
 
-def learner_config(kind: str, episodes: int, steps: int, force: float) -> QConfig:
-    """The learner of agent kind ``kind`` at the given budget and force limit."""
-    base = LEARNERS[agent_kind(kind).agent]()
+def learner_config(kind: str, episodes: int, steps: int, force: float, shaping: str = "away") -> QConfig:
+    """The learner of agent kind ``kind`` at the given budget and force limit.
+
+    ``shaping`` is the run's reading of the paper's shaping term; a kind that
+    pins one (``plm@toward``) overrides it. Our agents keep their own.
+    """
+    k = agent_kind(kind)
+    base = LEARNERS[k.agent]()
+    if k.agent == "paper":
+        base = replace(base, shaping=k.shaping or shaping)
     return replace(base, episodes=episodes, steps=steps, force=force)
 
 

@@ -9,10 +9,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from msd_bench.app.agents import AGENT_KINDS, PLANT, agent_kind, check_agents, learner_config, surrogates_of
+from msd_bench.app.agents import (
+    DEFAULT_AGENTS,
+    PLANT,
+    SHAPINGS,
+    agent_kind,
+    check_agents,
+    learner_config,
+    surrogates_of,
+)
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.plant import PlantParams, preset
 from msd_bench.core.qconfig import QConfig
+from msd_bench.core.scenarios import Scenario, suite
 
 _POSITIVE = ("seeds", "id_seeds", "episodes", "steps", "dyna_episodes", "samples", "val_samples",
              "validation_steps", "window")
@@ -32,8 +41,10 @@ class RunConfig:
     """Identification seeds: each re-records and re-identifies every surrogate."""
     id_first_seed: int = 0
     """First identification seed; they are id_first_seed, id_first_seed + 1, …"""
-    agents: tuple[str, ...] = tuple(AGENT_KINDS)
+    agents: tuple[str, ...] = DEFAULT_AGENTS
     """Agent kinds (rows) to run, from :data:`msd_bench.app.agents.AGENT_KINDS`."""
+    shaping: str = "toward"
+    """Reading of the paper's shaping term for the paper agent (docs/decisions.md §Shaping)."""
     episodes: int = 300
     """Training episodes per agent (paper: 300)."""
     steps: int = 3000
@@ -54,6 +65,8 @@ class RunConfig:
     """Terminal window of the SSE, samples (paper: not given)."""
     nlarx_scale: float = 1.0
     """Multiplies the NLARX training iterations (< 1 for smoke runs)."""
+    scenarios: tuple[str, ...] = ()
+    """Scenario ids evaluated besides the standard suite (:mod:`msd_bench.core.scenarios`)."""
 
     def __post_init__(self) -> None:
         check_agents(self.agents)
@@ -69,6 +82,13 @@ class RunConfig:
             raise ConfigError("window must not exceed validation_steps")
         if not 0 < self.nlarx_scale <= 10:
             raise ConfigError(f"nlarx_scale must be in (0, 10], got {self.nlarx_scale}")
+        self.scenario_suite()  # a malformed --scenario fails here, in one line
+        if self.shaping not in SHAPINGS:
+            raise ConfigError(f"shaping must be one of {', '.join(SHAPINGS)}, got {self.shaping!r}")
+
+    def scenario_suite(self) -> list[Scenario]:
+        """The standard scenarios plus this run's extra ones, each once."""
+        return suite(self.scenarios)
 
     @property
     def plant(self) -> PlantParams:
@@ -87,7 +107,7 @@ class RunConfig:
     def qconfig(self, kind: str) -> QConfig:
         """The learner of agent kind ``kind`` at this run's budget (Dyna-Q: its own episodes)."""
         episodes = self.dyna_episodes if agent_kind(kind).dyna else self.episodes
-        return learner_config(kind, episodes, self.steps, self.plant.F)
+        return learner_config(kind, episodes, self.steps, self.plant.F, self.shaping)
 
     def surrogates_needed(self) -> list[str]:
         """Model kinds that at least one requested agent kind trains on."""

@@ -39,6 +39,11 @@ def add_run_arguments(p: argparse.ArgumentParser, **defaults: Any) -> None:
                    help=f"samples per validation record ({base['val_samples']})")
     p.add_argument("--validation-steps", type=int, default=base["validation_steps"],
                    help=f"closed-loop validation steps (paper: 3000; {base['validation_steps']})")
+    p.add_argument("--shaping", choices=("away", "toward"), default=base["shaping"],
+                   help="reading of the paper's shaping penalty for the paper agent "
+                        f"(docs/decisions.md; default {base['shaping']})")
+    p.add_argument("--scenario", action="append", default=[], metavar="ID",
+                   help="evaluate also this scenario, e.g. noise=0.005,delay=1,setpoint=-1.2 (repeatable)")
     p.add_argument("--nlarx-scale", type=float, default=base["nlarx_scale"],
                    help="scale NLARX training iterations (smoke runs: 0.05)")
 
@@ -51,4 +56,5 @@ def run_config_from_args(args: argparse.Namespace) -> RunConfig:
         steps=args.steps, dyna_episodes=args.dyna_episodes, samples=args.samples,
         val_samples=args.val_samples, validation_steps=args.validation_steps,
         window=min(500, max(1, args.validation_steps)), nlarx_scale=args.nlarx_scale,
+        scenarios=tuple(args.scenario), shaping=args.shaping,
     )

@@ -171,4 +171,5 @@ def _collect(run: PaperRun, kind: str, parts: list[tuple[Trained, list[int], int
         "learner": qc,
     }
     run.robustness[kind] = robustness.evaluate(
-        run.qtables[kind]["q"], qc, cfg.plant, steps=cfg.validation_steps, window=cfg.window)
+        run.qtables[kind]["q"], qc, cfg.plant, run.qtables[kind]["seeds"], cfg.scenario_suite(),
+        steps=cfg.validation_steps, window=cfg.window)

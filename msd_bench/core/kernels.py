@@ -192,6 +192,38 @@ def plant_step(plant: Plant, x: float, v: float, u: float) -> tuple[float, float
 
 
 @numba.njit(cache=True)
+def plant_step_loaded(plant: Plant, x: float, v: float, u: float, load: float,
+                      friction: float) -> tuple[float, float]:
+    """:func:`plant_step` with an external ``load`` force (N, added after the actuator saturates)
+    and Coulomb ``friction`` (N): what a rig adds to the ideal plant (scenarios, the rig emulator).
+
+    With both zero it *is* :func:`plant_step`. Friction opposes motion with
+    constant magnitude; at rest it holds the mass while the other forces stay
+    within it, and it never reverses the velocity within a step (the mass stops).
+    """
+    if load == 0.0 and friction == 0.0:
+        return plant_step(plant, x, v, u)
+    drive = saturate(u, plant.F) + load
+    spring = plant.k * math.sin(plant.g * x) + plant.h * x * x * x
+    net = drive - plant.c * v - spring
+    if friction > 0.0:
+        if v != 0.0:
+            net -= friction if v > 0.0 else -friction
+        elif abs(net) <= friction:
+            net = 0.0
+        else:
+            net -= friction if net > 0.0 else -friction
+    v_new = v + plant.dt * net / plant.m
+    if friction > 0.0 and v != 0.0 and v_new * v < 0.0:
+        v_new = 0.0  # friction stops the mass; it cannot push it backwards
+    x_free = x + plant.dt * v_new
+    x_new = on_stroke(x_free, 0.5 * plant.L)
+    if x_new != x_free:
+        v_new = 0.0
+    return x_new, v_new
+
+
+@numba.njit(cache=True)
 def plant_step_batch(plant: Plant, x: FloatArray, v: FloatArray,
                      u: FloatArray) -> tuple[FloatArray, FloatArray]:
     """:func:`plant_step` of independent plants, element by element (equal to the scalar step)."""

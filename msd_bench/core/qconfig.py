@@ -43,6 +43,7 @@ FloatArray = NDArray[np.float64]
 MODE_PAPER = 0
 MODE_IMPROVED = 1
 STATE_MODES = {"paper": MODE_PAPER, "improved": MODE_IMPROVED}
+SHAPINGS = ("away", "toward")
 N_ACTIONS = 5
 N_DIRECTIONS = 3
 
@@ -104,6 +105,19 @@ class QConfig:
     """Improved encoder: |x_k - x_{k-1}| at or below this (m) counts as 'still'."""
     reference_edges: tuple[float, ...] = ()
     """Improved encoder: increasing edges (m) of a coarse reference bin; () = no reference bin."""
+    shaping: str = "away"
+    """Which actions the shaping penalty φ marks (docs/decisions.md §Shaping): ``"away"`` — a force
+    that pushes away from the target, outside the zero-error bins; ``"toward"`` — every action that
+    does not push toward the target, u = 0 included, in every bin."""
+    obs_gain: float = 0.0
+    """Observer (our robust agent): position gain a of an α-β tracker on the measured position;
+    0 = no observer, the state is built from raw measurements (paper and improved agents)."""
+    obs_velocity_gain: float = 0.0
+    """Observer: velocity gain b of the α-β tracker (per-sample displacement), 0 <= b < a."""
+    train_noise: float = 0.0
+    """Training on the surrogate: each episode draws a sensor noise σ uniformly in [0, train_noise] m."""
+    train_delay: int = 0
+    """Training on the surrogate: each episode draws an actuator delay in {0, …, train_delay} samples."""
 
     def __post_init__(self) -> None:
         _require(self.episodes >= 1 and self.steps >= 1, "episodes and steps must be >= 1")
@@ -124,6 +138,19 @@ class QConfig:
         _require(_increasing(self.error_edges) and len(self.error_edges) > 0
                  and self.error_edges[0] > 0, "error_edges must be positive and increasing")
         _require(_increasing(self.reference_edges), "reference_edges must be increasing")
+        _require(self.shaping in SHAPINGS, f"shaping must be one of {SHAPINGS}, got {self.shaping!r}")
+        _require(0.0 <= self.obs_gain <= 1.0 and 0.0 <= self.obs_velocity_gain <= self.obs_gain,
+                 "observer gains need 0 <= obs_velocity_gain <= obs_gain <= 1")
+        _require(math.isfinite(self.train_noise) and 0.0 <= self.train_noise <= 0.1,
+                 "train_noise must be in [0, 0.1] m")
+        _require(0 <= self.train_delay <= 10, "train_delay must be in 0..10 samples")
+        _require(self.state != "paper" or not self.observed,
+                 "the observer and training perturbations need the improved state")
+
+    @property
+    def observed(self) -> bool:
+        """Whether the learner sees the plant through an observer or trains under perturbations."""
+        return self.obs_gain > 0.0 or self.train_noise > 0.0 or self.train_delay > 0
 
     def snapshots(self) -> tuple[int, ...]:
         """Sorted episode counts at which a snapshot is taken (first and last included)."""
@@ -193,6 +220,16 @@ class Learner(NamedTuple):
     """Shaping indicator φ(s, a) in {0, 1}, shape (n_states, 5)."""
     actions: FloatArray
     """Force per action index, N."""
+    observed: bool
+    """Whether :func:`qlearning.learn_observed` trains it (observer and/or training perturbations)."""
+    obs_gain: float
+    """α-β tracker position gain (0: raw measurements)."""
+    obs_velocity_gain: float
+    """α-β tracker velocity gain."""
+    train_noise: float
+    """Largest sensor noise σ drawn per training episode, m."""
+    train_delay: int
+    """Largest actuator delay drawn per training episode, samples."""
 
 
 def encoding(cfg: QConfig) -> Encoding:
@@ -215,18 +252,24 @@ def packed(cfg: QConfig) -> Learner:
     actions = cfg.actions()
     return Learner(enc, cfg.alpha, cfg.gamma, cfg.epsilon, cfg.reward_gain, cfg.g, cfg.zeta,
                    cfg.e_max, cfg.eta, cfg.target_low, cfg.target_high,
-                   _phi_table(_error_side(cfg, enc), actions), actions)
+                   _phi_table(_error_side(cfg, enc), actions, cfg.shaping), actions, cfg.observed,
+                   cfg.obs_gain, cfg.obs_velocity_gain, cfg.train_noise, cfg.train_delay)
 
 
 def _error_side(cfg: QConfig, enc: Encoding) -> NDArray[np.int64]:
-    """Per state: -1 below the zero-error bins, 0 inside them, +1 above."""
+    """Per state: -1 below the target, +1 above; 0 in the zero-error bins for the ``away`` reading.
+
+    The ``toward`` reading marks actions in every bin, the zero bins too, so
+    there each zero bin takes the side of its centre.
+    """
+    width = 2 if cfg.shaping == "away" else 1
     if enc.mode == MODE_PAPER:
         n = cfg.n_states
         # Bin i has centre -e_max + i * step; it is a zero bin when |centre| < step.
-        return np.array([_side(2 * i - (n - 1), 2) for i in range(n)], dtype=np.int64)
+        return np.array([_side(2 * i - (n - 1), width) for i in range(n)], dtype=np.int64)
     n_err = enc.err_edges.size + 1
     zero = len(cfg.error_edges) + 1  # bins zero-1 = [-e1, 0) and zero = [0, e1) touch zero error
-    err_side = np.array([_side(2 * i - (2 * zero - 1), 2) for i in range(n_err)], dtype=np.int64)
+    err_side = np.array([_side(2 * i - (2 * zero - 1), width) for i in range(n_err)], dtype=np.int64)
     return np.repeat(err_side, enc.n_directions * (enc.ref_edges.size + 1))
 
 
@@ -237,9 +280,15 @@ def _side(twice_offset: int, width: int) -> int:
     return 1 if twice_offset > 0 else -1
 
 
-def _phi_table(side: NDArray[np.int64], actions: FloatArray) -> FloatArray:
-    """φ(s, a) = 1 where the force has the sign of the error (pushes away), else 0."""
-    return (side[:, None] * np.sign(actions)[None, :] > 0).astype(float)
+def _phi_table(side: NDArray[np.int64], actions: FloatArray, shaping: str = "away") -> FloatArray:
+    """φ(s, a) = 1 where the action is penalised, else 0.
+
+    ``away``: the force has the sign of the error (e = x - target), i.e. pushes
+    away from the target. ``toward``: the force does not push toward the target
+    (its sign is not opposite to the error's): zero force included.
+    """
+    push = side[:, None] * np.sign(actions)[None, :]
+    return (push > 0 if shaping == "away" else push >= 0).astype(float)
 
 
 def _increasing(values: tuple[float, ...]) -> bool:

@@ -219,6 +219,79 @@ def learn_one(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, snaps: 
 
 
 @numba.njit(cache=True)
+def normal(state: rng.U64Array, i: int) -> float:
+    """A standard normal draw from stream ``i`` (Box–Muller on two uniforms)."""
+    u1 = rng.uniform(state, i)
+    u2 = rng.uniform(state, i)
+    return math.sqrt(-2.0 * math.log(1.0 - u1)) * math.cos(2.0 * math.pi * u2)
+
+
+@numba.njit(cache=True)
+def observe(lr: Learner, y: float, xh: float, dh: float, first: bool) -> tuple[float, float]:
+    """The observer's (position, per-sample displacement) estimate after measurement ``y``.
+
+    With ``obs_gain`` 0 it is the raw measurement and its last difference (the
+    improved agent's view). Otherwise an α-β tracker: predict with the last
+    displacement, correct by a fraction of the innovation — the steady-state
+    Kalman filter of a constant-velocity model, which does not differentiate
+    raw samples and so does not multiply the sensor noise.
+    """
+    if first:
+        return y, 0.0
+    if lr.obs_gain == 0.0:
+        return y, y - xh
+    pred = xh + dh
+    innovation = y - pred
+    return pred + lr.obs_gain * innovation, dh + lr.obs_velocity_gain * innovation
+
+
+@numba.njit(cache=True)
+def learn_observed(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, snaps: FloatArray,
+                   returns: FloatArray, counts: IntArray, state: rng.U64Array, i: int) -> None:
+    """Q-learning through an observer, under per-episode sensor noise and actuator delay.
+
+    Our robust agent: each episode draws its target, a noise level in
+    [0, train_noise] and a delay in {0..train_delay} from the agent's own
+    stream, so training stays a pure function of the seed. The state comes
+    from the observer on the noisy measurement; the reward from the model's
+    true position (training happens on a model, whose truth is known).
+    """
+    plant = np.zeros(4)
+    queue = np.zeros(lr.train_delay + 1)
+    k_snap = 0
+    for ep in range(budget.episodes):
+        target = draw_target(lr, state, i)
+        sigma = lr.train_noise * rng.uniform(state, i) if lr.train_noise > 0.0 else 0.0
+        delay = rng.below(state, i, lr.train_delay + 1) if lr.train_delay > 0 else 0
+        plant[:] = 0.0
+        queue[:] = 0.0
+        x = 0.0
+        err = abs(x - target)
+        y = x + sigma * normal(state, i) if sigma > 0.0 else x
+        xh, dh = observe(lr, y, 0.0, 0.0, True)
+        s = encode(lr.enc, xh - target, dh, target)
+        total = 0.0
+        for k in range(budget.steps):
+            a = choose(q, s, lr.epsilon, state, i)
+            queue[k % (delay + 1)] = lr.actions[a]
+            x = kernels.advance(model, plant, queue[(k + 1) % (delay + 1)] if delay > 0 else lr.actions[a])
+            y = x + sigma * normal(state, i) if sigma > 0.0 else x
+            xh, dh = observe(lr, y, xh, dh, False)
+            s2 = encode(lr.enc, xh - target, dh, target)
+            e_new = abs(x - target)
+            r = reward(lr, e_new, err)
+            td_update(q, s, a, r, s2, lr)
+            err = e_new
+            counts[0] += 1
+            total += r
+            s = s2
+        returns[ep] = total
+        if k_snap < budget.snap_at.size and budget.snap_at[k_snap] == ep + 1:
+            snaps[k_snap] = q
+            k_snap += 1
+
+
+@numba.njit(cache=True)
 def train_batch(model: Kernel, lr: Learner, budget: Budget,
                 state: rng.U64Array) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
     """One independent agent per stream word; returns (Q, snapshots, returns, counts)."""
@@ -229,7 +302,10 @@ def train_batch(model: Kernel, lr: Learner, budget: Budget,
     returns = np.zeros((n, budget.episodes))
     counts = np.zeros((n, 2), dtype=np.int64)
     for i in range(n):
-        learn_one(model, lr, budget, q[i], snaps[i], returns[i], counts[i], state, i)
+        if lr.observed:
+            learn_observed(model, lr, budget, q[i], snaps[i], returns[i], counts[i], state, i)
+        else:
+            learn_one(model, lr, budget, q[i], snaps[i], returns[i], counts[i], state, i)
     return q, snaps, returns, counts
 
 

@@ -77,6 +77,11 @@ def greedy_rollouts(model: StepModel, q_tables: FloatArray, cfg: QConfig, target
         raise InvalidInputError(f"target must be finite, got {target}")
     if n_steps < 1:
         raise InvalidInputError(f"n_steps must be >= 1, got {n_steps}")
+    if lr.observed:  # through its observer: the nominal scenario of the closed-loop kernel
+        from msd_bench.core.closed_loop import Conditions, greedy_under
+
+        nominal = Conditions(float(target), 0.0, 0, 0.0, 0, 0.0)
+        return greedy_under(model.kernel, lr, q, nominal, np.zeros((q.shape[0], int(n_steps))))
     return qlearning.greedy_batch(model.kernel, lr, q, float(target), int(n_steps))
 
 

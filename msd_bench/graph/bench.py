@@ -120,7 +120,7 @@ def agent_args(cfg: BenchConfig, kind: str) -> list[str]:
             "-p", f"lockstep:={str(not cfg.realtime).lower()}", "-p", f"steps:={run.steps}",
             "-p", f"validation_steps:={run.validation_steps}", "-p", f"window:={run.window}",
             "-p", f"target:={float(run.target)!r}", "-p", f"dt:={run.plant.dt!r}",
-            "-p", f"force:={run.plant.F!r}"]
+            "-p", f"force:={run.plant.F!r}", "-p", f"shaping:={run.shaping}"]
     if k.dyna:
         return [*args, "-p", f"episodes:={run.dyna_episodes}", "-p", f"planning_steps:={run.planning_steps}"]
     model = "plant" if k.surrogate == PLANT else k.surrogate  # on-plant Q-learning: the plant's own model

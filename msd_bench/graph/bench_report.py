@@ -52,17 +52,17 @@ def _fits(cfg: BenchConfig) -> dict[str, FitReport]:
     return {name: FitReport(**doc) for name, doc in json.loads(path.read_text()).items()}
 
 
-def _qtables(cfg: BenchConfig, results: list[AgentResult]) -> dict[str, tuple[dict[str, Any], Any]]:
-    """Per agent kind: its Q-table arrays and the learner config stored beside them."""
+def _qtables(cfg: BenchConfig, results: list[AgentResult]) -> dict[str, tuple[dict[str, Any], Any, Any]]:
+    """Per agent kind: its Q-table arrays, the learner config and the seeds stored beside them."""
     out = {}
     for r in results:
         arrays, meta = artifacts.load_qtables(cfg.run_dir / "agents" / r.kind / "qtables.npz")
-        out[r.kind] = (arrays, learner_from_meta(meta))
+        out[r.kind] = (arrays, learner_from_meta(meta), [int(s) for s in meta["seeds"]])
     return out
 
 
 def figure_data(cfg: BenchConfig, results: list[AgentResult],
-                qtables: dict[str, tuple[dict[str, Any], Any]]) -> FigureData:
+                qtables: dict[str, tuple[dict[str, Any], Any, Any]]) -> FigureData:
     """The figures' inputs rebuilt from the run's files."""
     models_dir = cfg.run_dir / "models"
     models = {name: artifacts.load_model(models_dir / f"{name}.json")
@@ -73,7 +73,7 @@ def figure_data(cfg: BenchConfig, results: list[AgentResult],
     return FigureData(
         target=cfg.run.target, dt=cfg.run.plant.dt, models=models, fits=_fits(cfg),
         records=load_records(roles_from_dir(cfg.excitation_dir), needs_bias_records(models)),
-        qtables={k: a for k, (a, _) in qtables.items()}, responses=responses)
+        qtables={k: a for k, (a, _, _) in qtables.items()}, responses=responses)
 
 
 def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any]:
@@ -83,7 +83,8 @@ def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any
     paths: dict[str, Any] = {"table": write_report(out, results, facts)}
     qtables = _qtables(cfg, results)
     paths["figures"] = write_figures(out / "figures", figure_data(cfg, results, qtables))
-    rob = {kind: robustness.evaluate(arrays["q"], learner, cfg.run.plant, steps=cfg.run.validation_steps,
-                                     window=cfg.run.window) for kind, (arrays, learner) in qtables.items()}
+    rob = {kind: robustness.evaluate(arrays["q"], learner, cfg.run.plant, seeds, cfg.run.scenario_suite(),
+                                     steps=cfg.run.validation_steps, window=cfg.run.window)
+           for kind, (arrays, learner, seeds) in qtables.items()}
     paths["robustness"] = write_robustness(out, rob, {r.kind: r.label for r in results})
     return paths

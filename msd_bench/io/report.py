@@ -123,17 +123,32 @@ def _csv(v: float | None) -> str:
     return "" if v is None or not math.isfinite(v) else repr(float(v))
 
 
+ROBUSTNESS_SCHEMA = "msd-bench/robustness"
+ROBUSTNESS_VERSION = 2
+
+
+def robustness_json(rob: Mapping[str, Mapping[str, Mapping[str, Any]]],
+                    labels: Mapping[str, str]) -> dict[str, Any]:
+    """``robustness.json`` v2: scenario ids, then per agent kind its cells by scenario id."""
+    scenarios = list(next(iter(rob.values()))) if rob else []
+    agents = [{"kind": kind, "label": labels.get(kind, kind),
+               "cells": {sid: dict(cell) for sid, cell in cells.items()}} for kind, cells in rob.items()]
+    doc: dict[str, Any] = jsonable({"schema": ROBUSTNESS_SCHEMA, "schema_version": ROBUSTNESS_VERSION,
+                                    "scenarios": scenarios, "agents": agents})
+    return doc
+
+
 def robustness_markdown(rob: Mapping[str, Mapping[str, Mapping[str, Any]]],
                         labels: Mapping[str, str]) -> str:
-    """Success rate (median SSE) of each agent kind's fixed tables under each scenario."""
+    """Successes/n (Wilson interval; median SSE) of each agent kind's fixed tables per scenario."""
     if not rob:
         return ""
     scenarios = list(next(iter(rob.values())))
     lines = [
-        "Robustness — the trained tables held fixed, validated on perturbed plants and other "
-        "set-points (no retraining); cells are successes/n (Wilson 95 % interval, %; median SSE %).",
+        "Robustness — the trained tables held fixed, validated under each scenario (no retraining); "
+        "cells are successes/n (Wilson 95 % interval, %; median SSE %).",
         "",
-        "| Agent | " + " | ".join(scenarios) + " |",
+        "| Agent | " + " | ".join(f"`{s}`" for s in scenarios) + " |",
         "|" + "---|" * (len(scenarios) + 1),
     ]
     for kind, by_scenario in rob.items():
@@ -148,10 +163,9 @@ def _rob_cell(r: Mapping[str, Any]) -> str:
 
 
 def write_robustness(out_dir: Path, rob: Mapping[str, Any], labels: Mapping[str, str]) -> dict[str, Path]:
-    """``robustness.json`` (per kind, scenario and seed) and ``robustness.md``."""
+    """``robustness.json`` (schema v2, per kind, scenario and seed) and ``robustness.md``."""
     out_dir = Path(out_dir)
     paths = {"json": out_dir / "robustness.json", "md": out_dir / "robustness.md"}
-    doc = {"schema": "msd-bench/robustness", "schema_version": 1, "agents": jsonable(dict(rob))}
-    paths["json"].write_text(json.dumps(doc, indent=1) + "\n")
+    paths["json"].write_text(json.dumps(robustness_json(rob, labels), indent=1) + "\n")
     paths["md"].write_text(robustness_markdown(rob, labels))
     return paths

@@ -28,7 +28,7 @@ from rclpy.node import Node
 from rclpy.task import Future
 from std_msgs.msg import Float64
 
-from msd_bench.app.agents import agent_kind, learner_config
+from msd_bench.app.agents import SHAPINGS, agent_kind, learner_config
 from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.learner import GreedyPolicy, StepwiseLearner
@@ -78,11 +78,15 @@ class AgentNodeConfig:
     """Sample time of the plant, s (for settling times)."""
     force: float = field(default=10.0, metadata={"range": (1e-3, 1e4)})
     """Force magnitude F of the action alphabet, N."""
+    shaping: str = "toward"
+    """Reading of the paper's shaping penalty for the paper agent: ``away`` or ``toward``."""
     out_dir: str = ""
     """Where qtables.npz, result.json and the validation bags go (required)."""
 
     def __post_init__(self) -> None:
         agent_kind(self.kind)  # one-line ConfigError naming the kinds
+        if self.shaping not in SHAPINGS:
+            raise ConfigError(f"shaping must be one of {', '.join(SHAPINGS)}, got {self.shaping!r}")
         if not self.out_dir:
             raise ConfigError("out_dir is required")
         if not self.dyna and not self.model_path:
@@ -99,7 +103,7 @@ class AgentNodeConfig:
 
     def qconfig(self) -> QConfig:
         """The kind's learner (chosen by the application layer) with this node's budgets."""
-        return learner_config(self.kind, self.episodes, self.steps, self.force)
+        return learner_config(self.kind, self.episodes, self.steps, self.force, self.shaping)
 
 
 class _Learn:
