@@ -20,7 +20,7 @@ from msd_bench.core.qconfig import QConfig, improved_config
 from msd_bench.core.results import AgentResult
 from msd_bench.io import artifacts
 from msd_bench.io.bag_records import load_records, roles_from_dir
-from msd_bench.io.bags import read_experiment
+from msd_bench.io.bags import UNCHECKED, read_experiment
 from msd_bench.io.report import write_report, write_robustness
 from msd_bench.io.run_output import write_figures
 
@@ -70,7 +70,8 @@ def figure_run(cfg: BenchConfig, results: list[AgentResult]) -> PaperRun:
         arrays, _ = artifacts.load_qtables(agent_dir / "qtables.npz")
         run.qtables[r.kind] = arrays
         run.responses[r.kind] = np.stack([
-            read_experiment(agent_dir / "validation" / f"seed_{s['seed']}")[0].y for s in r.per_seed])
+            read_experiment(agent_dir / "validation" / f"seed_{s['seed']}", timing=UNCHECKED)[0].y
+            for s in r.per_seed])
     return run
 
 
