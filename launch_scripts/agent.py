@@ -4,6 +4,12 @@
         -p out_dir:=bags/<run>/agents/plm -p "seeds:=[0,1,2]" [-p via_ros:=true] [-p agent:=improved]
 """
 
+import os
+import signal
+
+for _sig in (signal.SIGINT, signal.SIGTERM):  # stopped while importing: nothing to clean up yet
+    signal.signal(_sig, lambda *_: os._exit(0))
+
 import sys
 from pathlib import Path
 

@@ -7,6 +7,12 @@
         -p validation_bag:=/data/val -p "models:=[glm,nlarx-improved]" -p out_dir:=models
 """
 
+import os
+import signal
+
+for _sig in (signal.SIGINT, signal.SIGTERM):  # stopped while importing: nothing to clean up yet
+    signal.signal(_sig, lambda *_: os._exit(0))
+
 import sys
 from pathlib import Path
 

@@ -3,6 +3,12 @@
     python launch_scripts/plant.py [--ros-args -p lockstep:=true -p preset:=mild -r __ns:=/msd]
 """
 
+import os
+import signal
+
+for _sig in (signal.SIGINT, signal.SIGTERM):  # stopped while importing: nothing to clean up yet
+    signal.signal(_sig, lambda *_: os._exit(0))
+
 import sys
 from pathlib import Path
 

@@ -9,6 +9,12 @@ closed, which completes the bag (summary and ``metadata.yaml``).
 
 from __future__ import annotations
 
+import os
+import signal
+
+for _sig in (signal.SIGINT, signal.SIGTERM):  # stopped while importing: nothing to clean up yet
+    signal.signal(_sig, lambda *_: os._exit(0))
+
 import sys
 from pathlib import Path
 

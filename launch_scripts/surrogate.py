@@ -4,6 +4,12 @@
         -p lockstep:=true [-r __ns:=/surrogate/plm]
 """
 
+import os
+import signal
+
+for _sig in (signal.SIGINT, signal.SIGTERM):  # stopped while importing: nothing to clean up yet
+    signal.signal(_sig, lambda *_: os._exit(0))
+
 import sys
 from pathlib import Path
 

@@ -38,6 +38,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.publisher import Publisher
@@ -46,8 +47,8 @@ from std_msgs.msg import Empty, Float64
 from msd_bench.core import kernels
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams, preset
-from msd_bench.nodes.params import declare_from_dataclass
+from msd_bench.core.plant import PRESETS, PlantParams, preset
+from msd_bench.nodes.params import declare_from_dataclass, reject_unknown_parameters
 from msd_bench.nodes.spin import DeadlinePacer
 from msd_msgs_py.contract import CLOCK, FORCE, JOINT_STATES, PLANT_NAMESPACE, POSITION, RESET
 from msd_msgs_py.ros import clock, float64, joint_state, msg_class, qos
@@ -87,10 +88,25 @@ def true_plant_spec(preset_name: str = "default", **overrides: float) -> ModelSp
     return ModelSpec(plant_model(params), params.dt, params.F)
 
 
+PLANT_RANGES: dict[str, tuple[float, float]] = {
+    "m": (1e-3, 1e3),
+    "k": (0.0, 1e3),
+    "F": (1e-3, 1e4),
+    "dt": (1e-4, 1.0),
+}
+"""Bounds ``ros2 param describe`` shows for the plant's mass (kg), spring gain (N), force limit (N)
+and sample time (s): wide enough for any rig, narrow enough to catch a unit slip."""
+
+
 def declare_true_plant(node: Node) -> ModelSpec:
     """Read ``preset`` and the :class:`PlantParams` fields (defaults from the preset) as parameters."""
-    name: str = node.declare_parameter("preset", "default").value
-    params = declare_from_dataclass(node, PlantParams, defaults=preset(str(name)))
+    desc = ParameterDescriptor(
+        name="preset", type=ParameterType.PARAMETER_STRING, read_only=True,
+        description=f"Named plant parameter set the fields default to, read once at start-up: "
+                    f"{', '.join(sorted(PRESETS))}.",
+    )
+    name: str = node.declare_parameter("preset", "default", desc).value
+    params = declare_from_dataclass(node, PlantParams, defaults=preset(str(name)), ranges=PLANT_RANGES)
     return ModelSpec(plant_model(params), params.dt, params.F)
 
 
@@ -113,6 +129,7 @@ class PlantNode(Node):
         self._is_plant = self.spec.model.kind == kernels.KIND_PLANT
         self._dt_ns = round(self.spec.dt * 1e9)
         self.counters = {"steps": 0, "rejected": 0, "saturated": 0, "watchdog": 0}
+        reject_unknown_parameters(self)
         self._refuse_duplicate()
         self.spec.model.step(self.spec.model.initial_state(), 0.0)  # compile before the first tick
         self._pub_js: Publisher = self.create_publisher(
