@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import os
-import random
 import sys
 from pathlib import Path
 
@@ -32,7 +31,9 @@ from msd_bench.graph.bench import (
     write_run_facts,
 )
 from msd_bench.graph.bench_report import write_bench_report
+from msd_bench.graph.domains import claim_domain
 from msd_bench.io import artifacts
+from msd_bench.io.paths import writable_dir
 from msd_bench.launch import process_group
 from msd_bench.progress import StageProgress
 
@@ -68,7 +69,8 @@ def parse(argv: list[str]) -> argparse.Namespace:
 def config(args: argparse.Namespace) -> BenchConfig:
     """The run's configuration from the options."""
     preset(args.preset)
-    run_dir = args.out or REPO / "bags" / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    # relative paths mean the caller's directory (children run in the repository)
+    run_dir = (args.out or REPO / "bags" / dt.datetime.now().strftime("%Y%m%d-%H%M%S")).absolute()
     if args.seeds < 1:
         raise MsdBenchError(f"--seeds must be >= 1, got {args.seeds}")
     stages = stage_names([s.strip() for s in args.stages.split(",")])
@@ -78,7 +80,8 @@ def config(args: argparse.Namespace) -> BenchConfig:
         agents=tuple(a.strip() for a in args.agents.split(",") if a.strip()),
         episodes=args.episodes, dyna_episodes=args.dyna_episodes, samples=args.samples,
         val_samples=args.val_samples, nlarx_scale=args.nlarx_scale, realtime=args.realtime,
-        via_ros=args.via_ros, bags=args.bags, stages=stages or tuple(args.stages.split(",")),
+        via_ros=args.via_ros, bags=args.bags.absolute() if args.bags else None,
+        stages=stages or tuple(args.stages.split(",")),
         validation_steps=args.validation_steps,
     )
 
@@ -98,7 +101,7 @@ def write_plant_model(cfg: BenchConfig) -> None:
 
 def run(cfg: BenchConfig) -> int:
     """All requested stages; prints Table 1 and where the report is."""
-    cfg.run_dir.mkdir(parents=True, exist_ok=True)
+    writable_dir(cfg.run_dir, "--out")
     say(f"run directory {cfg.run_dir}  (ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']})")
     needs_graph = any(s in cfg.stages for s in ("record", "identify", "agents"))
     with process_group() as procs:
@@ -136,8 +139,8 @@ def main(argv: list[str] | None = None) -> int:
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     try:
         args = parse(sys.argv[1:] if argv is None else argv)
-        os.environ["ROS_DOMAIN_ID"] = str(args.domain_id if args.domain_id is not None
-                                          else random.SystemRandom().randint(1, 200))
+        domain, _lock = claim_domain(args.domain_id)  # held until the process ends
+        os.environ["ROS_DOMAIN_ID"] = str(domain)
         return run(config(args))
     except MsdBenchError as exc:
         print(f"bench: error: {exc}", file=sys.stderr)

@@ -20,7 +20,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import rclpy
-from rclpy._rclpy_pybind11 import RCLError
+from rclpy._rclpy_pybind11 import RCLError, UnknownROSArgsError
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
@@ -115,6 +115,9 @@ def main(build: Callable[[], Node], args: Sequence[str] | None = None) -> int:
         context = rclpy.init(args=argv)
     except RCLError as exc:  # malformed --ros-args: rcl refuses to initialise
         print(f"error: {str(exc).split(', at ')[0]}", file=sys.stderr)
+        return EXIT_USAGE
+    except UnknownROSArgsError as exc:
+        print(f"error: unknown ROS argument {exc} (after --ros-args)", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         return 0
