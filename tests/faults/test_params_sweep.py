@@ -53,11 +53,13 @@ DECLARED = {
 }
 OUT_OF_RANGE = [
     ("plant", "m:=1e6", "m"), ("plant", "m:=0.0", "m"), ("plant", "k:=-1.0", "k"), ("plant", "k:=1e9", "k"),
-    ("plant", "F:=0.0", "F"), ("plant", "F:=1e9", "F"), ("plant", "dt:=0.0", "dt"), ("plant", "dt:=5.0", "dt"),
+    ("plant", "F:=0.0", "F"), ("plant", "F:=1e9", "F"),
+    ("plant", "dt:=0.0", "dt"), ("plant", "dt:=5.0", "dt"),
     ("plant", "watchdog_timeout:=0.0", "watchdog_timeout"), ("plant", "watchdog_timeout:=1000.0",
                                                              "watchdog_timeout"),
-    ("plant", "duplicate_check:=-1.0", "duplicate_check"), ("plant", "m:=.nan", "m"), ("plant", "c:=.inf", "c"),
-    ("plant", "preset:=bogus", "preset"), ("plant", "lockstep:=maybe", "lockstep"), ("plant", "m:=heavy", "m"),
+    ("plant", "duplicate_check:=-1.0", "duplicate_check"), ("plant", "m:=.nan", "m"),
+    ("plant", "c:=.inf", "c"), ("plant", "preset:=bogus", "preset"),
+    ("plant", "lockstep:=maybe", "lockstep"), ("plant", "m:=heavy", "m"),
     ("excitation", "prbs.n_samples:=100000000000", "prbs.n_samples"),
     ("excitation", "prbs.n_samples:=1e11", "prbs.n_samples"),
     ("excitation", "prbs.n_samples:=0", "prbs.n_samples"), ("excitation", "prbs.hold:=0", "prbs.hold"),

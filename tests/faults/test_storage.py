@@ -88,10 +88,9 @@ def test_injected_enospc_closes_the_bag(tmp_path: Path, monkeypatch: pytest.Monk
     monkeypatch.setattr(bag_writer.os, "write", failing_write)
     n = 20_000
     t = np.arange(n, dtype=np.int64) * 10_000_000
-    with pytest.raises(BagWriteError) as err:
-        with BagRecorder(tmp_path / "b", flush_period_s=0.0) as rec:
-            for k in range(n):
-                rec.write("/msd/force", "std_msgs/msg/Float64", int(t[k]), b"\x00\x01\x00\x00" + bytes(8))
+    with pytest.raises(BagWriteError) as err, BagRecorder(tmp_path / "b", flush_period_s=0.0) as rec:
+        for k in range(n):
+            rec.write("/msd/force", "std_msgs/msg/Float64", int(t[k]), b"\x00\x01\x00\x00" + bytes(8))
     assert "\n" not in str(err.value) and "No space left on device" in str(err.value)
     assert check_bag(tmp_path / "b").messages == err.value.kept > 0
     assert err.value.dropped >= 1
@@ -106,7 +105,8 @@ def test_read_only_storage_is_one_line_everywhere(read_only_disk: Path, tmp_path
     cases = [
         [sys.executable, "-m", "msd_bench.commands.bag", "bag", "recover", str(src), "--output",
          str(read_only_disk / "rec")],
-        [sys.executable, "launch_scripts/bench.py", "--out", str(read_only_disk / "run"), "--stages", "report"],
+        [sys.executable, "launch_scripts/bench.py", "--out", str(read_only_disk / "run"),
+         "--stages", "report"],
         [sys.executable, "launch_scripts/identifier.py", "--ros-args", "-p", f"bags_dir:={tmp_path}",
          "-p", f"out_dir:={read_only_disk / 'models'}"],
         [sys.executable, "launch_scripts/identifier.py", "--ros-args", "-p", f"bags_dir:={tmp_path}",
