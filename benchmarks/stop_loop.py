@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
 import random
 import signal
 import subprocess
@@ -39,6 +40,12 @@ def one_stop(delay: float, sig: signal.Signals, domain: int) -> dict[str, object
     return {"delay": round(delay, 3), "status": status, "bad_line": bad[0] if bad else ""}
 
 
+def _commit() -> str:
+    proc = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                          cwd=Path(__file__).resolve().parents[1])
+    return proc.stdout.strip()
+
+
 def main() -> int:
     """Run the loop and print the JSON summary; exit 1 if any stop was not clean."""
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -47,14 +54,21 @@ def main() -> int:
     p.add_argument("--max-delay", type=float, default=4.0)
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--domain-id", type=int, default=int(os.environ.get("ROS_DOMAIN_ID", "0")))
+    p.add_argument("--out", type=Path, help="also write the JSON here (e.g. docs/results/stop_loop.json)")
     args = p.parse_args()
     rng = random.Random(args.seed)
     sig = signal.Signals[f"SIG{args.signal}"]
     results = [one_stop(rng.uniform(0.0, args.max_delay), sig, args.domain_id) for _ in range(args.runs)]
     failures = [r for r in results if r["status"] != 0 or r["bad_line"]]
-    print(json.dumps({"runs": args.runs, "signal": args.signal, "clean": args.runs - len(failures),
-                      "failures": failures, "statuses": sorted({str(r["status"]) for r in results}),
-                      "delays": [r["delay"] for r in results]}, indent=1))
+    doc = {"runs": args.runs, "signal": args.signal, "clean": args.runs - len(failures),
+           "failures": failures, "statuses": sorted({str(r["status"]) for r in results}),
+           "delays": [r["delay"] for r in results], "command": " ".join(sys.argv),
+           "commit": _commit(), "machine": f"{platform.node()} ({os.cpu_count()} cores)"}
+    text = json.dumps(doc, indent=1)
+    print(text)
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text + "\n")
     return 1 if failures else 0
 
 
