@@ -4,13 +4,18 @@ Why not ``ros2 launch``: the PyPI wheels ship no launch system, and tests,
 benchmarks and ``bench.py`` need exact control: each child is started with
 ``sys.executable`` in its own process group, inherits the environment plus
 ``ROS_DOMAIN_ID`` / ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, and is
-stopped by SIGINT, then SIGTERM, then SIGKILL. A SIGKILLed Fast DDS process
+stopped by SIGINT, then SIGTERM, then SIGKILL. A child gets SIGTERM when the
+thread that started it dies (``PR_SET_PDEATHSIG``), so a killed bench.py leaves
+no node running, and starts with SIGINT/SIGTERM blocked until its launch
+script has installed handlers for them (a stop during start-up exits 0). A SIGKILLed Fast DDS process
 cannot unlink its shared-memory segments, so :func:`stop` removes the
 ``/dev/shm`` files it had open that no other process still uses.
 """
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import os
 import re
 import signal
@@ -97,6 +102,23 @@ def ros_env(domain_id: int | None = None, extra: dict[str, str] | None = None) -
     return env
 
 
+_LIBC = ctypes.CDLL(None, use_errno=True)
+_PR_SET_PDEATHSIG = 1
+_STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
+def _child_setup(parent: int, hold_stops: bool) -> None:
+    """Runs in the child between fork and exec: die with the parent, hold stops until ready.
+
+    Only our launch scripts unblock the stop signals (once their handlers are in place).
+    """
+    if hold_stops:
+        signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    _LIBC.prctl(_PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+    if os.getppid() != parent:  # the parent died before prctl took effect
+        os._exit(1)
+
+
 def start(
     script: str | Path,
     ros_args: Sequence[str] = (),
@@ -116,6 +138,7 @@ def start(
     popen = subprocess.Popen(
         argv, cwd=REPO_ROOT, env=env or ros_env(domain_id), text=True,
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True,
+        preexec_fn=functools.partial(_child_setup, os.getpid(), path.resolve().parent == SCRIPTS),
     )
     proc = NodeProcess(name or path.stem, popen)
     proc.reader = threading.Thread(target=_pump, args=(proc,), daemon=True)

@@ -64,6 +64,15 @@ RECORDER_READY = TopicSpec(
     "recorder/ready", "std_msgs/msg/String", 1,
     "bag path of a recorder whose readers have all matched their publishers (latched)", latched=True,
 )
+PLANT_CLAIM = TopicSpec(
+    "plant_claim", "std_msgs/msg/String", 1,
+    "JSON {start_ns, pid, token, node, sent_ns} of a plant-like node serving this namespace, "
+    "re-sent every second (latched); the earliest claim keeps the namespace", latched=True,
+)
+DIAGNOSTICS = TopicSpec(
+    "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray", 10,
+    "health of every plant-like node at 1 Hz: counters, stall gaps, watchdog state, mode",
+)
 CLOCK = TopicSpec("/clock", "rosgraph_msgs/msg/Clock", TELEMETRY_DEPTH, "sim time, lock-step mode only")
 
 ALL_TOPICS = (POSITION, JOINT_STATES, FORCE, REFERENCE, RESET, CLOCK)

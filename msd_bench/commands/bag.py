@@ -1,4 +1,4 @@
-"""``msd-bench bag info PATH`` and ``msd-bench bag recover PATH``.
+"""``msd-bench bag info PATH``, ``bag check PATH`` and ``bag recover PATH``.
 
 ``register(subparsers)`` adds the ``bag`` command to the project CLI; every
 leaf parser sets ``func(args) -> int`` (the exit status). :func:`main` runs
@@ -15,11 +15,14 @@ from collections.abc import Sequence
 from typing import Any
 
 from msd_bench.core.errors import MsdBenchError
+from msd_bench.io.bag_check import check_bag, crc_problem
 from msd_bench.io.bag_recover import RECOVERED_SUFFIX, recover
 from msd_bench.io.bags import bag_info
 
 EXIT_USAGE = 2
 """Exit status on a user mistake (bad path, unreadable bag)."""
+EXIT_DAMAGED = 1
+"""Exit status of ``bag check`` on a bag with a fault."""
 
 
 def _info(args: argparse.Namespace) -> int:
@@ -29,7 +32,21 @@ def _info(args: argparse.Namespace) -> int:
     for topic, (ros_type, count) in sorted(info.topics.items()):
         print(f"topic:     {topic}  [{ros_type}]  {count} messages")
     print(f"params:    {json.dumps(info.params, sort_keys=True) if info.params else '(none)'}")
+    problem = crc_problem(args.path)
+    if problem is not None:
+        print(f"warning: {args.path}: {problem}; run `msd-bench bag check {args.path}`", file=sys.stderr)
     return 0
+
+
+def _check(args: argparse.Namespace) -> int:
+    report = check_bag(args.path)
+    if report.ok:
+        print(f"ok: {args.path}: {report.messages} messages in {report.chunks} chunks; "
+              f"CRCs, index and metadata.yaml agree")
+        return 0
+    for problem in report.problems:
+        print(f"damaged: {args.path}: {problem}")
+    return EXIT_DAMAGED
 
 
 def _recover(args: argparse.Namespace) -> int:
@@ -41,12 +58,15 @@ def _recover(args: argparse.Namespace) -> int:
 
 
 def register(subparsers: Any) -> None:
-    """Add ``bag info`` and ``bag recover`` to an argparse subparsers object."""
-    bag = subparsers.add_parser("bag", help="inspect or recover rosbag2 (MCAP) bags")
-    sub = bag.add_subparsers(dest="bag_command", required=True, metavar="{info,recover}")
+    """Add ``bag info``, ``bag check`` and ``bag recover`` to an argparse subparsers object."""
+    bag = subparsers.add_parser("bag", help="inspect, check or recover rosbag2 (MCAP) bags")
+    sub = bag.add_subparsers(dest="bag_command", required=True, metavar="{info,check,recover}")
     info = sub.add_parser("info", help="topics, message counts, duration and stored parameters")
     info.add_argument("path", help="bag directory")
     info.set_defaults(func=_info)
+    check = sub.add_parser("check", help="verify chunk CRCs, the index and metadata.yaml (exit 1 if damaged)")
+    check.add_argument("path", help="bag directory (or its .mcap file)")
+    check.set_defaults(func=_check)
     rec = sub.add_parser(
         "recover",
         help="rebuild a complete bag from a killed recording (the original is left untouched)",

@@ -21,7 +21,7 @@ from msd_bench.core.registry import needs_bias_records
 from msd_bench.core.results import AgentResult
 from msd_bench.io import artifacts
 from msd_bench.io.bag_records import load_records, roles_from_dir
-from msd_bench.io.bags import read_experiment
+from msd_bench.io.bags import UNCHECKED, read_experiment
 from msd_bench.io.report import write_report, write_robustness
 from msd_bench.io.run_output import FigureData, write_figures
 
@@ -68,7 +68,8 @@ def figure_data(cfg: BenchConfig, results: list[AgentResult],
     models = {name: artifacts.load_model(models_dir / f"{name}.json")
               for name in cfg.run.surrogates_needed() if (models_dir / f"{name}.json").is_file()}
     responses = {r.kind: np.stack([
-        read_experiment(cfg.run_dir / "agents" / r.kind / "validation" / f"seed_{s['seed']}")[0].y
+        read_experiment(cfg.run_dir / "agents" / r.kind / "validation" / f"seed_{s['seed']}",
+                        timing=UNCHECKED)[0].y
         for s in r.per_seed]) for r in results}
     return FigureData(
         target=cfg.run.target, dt=cfg.run.plant.dt, models=models, fits=_fits(cfg),

@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import os
-import random
 import sys
 from pathlib import Path
 from typing import Any
@@ -27,6 +26,8 @@ from msd_bench.graph.bench import (
     timed,
     write_run_facts,
 )
+from msd_bench.graph.domains import claim_domain
+from msd_bench.io.paths import writable_dir
 from msd_bench.launch import process_group
 from msd_bench.progress import StageProgress
 
@@ -52,11 +53,13 @@ def parse(argv: list[str]) -> argparse.Namespace:
 
 def config(args: argparse.Namespace) -> BenchConfig:
     """The run's configuration from the options."""
-    run_dir = args.out or REPO / "bags" / dt.datetime.now().strftime("%Y%m%d-%H%M%S")
+    # relative paths mean the caller's directory (children run in the repository)
+    run_dir = (args.out or REPO / "bags" / dt.datetime.now().strftime("%Y%m%d-%H%M%S")).absolute()
     stages = stage_names([s.strip() for s in args.stages.split(",")])
     return BenchConfig(
         run_dir=Path(run_dir), run=run_config_from_args(args), realtime=args.realtime,
-        via_ros=args.via_ros, bags=args.bags, stages=stages or tuple(args.stages.split(",")))
+        via_ros=args.via_ros, bags=args.bags.absolute() if args.bags else None,
+        stages=stages or tuple(args.stages.split(",")))
 
 
 def say(line: str) -> None:
@@ -99,7 +102,7 @@ def run_graph_stages(cfg: BenchConfig) -> None:
 
 def run(cfg: BenchConfig) -> int:
     """All requested stages; prints Table 1 and where the report is."""
-    cfg.run_dir.mkdir(parents=True, exist_ok=True)
+    writable_dir(cfg.run_dir, "--out")
     say(f"run directory {cfg.run_dir}  (ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']})")
     if any(s in cfg.stages for s in ("record", "identify", "agents")):
         run_graph_stages(cfg)
@@ -123,8 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     try:
         args = parse(sys.argv[1:] if argv is None else argv)
-        os.environ["ROS_DOMAIN_ID"] = str(args.domain_id if args.domain_id is not None
-                                          else random.SystemRandom().randint(1, 200))
+        domain, _lock = claim_domain(args.domain_id)  # held until the process ends
+        os.environ["ROS_DOMAIN_ID"] = str(domain)
         return run(config(args))
     except MsdBenchError as exc:
         print(f"bench: error: {exc}", file=sys.stderr)

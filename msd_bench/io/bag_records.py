@@ -19,7 +19,10 @@ from msd_bench.core.data import Experiment, IOData
 from msd_bench.core.excitation import signal_from_params
 from msd_bench.core.plm import PLM_BIASES
 from msd_bench.core.records import Records
-from msd_bench.io.bags import BagError, read_experiment
+from msd_bench.io.bag_recover import RECOVERED_SUFFIX
+from msd_bench.io.bag_timing import IDENTIFY
+from msd_bench.io.bags import missing_metadata, read_experiment
+from msd_bench.io.errors import BagError
 
 
 def align_to_played(exp: Experiment, params: Mapping[str, Any], force_limit: float = 10.0) -> Experiment:
@@ -65,13 +68,32 @@ def roles_from_dir(bags_dir: Path, namespace: str = "/msd") -> list[BagRole]:
     if not bags_dir.is_dir():
         raise BagError(f"{bags_dir}: no such bag directory")
     roles = []
-    for meta in sorted(bags_dir.glob("*/metadata.yaml")):
-        _, params = read_experiment(meta.parent, namespace)
+    for bag in bag_dirs(bags_dir):
+        _, params = read_experiment(bag, namespace)
         if "role" in params:
-            roles.append(_role_of(meta.parent, params))
+            roles.append(_role_of(bag, params))
     if not roles:
         raise BagError(f"{bags_dir}: no experiment bag with msd-bench parameters found")
     return roles
+
+
+def bag_dirs(bags_dir: Path) -> list[Path]:
+    """The bag directories directly under ``bags_dir``, in name order.
+
+    A directory holding an ``.mcap`` but no ``metadata.yaml`` is a killed
+    recording: it is an error with the ``bag recover`` hint (skipping it would
+    later surface as a confusing "no broad-range bag"), unless its recovered
+    twin ``<name>.recovered`` is there, which is then used instead.
+    """
+    found = []
+    for sub in sorted(p for p in bags_dir.iterdir() if p.is_dir()):
+        if (sub / "metadata.yaml").exists():
+            found.append(sub)
+        elif any(sub.glob("*.mcap")):
+            twin = sub.with_name(sub.name + RECOVERED_SUFFIX)
+            if not (twin / "metadata.yaml").exists():
+                raise missing_metadata(sub)
+    return found
 
 
 def _role_of(path: Path, params: Mapping[str, Any]) -> BagRole:
@@ -104,7 +126,7 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
     """Read every bag once and assemble the paper's records (one-line BagError if incomplete)."""
     data: dict[tuple[str, float | None], IOData] = {}
     for r in roles:
-        exp, _ = read_experiment(r.path, namespace)
+        exp, _ = read_experiment(r.path, namespace, timing=IDENTIFY)
         if r.params is not None:
             exp = align_to_played(exp, r.params)
         if r.settle >= len(exp) - 3:

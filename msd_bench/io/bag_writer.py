@@ -14,17 +14,27 @@ metadata record ``msd_bench`` (``params`` key) written when the bag opens, so
 it survives a kill and ``mcap``'s ``iter_metadata()`` sees it; and as
 rosbag2 ``custom_data`` key ``msd_bench.params`` in ``metadata.yaml``, which
 rosbags readers see.
+
+A write error (disk full, storage gone read-only) never leaves a half bag:
+the file is cut back to the end of the last chunk that reached the disk whole
+(:class:`_Sink` knows that offset), the summary and ``metadata.yaml`` are
+written for exactly those messages, and :class:`BagWriteError` says how much
+was kept. A reserve file (:data:`RESERVE_BYTES`) allocated when the bag
+opens is deleted first, so the summary and ``metadata.yaml`` find space on a
+full disk.
 """
 
 from __future__ import annotations
 
+import copy
 import json
+import os
 import shutil
 import time
 from collections.abc import Mapping
 from pathlib import Path
 from types import MappingProxyType, TracebackType
-from typing import Any
+from typing import IO, Any, cast
 
 import numpy as np
 from mcap.writer import CompressionType
@@ -40,6 +50,11 @@ from msd_msgs_py.contract import FORCE, JOINT_NAME, JOINT_STATES, PLANT_NAMESPAC
 
 PARAMS_KEY = "msd_bench.params"
 """rosbag2 ``custom_data`` key holding the experiment parameters as JSON."""
+RESERVE_BYTES = 256 * 1024
+"""Space held back while recording so a full disk can still take the bag's summary (about
+100 bytes per chunk: 40 minutes of one-second chunks) and ``metadata.yaml``."""
+RESERVE_NAME = ".msd_bench_reserve"
+"""The reserve file inside the bag directory (gone once the bag is closed)."""
 PARAMS_RECORD = "msd_bench"
 """Name of the MCAP metadata record holding the parameters (``params`` key)."""
 
@@ -47,6 +62,66 @@ PARAMS_RECORD = "msd_bench"
 def typestore() -> Typestore:
     """Message definitions of the newest ROS 2 distribution rosbags knows (Kilted here)."""
     return get_typestore(Stores.ROS2_KILTED)
+
+
+class BagWriteError(BagError):
+    """The storage refused a write; the bag was closed with what reached the disk whole."""
+
+    def __init__(self, message: str, kept: int, dropped: int) -> None:
+        super().__init__(message)
+        self.kept = kept
+        """Messages in the closed bag."""
+        self.dropped = dropped
+        """Messages received but not stored (the partial chunk and everything after)."""
+
+
+class _Sink:
+    """Unbuffered append-only file: a short write raises, and the offset written so far is exact.
+
+    Why not a buffered file: after ENOSPC a ``BufferedWriter`` holds bytes it
+    will retry on close, and its ``tell()`` counts bytes that never reached the
+    disk, so the end of the last whole chunk would be unknown.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self._fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        self._pos = 0
+
+    def write(self, data: bytes | memoryview) -> int:
+        view = memoryview(data)
+        while view.nbytes:
+            n = os.write(self._fd, view)
+            self._pos += n
+            view = view[n:]
+        return len(data)
+
+    def tell(self) -> int:
+        return self._pos
+
+    def flush(self) -> None:
+        """Nothing is buffered here (mcap calls it)."""
+
+    def cut(self, offset: int) -> None:
+        """Drop everything after ``offset`` (frees the space of a partial chunk)."""
+        os.ftruncate(self._fd, offset)
+        os.lseek(self._fd, offset, os.SEEK_SET)
+        self._pos = offset
+
+    def close(self) -> None:
+        if self._fd >= 0:
+            fd, self._fd = self._fd, -1
+            os.close(fd)
+
+
+class _Checkpoint:
+    """The state of the file after the last chunk that reached the disk whole."""
+
+    def __init__(self, offset: int, lengths: dict[str, int], stats: object, counts: dict[int, int]) -> None:
+        self.offset, self.lengths, self.stats, self.counts = offset, lengths, stats, counts
+
+
+_INDEX_LISTS = ("chunk_indices", "metadata_indexes", "summary_offsets")
+"""mcap Writer lists that grow as records are written; cut back to their checkpoint lengths."""
 
 
 class _FlushingMcapStorage:
@@ -57,12 +132,17 @@ class _FlushingMcapStorage:
             raise WriterError("compression is not supported by the msd_bench bag writer")
         self.path = path / f"{path.name}.mcap"
         self.flush_period_s = 1.0
-        self._file = self.path.open("xb")
-        self._mcap = _McapLibWriter(self._file, compression=CompressionType.NONE)
+        self._reserve = path / RESERVE_NAME
+        with self._reserve.open("xb") as fh:
+            os.posix_fallocate(fh.fileno(), 0, RESERVE_BYTES)
+        self._file = _Sink(self.path)
+        self._mcap = _McapLibWriter(cast(IO[bytes], self._file), compression=CompressionType.NONE)
         self._mcap.start(profile="ros2", library="msd_bench (mcap + rosbags)")
         self._schemas: dict[str, int] = {}
         self._channels: dict[int, int] = {}
+        self._counts: dict[int, int] = {}
         self._last_flush = time.monotonic()
+        self.checkpoint = self._snapshot()
 
     def add_msgtype(self, connection: Connection) -> None:
         encoding = "ros2idl" if connection.msgdef.data.startswith("=" * 80) else "ros2msg"
@@ -78,6 +158,7 @@ class _FlushingMcapStorage:
             self._schemas[connection.msgtype],
             {"offered_qos_profiles": offered_qos_profiles},
         )
+        self._counts[connection.id] = 0
 
     def add_params(self, params_json: str) -> None:
         """Write the parameters record now, so a killed recording keeps it."""
@@ -86,6 +167,7 @@ class _FlushingMcapStorage:
 
     def write(self, connection: Connection, timestamp: int, data: bytes | memoryview) -> None:
         self._mcap.add_message(self._channels[connection.id], timestamp, bytes(data), timestamp)
+        self._counts[connection.id] += 1
         self.flush_if_due()
 
     def flush_if_due(self) -> None:
@@ -97,21 +179,58 @@ class _FlushingMcapStorage:
         """End the open chunk and hand it to the OS (survives SIGKILL, not a power cut)."""
         self._mcap.flush()
         self._last_flush = time.monotonic()
+        self.checkpoint = self._snapshot()
+
+    def _mcap_private(self, name: str) -> Any:
+        """A private field of ``mcap.writer.Writer`` (pinned by the write-error tests)."""
+        return getattr(self._mcap, f"_Writer__{name}")
+
+    def _snapshot(self) -> _Checkpoint:
+        lengths = {name: len(self._mcap_private(name)) for name in _INDEX_LISTS}
+        return _Checkpoint(self._file.tell(), lengths,
+                           copy.deepcopy(self._mcap_private("statistics")), dict(self._counts))
+
+    def rollback(self) -> dict[int, int]:
+        """Forget everything after the checkpoint; returns the messages per connection kept."""
+        cp = self.checkpoint
+        self.release_reserve()
+        self._file.cut(cp.offset)
+        for name, length in cp.lengths.items():
+            del self._mcap_private(name)[length:]
+        setattr(self._mcap, "_Writer__statistics", copy.deepcopy(cp.stats))  # noqa: B010
+        builder = self._mcap_private("chunk_builder")
+        if builder is not None:
+            builder.reset()
+        self._counts = dict(cp.counts)
+        return dict(cp.counts)
+
+    def release_reserve(self) -> None:
+        """Give the reserved space back (before the summary, or on a write error)."""
+        self._reserve.unlink(missing_ok=True)
 
     def close(self, version: int, metadata: str) -> None:
         _ = version
         self._mcap.add_metadata("rosbag2", {"serialized_metadata": metadata})
         self._mcap.finish()
         self._file.close()
+        self.release_reserve()
 
     def abort(self) -> None:
         self._file.close()
+        self.release_reserve()
 
 
 class _BagWriter(Writer):
     """rosbags' rosbag2 writer with the MCAP storage replaced by :class:`_FlushingMcapStorage`."""
 
     STORAGE_PLUGINS = MappingProxyType({StoragePlugin.MCAP: _FlushingMcapStorage})
+
+
+def _why(exc: OSError | WriterError) -> str:
+    """The reason of an OS error without its path (the message names the bag already)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 def _prepare_target(path: Path, overwrite: bool) -> None:
@@ -161,12 +280,15 @@ class BagRecorder:
         writer = _BagWriter(self.path, version=Writer.VERSION_LATEST, storage_plugin=StoragePlugin.MCAP)
         try:
             writer.open()
-        except WriterError as exc:
-            raise BagError(f"bag {self.path}: cannot create ({exc})") from None
-        storage = writer.storage
-        assert isinstance(storage, _FlushingMcapStorage)
-        storage.flush_period_s = self._flush_period_s
-        storage.add_params(self._params)
+            storage = writer.storage
+            assert isinstance(storage, _FlushingMcapStorage)
+            storage.flush_period_s = self._flush_period_s
+            storage.add_params(self._params)
+        except (WriterError, OSError) as exc:
+            if writer.storage is not None:
+                writer.storage.abort()
+            shutil.rmtree(self.path, ignore_errors=True)  # did not exist before (_prepare_target)
+            raise BagError(f"bag {self.path}: cannot create ({_why(exc)})") from None
         writer.set_custom_data(PARAMS_KEY, self._params)
         self._writer = writer
         return self
@@ -175,28 +297,63 @@ class BagRecorder:
         """Append one CDR-serialized message logged at ``t_ns``."""
         if self._writer is None:
             raise BagError(f"bag {self.path}: write on a recorder that is not open")
-        conn = self._connections.get((topic, ros_type))
-        if conn is None:
-            conn = self._writer.add_connection(topic, ros_type, typestore=self._store)
-            self._connections[(topic, ros_type)] = conn
-        self._writer.write(conn, int(t_ns), data)
+        try:
+            conn = self._connections.get((topic, ros_type))
+            if conn is None:
+                conn = self._writer.add_connection(topic, ros_type, typestore=self._store)
+                self._connections[(topic, ros_type)] = conn
+            self._writer.write(conn, int(t_ns), data)
+        except OSError as exc:
+            raise self._close_after(exc, received=self.message_count + 1) from None
         self.message_count += 1
 
     def flush_if_due(self) -> None:
         """Flush the open chunk if the flush period elapsed (call from a timer when idle)."""
-        if self._writer is not None and isinstance(self._writer.storage, _FlushingMcapStorage):
-            self._writer.storage.flush_if_due()
+        self._guarded(lambda s: s.flush_if_due())
 
     def flush(self) -> None:
         """End the open chunk now (a chunk boundary, e.g. between experiment phases)."""
+        self._guarded(lambda s: s.flush())
+
+    def _guarded(self, action: Any) -> None:
         if self._writer is not None and isinstance(self._writer.storage, _FlushingMcapStorage):
-            self._writer.storage.flush()
+            try:
+                action(self._writer.storage)
+            except OSError as exc:
+                raise self._close_after(exc, received=self.message_count) from None
+
+    def _close_after(self, exc: OSError, received: int) -> BagWriteError:
+        """Cut the bag back to its last whole chunk, close it, and describe what was kept."""
+        writer, self._writer = self._writer, None
+        assert writer is not None
+        storage = writer.storage
+        if not isinstance(storage, _FlushingMcapStorage):  # the MCAP is complete, metadata.yaml failed
+            return BagWriteError(
+                f"bag {self.path}: writing metadata.yaml failed ({_why(exc)}); the MCAP file is complete: "
+                f"free space, then `msd-bench bag recover {self.path}`", received, 0)
+        counts = storage.rollback()
+        writer.counts.update(counts)
+        kept = sum(counts.values())
+        where = f"bag {self.path}: write failed ({_why(exc)})"
+        try:
+            writer.close()
+        except OSError as exc2:
+            storage.abort()
+            return BagWriteError(
+                f"{where}; could not close the bag either ({_why(exc2)}): {kept} of {received} messages "
+                f"are on disk; free space, then `msd-bench bag recover {self.path}`", kept, received - kept)
+        return BagWriteError(f"{where}; closed the bag with the {kept} of {received} messages "
+                             f"that reached the disk whole", kept, received - kept)
 
     def close(self) -> None:
         """Finish the MCAP summary and write ``metadata.yaml``; idempotent."""
         writer, self._writer = self._writer, None
         if writer is not None:
-            writer.close()
+            try:
+                writer.close()
+            except OSError as exc:
+                self._writer = writer
+                raise self._close_after(exc, received=self.message_count) from None
 
     def __enter__(self) -> BagRecorder:
         return self.open()

@@ -25,6 +25,7 @@ from rosbags.typesys.store import Typestore
 
 from msd_bench.core.data import Experiment
 from msd_bench.core.errors import MsdBenchError
+from msd_bench.io.bag_timing import READ, TimingPolicy, check_timing
 from msd_bench.io.bag_writer import (  # noqa: F401  (re-exported: one module for callers)
     PARAMS_KEY,
     PARAMS_RECORD,
@@ -35,7 +36,18 @@ from msd_bench.io.bag_writer import (  # noqa: F401  (re-exported: one module fo
 from msd_bench.io.errors import BagError
 from msd_msgs_py.contract import JOINT_NAME, JOINT_STATES, PLANT_NAMESPACE
 
+UNCHECKED = TimingPolicy(min_samples=0, rate_tolerance=float("inf"), gap_factor=float("inf"))
+"""Timing policy that only refuses stamps going backwards or repeating (closed-loop runs, tests)."""
+
 _READ_ERRORS = (ReaderError, OSError, EOFError, struct.error, KeyError, IndexError, ValueError)
+
+
+def missing_metadata(path: Path) -> BagError:
+    """The one line for a bag directory without ``metadata.yaml`` (a killed recording)."""
+    return BagError(
+        f"bag {path} has no metadata.yaml: an interrupted recording? "
+        f"try `msd-bench bag recover {path}`"
+    )
 
 
 @contextmanager
@@ -45,10 +57,7 @@ def _open_bag(path: str | Path) -> Iterator[Reader]:
     if not path.exists():
         raise BagError(f"bag {path} does not exist")
     if path.is_dir() and not (path / "metadata.yaml").exists():
-        raise BagError(
-            f"bag {path} has no metadata.yaml: an interrupted recording? "
-            f"try `msd-bench bag recover {path}`"
-        )
+        raise missing_metadata(path)
     try:
         with Reader(path) as reader:
             yield reader
@@ -104,12 +113,14 @@ def _params(path: Path, reader: Reader) -> dict[str, Any]:
 
 
 def read_experiment(
-    path: str | Path, namespace: str = PLANT_NAMESPACE
+    path: str | Path, namespace: str = PLANT_NAMESPACE, *, timing: TimingPolicy | None = None
 ) -> tuple[Experiment, dict[str, Any]]:
-    """Force and position from ``<namespace>/joint_states``, sorted by header stamp.
+    """Force and position from ``<namespace>/joint_states``, in stamp order.
 
     Works on any rosbag2 MCAP bag with that topic (e.g. ``ros2 bag record`` on a
-    rig); the parameters dict is empty when the bag carries none.
+    rig); the parameters dict is empty when the bag carries none. The header
+    stamps, in the order the bag stores them, must pass ``timing`` (default:
+    the run's 10 ms, in order, no gaps; see :mod:`.bag_timing`).
     """
     path = Path(path)
     topic = JOINT_STATES.resolve(namespace)
@@ -126,6 +137,7 @@ def read_experiment(
     if not rows:
         raise BagError(f"bag {path}: topic {topic} has no messages")
     stamps = np.array([r[0] for r in rows], dtype=np.int64)
+    check_timing(path, stamps, READ if timing is None else timing)
     data = np.array([r[1:] for r in rows], dtype=np.float64)
     order = np.argsort(stamps, kind="stable")
     try:

@@ -35,6 +35,19 @@ from msd_msgs_py.ros import float64, msg_class, qos
 
 SIGNALS = ("prbs", "multilevel", "steps")
 
+MAX_SIGNAL_SAMPLES = 10_000_000
+"""Longest signal a node will build: 28 h at 100 Hz (80 MB of float64). A slip like
+``prbs.n_samples:=100000000000`` is refused instead of filling memory and disk."""
+SIGNAL_RANGES: dict[str, tuple[float, float]] = {
+    "n_samples": (1, MAX_SIGNAL_SAMPLES),
+    "settle": (0, MAX_SIGNAL_SAMPLES),
+    "hold": (1, 100_000),
+    "dwell": (1, MAX_SIGNAL_SAMPLES),
+    "min_dwell": (1, MAX_SIGNAL_SAMPLES),
+    "max_dwell": (1, MAX_SIGNAL_SAMPLES),
+}
+"""Bounds of the integer signal fields (samples), shared by every signal kind."""
+
 
 @dataclass(frozen=True)
 class ExcitationNodeConfig:
@@ -120,9 +133,9 @@ class ExcitationNode(Node):
         self._timer: Timer | None = None
 
     def _declare_signal(self) -> np.ndarray:
-        prbs = declare_from_dataclass(self, exc.PrbsConfig, "prbs.")
-        multilevel = declare_from_dataclass(self, exc.MultilevelConfig, "multilevel.")
-        steps = declare_from_dataclass(self, exc.StepsConfig, "steps.")
+        prbs = declare_from_dataclass(self, exc.PrbsConfig, "prbs.", ranges=SIGNAL_RANGES)
+        multilevel = declare_from_dataclass(self, exc.MultilevelConfig, "multilevel.", ranges=SIGNAL_RANGES)
+        steps = declare_from_dataclass(self, exc.StepsConfig, "steps.", ranges=SIGNAL_RANGES)
         return build_signal(self.config, prbs, multilevel, steps)
 
     def _matched(self) -> bool:

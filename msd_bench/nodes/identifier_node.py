@@ -25,6 +25,7 @@ from msd_bench.core.plant import PlantParams
 from msd_bench.core.registry import MODEL_KINDS, check_models, needs_bias_records
 from msd_bench.io import artifacts
 from msd_bench.io.bag_records import explicit_roles, load_records, roles_from_dir
+from msd_bench.io.paths import OutputError, writable_dir
 from msd_bench.io.run_output import write_models
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import PLANT_NAMESPACE
@@ -69,6 +70,7 @@ class IdentifierConfig:
 
 def identify_from_bags(cfg: IdentifierConfig) -> dict[str, Any]:
     """Read, fit, write; return the fit reports (shared by the node and the tests)."""
+    out = writable_dir(cfg.out_dir, "out_dir")  # before the fit: a read-only disk fails at once
     if cfg.bags_dir:
         roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace)
     else:
@@ -79,10 +81,12 @@ def identify_from_bags(cfg: IdentifierConfig) -> dict[str, Any]:
     prov = artifacts.Provenance(tuple(artifacts.source(r.path) for r in roles),
                                 {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()},
                                 cfg.seed)
-    out = Path(cfg.out_dir)
-    write_models(out, models, fits, prov)
     report = {name: asdict(f) for name, f in fits.items()}
-    (out / "fits.json").write_text(json.dumps(artifacts.jsonable(report), indent=1) + "\n")
+    try:
+        write_models(out, models, fits, prov)
+        (out / "fits.json").write_text(json.dumps(artifacts.jsonable(report), indent=1) + "\n")
+    except OSError as exc:
+        raise OutputError(f"out_dir {out}: writing the models failed ({exc.strerror or exc})") from None
     return report
 
 

@@ -11,24 +11,30 @@ an optional range (``field(metadata={"range": (lo, hi)})`` or a per-class
 Any wrong value — a type ROS cannot coerce, a value outside its range, or one
 the dataclass' own validation rejects — surfaces as one
 :class:`~msd_bench.core.errors.ConfigError` line, which :mod:`.spin` prints
-without a traceback.
+without a traceback. So does a parameter name no node declares
+(:func:`reject_unknown_parameters`: a misspelt ``watchdog_timout`` must not
+silently run with the default) and a params file that is not a YAML mapping
+(:func:`check_params_files`).
 """
 
 from __future__ import annotations
 
 import ast
 import dataclasses
+import difflib
 import functools
 import inspect
 import itertools
 import math
 import textwrap
 import typing
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
 from typing import Any, TypeVar
 
+import yaml
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.exceptions import ParameterException
+from rclpy.exceptions import InvalidParameterValueException, ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -100,16 +106,28 @@ def _descriptor(
     return desc
 
 
-def _coerce_overrides(node: Node, name: str, ptype: Parameter.Type) -> None:
-    """Let ``-p mass:=2`` set a float field: ROS parses ``2`` as an integer and would refuse it."""
+def _coerce_overrides(node: Node, name: str, ptype: Parameter.Type) -> bool:
+    """Let ``-p mass:=2`` set a float field: ROS parses ``2`` as an integer and would refuse it.
+
+    ``-p seeds:=[]`` arrives untyped (NOT_SET) and ROS cannot store an empty
+    array of a declared type: returns True ("the user gave an empty array"),
+    removes the override, and the dataclass judges the empty value. For a
+    scalar an untyped value is a missing value.
+    """
     overrides: dict[str, Parameter[Any]] = getattr(node, "_parameter_overrides", {})
     given = overrides.get(name)
     if given is None:
-        return
+        return False
+    if given.type_ == Parameter.Type.NOT_SET:
+        if ptype not in _ARRAYS.values():
+            raise ConfigError(f"parameter {name}: no value given (expected a {ptype.name.lower()})")
+        del overrides[name]
+        return True
     if ptype == Parameter.Type.DOUBLE and given.type_ == Parameter.Type.INTEGER:
         overrides[name] = Parameter(name, Parameter.Type.DOUBLE, float(given.value))
     elif ptype == Parameter.Type.DOUBLE_ARRAY and given.type_ == Parameter.Type.INTEGER_ARRAY:
         overrides[name] = Parameter(name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in given.value])
+    return False
 
 
 def _bounds(cls: type, f: dataclasses.Field[Any], ranges: Mapping[str, Range] | None) -> Range | None:
@@ -147,11 +165,14 @@ def declare_from_dataclass(
         ptype, elem, is_seq = _ros_type(hints[f.name], f.name)
         default = getattr(defaults, f.name) if defaults is not None else _default(f)
         desc = _descriptor(name, docs.get(f.name, ""), ptype, _bounds(cls, f, ranges))
-        _coerce_overrides(node, name, ptype)
+        empty = _coerce_overrides(node, name, ptype)
         try:
             value = node.declare_parameter(name, _to_ros(default, ptype, is_seq), desc).value
+        except InvalidParameterValueException as exc:
+            raise ConfigError(f"parameter {name}: {_range_text(exc)}") from None
         except ParameterException as exc:
             raise ConfigError(f"parameter {name}: {_one_line(exc)}") from None
+        value = [] if empty else value
         _check_finite(name, value)
         values[f.name] = tuple(elem(v) for v in value) if is_seq else value
     try:
@@ -181,6 +202,97 @@ def _check_finite(name: str, value: Any) -> None:
     for v in items:
         if isinstance(v, float) and not math.isfinite(v):
             raise ConfigError(f"parameter {name} must be finite, got {v}")
+
+
+ROS_OWN_NAMES = frozenset({"use_sim_time", "start_type_description_service"})
+"""Parameters rclpy itself reads; every node accepts them."""
+ROS_OWN_PREFIXES = ("qos_overrides.",)
+"""Prefixes of parameters rclpy reads (QoS overrides of publishers and subscriptions)."""
+
+
+def _params_files(argv: Sequence[str]) -> list[str]:
+    """Paths given with ``--params-file`` (or ``-p``-less file forms) after ``--ros-args``."""
+    files = []
+    for flag, value in itertools.pairwise(argv):
+        if flag == "--params-file":
+            files.append(value)
+    return files
+
+
+def _load_params_file(path: str) -> dict[Any, Any]:
+    try:
+        doc = yaml.safe_load(Path(path).read_text())
+    except OSError as exc:
+        raise ConfigError(f"params file {path}: cannot read it ({exc.strerror or exc})") from None
+    except yaml.YAMLError as exc:
+        where = getattr(exc, "problem_mark", None)
+        line = f" (line {where.line + 1})" if where is not None else ""
+        raise ConfigError(f"params file {path} is not valid YAML{line}") from None
+    if not isinstance(doc, dict) or not all(
+        isinstance(v, dict) and isinstance(v.get("ros__parameters"), dict) for v in doc.values()
+    ):
+        raise ConfigError(
+            f"params file {path} is not a ROS params file: expected `<node or /**>: ros__parameters: {{...}}`"
+        )
+    return doc
+
+
+def check_params_files(argv: Sequence[str]) -> None:
+    """Every ``--params-file`` must be readable YAML shaped as ROS expects (rcl would ignore it)."""
+    for path in _params_files(argv):
+        _load_params_file(path)
+
+
+def _flat(prefix: str, tree: Mapping[str, Any]) -> Iterable[str]:
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            yield from _flat(f"{prefix}{key}.", value)
+        else:
+            yield f"{prefix}{key}"
+
+
+def wildcard_parameter_names(argv: Sequence[str]) -> set[str]:
+    """Names set in ``/**`` sections of the params files: meant for every node, so none may refuse them."""
+    names: set[str] = set()
+    for path in _params_files(argv):
+        for section, body in _load_params_file(path).items():
+            if str(section).rstrip("/").endswith("**") and str(section).startswith("/**"):
+                names |= set(_flat("", body["ros__parameters"]))
+    return names
+
+
+_WILDCARD_NAMES: set[str] = set()
+"""Names from the ``/**`` sections of this process's params files (set by :mod:`.spin`)."""
+
+
+def allow_wildcard_names(names: Iterable[str]) -> None:
+    """Remember the ``/**`` names of this process (see :func:`wildcard_parameter_names`)."""
+    _WILDCARD_NAMES.clear()
+    _WILDCARD_NAMES.update(names)
+
+
+def reject_unknown_parameters(node: Node, allowed: Iterable[str] = ()) -> None:
+    """One ConfigError line for an override that names no parameter this node declared.
+
+    Call it once every parameter is declared — nodes that do slow work at
+    start-up (the plant's duplicate check) call it before that work, and
+    :mod:`.spin` calls it again after building any node.
+    """
+    overrides: dict[str, Any] = getattr(node, "_parameter_overrides", {})
+    declared = set(node.list_parameters([], 0).names)  # depth 0: every level
+    ok = declared | ROS_OWN_NAMES | set(allowed) | _WILDCARD_NAMES
+    unknown = sorted(n for n in overrides if n not in ok and not n.startswith(ROS_OWN_PREFIXES))
+    if unknown:
+        close = difflib.get_close_matches(unknown[0], sorted(declared), n=1)
+        hint = f"; did you mean {close[0]}?" if close else f"; known: {', '.join(sorted(declared))}"
+        raise ConfigError(f"node {node.get_fully_qualified_name()} has no parameter {unknown[0]}{hint}")
+
+
+def _range_text(exc: InvalidParameterValueException) -> str:
+    """rclpy's out-of-range message without the repetitions: the value and the bounds."""
+    text = _one_line(exc)
+    reason = text.split("Reason: ", 1)[-1].rsplit(":", 1)[0]
+    return reason.replace("Parameter ", "value ", 1)
 
 
 def _one_line(exc: BaseException) -> str:

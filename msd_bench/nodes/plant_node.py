@@ -34,27 +34,44 @@ the acknowledgement a command could overtake the reset.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
+from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.clock import Clock, ClockType
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.publisher import Publisher
-from std_msgs.msg import Empty, Float64
+from rclpy.task import Future
+from std_msgs.msg import Empty, Float64, String
 
 from msd_bench.core import kernels
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams, preset
-from msd_bench.nodes.params import declare_from_dataclass
+from msd_bench.core.plant import PRESETS, PlantParams, preset
+from msd_bench.nodes import plant_claim
+from msd_bench.nodes.params import declare_from_dataclass, reject_unknown_parameters
 from msd_bench.nodes.spin import DeadlinePacer
-from msd_msgs_py.contract import CLOCK, FORCE, JOINT_STATES, PLANT_NAMESPACE, POSITION, RESET
+from msd_msgs_py.contract import (
+    CLOCK,
+    FORCE,
+    JOINT_STATES,
+    PLANT_CLAIM,
+    PLANT_NAMESPACE,
+    POSITION,
+    RESET,
+)
 from msd_msgs_py.ros import clock, float64, joint_state, msg_class, qos
 
 
 class GraphConflictError(MsdBenchError):
     """Another node already serves the topics this node would publish."""
+
+
+EXIT_CONFLICT = 2
+"""Exit status of a plant-like node that gave its namespace to an earlier one."""
 
 
 @dataclass(frozen=True)
@@ -66,7 +83,8 @@ class PlantNodeConfig:
     watchdog_timeout: float = field(default=0.5, metadata={"range": (0.001, 60.0)})
     """Real-time only: seconds without a command after which the applied force drops to 0 N."""
     duplicate_check: float = field(default=4.0, metadata={"range": (0.0, 30.0)})
-    """Seconds to look for another publisher of <ns>/joint_states before starting; 0 skips."""
+    """Seconds to listen for an earlier plant-like node's claim on the namespace before serving
+    (claims are also re-checked every second afterwards); 0 serves at once."""
 
 
 @dataclass(frozen=True)
@@ -87,10 +105,25 @@ def true_plant_spec(preset_name: str = "default", **overrides: float) -> ModelSp
     return ModelSpec(plant_model(params), params.dt, params.F)
 
 
+PLANT_RANGES: dict[str, tuple[float, float]] = {
+    "m": (1e-3, 1e3),
+    "k": (0.0, 1e3),
+    "F": (1e-3, 1e4),
+    "dt": (1e-4, 1.0),
+}
+"""Bounds ``ros2 param describe`` shows for the plant's mass (kg), spring gain (N), force limit (N)
+and sample time (s): wide enough for any rig, narrow enough to catch a unit slip."""
+
+
 def declare_true_plant(node: Node) -> ModelSpec:
     """Read ``preset`` and the :class:`PlantParams` fields (defaults from the preset) as parameters."""
-    name: str = node.declare_parameter("preset", "default").value
-    params = declare_from_dataclass(node, PlantParams, defaults=preset(str(name)))
+    desc = ParameterDescriptor(
+        name="preset", type=ParameterType.PARAMETER_STRING, read_only=True,
+        description=f"Named plant parameter set the fields default to, read once at start-up: "
+                    f"{', '.join(sorted(PRESETS))}.",
+    )
+    name: str = node.declare_parameter("preset", "default", desc).value
+    params = declare_from_dataclass(node, PlantParams, defaults=preset(str(name)), ranges=PLANT_RANGES)
     return ModelSpec(plant_model(params), params.dt, params.F)
 
 
@@ -113,7 +146,10 @@ class PlantNode(Node):
         self._is_plant = self.spec.model.kind == kernels.KIND_PLANT
         self._dt_ns = round(self.spec.dt * 1e9)
         self.counters = {"steps": 0, "rejected": 0, "saturated": 0, "watchdog": 0}
-        self._refuse_duplicate()
+        reject_unknown_parameters(self)
+        self.done: Future = Future()
+        """Completes with :data:`EXIT_CONFLICT` when an earlier plant claims the namespace."""
+        self._claim_namespace()
         self.spec.model.step(self.spec.model.initial_state(), 0.0)  # compile before the first tick
         self._pub_js: Publisher = self.create_publisher(
             msg_class(JOINT_STATES), JOINT_STATES.name, qos(JOINT_STATES)
@@ -128,8 +164,9 @@ class PlantNode(Node):
         self._pacer = DeadlinePacer(self.spec.dt)
         self._ros0 = self.get_clock().now().nanoseconds
         self._mono0 = time.monotonic()
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(plant_claim.HEARTBEAT_S, self._on_heartbeat, clock=steady)
         if not self.config.lockstep:
-            steady = Clock(clock_type=ClockType.STEADY_TIME)
             self.create_timer(self.spec.dt, self._on_timer, clock=steady)
         mode = "lock-step" if self.config.lockstep else f"real-time {1 / self.spec.dt:g} Hz"
         self.get_logger().info(f"plant-like node {self.spec.model.name or 'model'} ready ({mode})")
@@ -139,18 +176,63 @@ class PlantNode(Node):
         """Index of the next sample to be published (0 after a reset)."""
         return self._k
 
-    def _refuse_duplicate(self) -> None:
-        """One plant per namespace: two would interleave samples on the same topics."""
+    def _claim_namespace(self) -> None:
+        """One plant per namespace (two would interleave samples): see :mod:`.plant_claim`.
+
+        Announce a claim, then listen for ``duplicate_check`` seconds before
+        serving; an earlier live claim stops this node here (GraphConflictError)
+        or, if one turns up later, at the next heartbeat (:meth:`_on_heartbeat`).
+        """
+        self._claim = plant_claim.new_claim(self.get_fully_qualified_name())
+        self._heard: dict[str, tuple[plant_claim.Claim, int]] = {}
+        self._pub_claim = self.create_publisher(String, PLANT_CLAIM.name, qos(PLANT_CLAIM))
+        listen = qos(PLANT_CLAIM)
+        listen.depth = 32  # one latched claim per rival writer, several may arrive in one spin
+        self.create_subscription(String, PLANT_CLAIM.name, self._on_claim, listen)
+        self._pub_claim.publish(String(data=plant_claim.encode(self._claim)))
+        if self.config.duplicate_check <= 0:
+            return
+        executor = SingleThreadedExecutor(context=self.context)
+        executor.add_node(self)
+        try:
+            deadline = time.monotonic() + self.config.duplicate_check
+            while time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.05)
+                rival = self._earlier_rival()
+                if rival is not None:
+                    raise GraphConflictError(self._conflict_text(rival) + "; refusing to start")
+        finally:
+            executor.remove_node(self)
+            executor.shutdown()
+
+    def _on_claim(self, msg: String) -> None:
+        got = plant_claim.decode(msg.data)
+        if got is not None:
+            self._heard[got[0].token] = got
+
+    def _earlier_rival(self) -> plant_claim.Claim | None:
+        return plant_claim.earlier_rival(self._claim, self._heard, time.time_ns())
+
+    def _conflict_text(self, rival: plant_claim.Claim) -> str:
         topic = JOINT_STATES.resolve(self.get_namespace())
-        deadline = time.monotonic() + self.config.duplicate_check
-        while True:
-            others = self.get_publishers_info_by_topic(topic)
-            if others:
-                who = f"{others[0].node_namespace.rstrip('/')}/{others[0].node_name}"
-                raise GraphConflictError(f"{topic} already has a publisher ({who}); refusing to start")
-            if time.monotonic() >= deadline:
-                return
-            time.sleep(0.05)
+        return f"{topic} already has a publisher ({rival.describe(self._claim)})"
+
+    def _on_heartbeat(self) -> None:
+        """Re-send the claim; yield to an earlier live claim that appeared after start-up."""
+        if self.done.done():
+            return
+        self._pub_claim.publish(String(data=plant_claim.encode(self._claim)))
+        rival = self._earlier_rival()
+        if rival is not None:
+            print(f"error: {self._conflict_text(rival)}; shutting down", file=sys.stderr, flush=True)
+            self.done.set_result(EXIT_CONFLICT)
+
+    def destroy_node(self) -> None:
+        """Release the claim first: a node destroyed a moment ago is never taken for a live one."""
+        claim = getattr(self, "_claim", None)
+        if claim is not None:
+            plant_claim.release(claim)
+        super().destroy_node()
 
     def _on_reset(self, _msg: Empty | None) -> None:
         self._state = self.spec.model.initial_state()

@@ -6,6 +6,11 @@ the node clock (sim time in lock-step mode). The bag is closed when the node
 closes (Ctrl-C, SIGTERM through :mod:`.spin`) or when a limit is reached, which
 also completes ``done`` so the process exits. A timer flushes the open chunk
 while topics are idle, so a SIGKILL loses at most about ``flush_period_s``.
+
+A write error (full or read-only storage) stops the recording: the bag is
+closed with what reached the disk whole (:class:`~msd_bench.io.bag_writer.BagWriteError`
+says how much), one error line is logged, and the process exits with
+:data:`EXIT_WRITE_ERROR`.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from std_msgs.msg import String
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.io.bag_writer import BagRecorder
+from msd_bench.io.errors import BagError
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import (
     ALL_TOPICS,
@@ -36,6 +42,9 @@ from msd_msgs_py.contract import (
 from msd_msgs_py.ros import msg_class, qos
 
 _SPECS = {spec.name: spec for spec in ALL_TOPICS}
+
+EXIT_WRITE_ERROR = 1
+"""Exit status of a recorder whose storage refused a write (the bag is closed, shorter)."""
 
 
 @dataclass(frozen=True)
@@ -157,14 +166,29 @@ class RecorderNode(Node):
             return
         if self._started is None:
             self._started = time.monotonic()
-        self._recorder.write(topic, ros_type, self.get_clock().now().nanoseconds, data)
+        try:
+            self._recorder.write(topic, ros_type, self.get_clock().now().nanoseconds, data)
+        except BagError as exc:
+            self._fail(exc)
+            return
         self._written += 1
         self._check_limits()
 
     def _on_timer(self) -> None:
         if self._recorder is not None:
-            self._recorder.flush_if_due()
+            try:
+                self._recorder.flush_if_due()
+            except BagError as exc:
+                self._fail(exc)
+                return
             self._check_limits()
+
+    def _fail(self, exc: BagError) -> None:
+        """Storage refused a write: the bag is already closed; say so once and end non-zero."""
+        self._recorder = None
+        self.get_logger().error(str(exc))
+        if not self.done.done():
+            self.done.set_result(EXIT_WRITE_ERROR)
 
     def _check_limits(self) -> None:
         cfg = self.config
@@ -182,7 +206,14 @@ class RecorderNode(Node):
         recorder, self._recorder = self._recorder, None
         if recorder is None:
             return
-        recorder.close()
+        try:
+            recorder.close()
+        except BagError as exc:
+            self._recorder = None
+            print(f"[{self.get_fully_qualified_name()}] error: {exc}", flush=True)
+            if not self.done.done():
+                self.done.set_result(EXIT_WRITE_ERROR)
+            return
         if self.context.ok():  # after SIGTERM the context is gone and rosout would complain
             self.get_logger().info(f"closed {recorder.path} with {recorder.message_count} messages")
         if not self.done.done():

@@ -14,16 +14,24 @@ there).
 
 from __future__ import annotations
 
+import signal
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import rclpy
-from rclpy._rclpy_pybind11 import RCLError
+from rclpy._rclpy_pybind11 import RCLError, UnknownROSArgsError
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.utilities import remove_ros_args
 
-from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.nodes.params import (
+    allow_wildcard_names,
+    check_params_files,
+    reject_unknown_parameters,
+    wildcard_parameter_names,
+)
 
 EXIT_USAGE = 2
 """Exit status of a process that stopped on a user mistake."""
@@ -87,28 +95,78 @@ def close_node(node: Node) -> None:
 
 
 def main(build: Callable[[], Node], args: Sequence[str] | None = None) -> int:
-    """Run the node ``build()`` makes in this process; return the process exit status."""
+    """Run the node ``build()`` makes in this process; return the process exit status.
+
+    An ``RCLError`` means malformed ``--ros-args`` only while rcl initialises;
+    once the context exists, one raised after a signal shut the context down
+    ("publisher's context is invalid", "failed to initialize wait set") is
+    part of a normal stop and exits 0.
+    """
     argv = list(sys.argv if args is None else args)
-    node: Node | None = None
-    status = 0
     try:
-        with rclpy.init(args=argv):
-            try:
-                node = build()
-                status = spin_node(node, make_executor())
-            except (KeyboardInterrupt, ExternalShutdownException):
-                status = 0
-            finally:
-                if node is not None:
-                    close_node(node)
+        check_params_files(argv)
+        allow_wildcard_names(wildcard_parameter_names(argv))
     except MsdBenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    for sig in (signal.SIGINT, signal.SIGTERM):  # replace a launch script's start-up handler:
+        signal.signal(sig, signal.default_int_handler)  # a stop from here on is KeyboardInterrupt
+    try:
+        context = rclpy.init(args=argv)
     except RCLError as exc:  # malformed --ros-args: rcl refuses to initialise
         print(f"error: {str(exc).split(', at ')[0]}", file=sys.stderr)
         return EXIT_USAGE
+    except UnknownROSArgsError as exc:
+        print(f"error: unknown ROS argument {exc} (after --ros-args)", file=sys.stderr)
+        return EXIT_USAGE
     except KeyboardInterrupt:
         return 0
+    try:
+        with context:
+            return _run_node(build, argv)
+    except KeyboardInterrupt:
+        return 0
+
+
+def _run_node(build: Callable[[], Node], argv: list[str]) -> int:
+    """Build, spin and close the node inside an initialised context."""
+    node: Node | None = None
+    status = 0
+    try:
+        extra = remove_ros_args(argv)[1:]
+        if extra:
+            raise ConfigError(f"unexpected argument {extra[0]!r}: node options go after --ros-args, "
+                              f"e.g. --ros-args -p name:=value")
+        node = build()
+        reject_unknown_parameters(node)
+        status = spin_node(node, make_executor())
+    except (KeyboardInterrupt, ExternalShutdownException):
+        status = 0
+    except MsdBenchError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        status = EXIT_USAGE
+    except RCLError:
+        if rclpy.ok():
+            raise
+        status = 0  # a signal shut the context down under a callback: a normal stop
+    finally:
+        if node is not None:
+            status = _close(node, status)
+    return status
+
+
+def _close(node: Node, status: int) -> int:
+    """Close the node; a ``done`` it completed while closing (a failed bag) decides the status."""
+    try:
+        close_node(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except RCLError:
+        if rclpy.ok():
+            raise
+    done = getattr(node, "done", None)
+    if status == 0 and done is not None and done.done():
+        return int(done.result())
     return status
 
 

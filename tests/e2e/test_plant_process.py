@@ -84,7 +84,7 @@ def test_bad_parameter_exits_with_one_line():
     assert proc.wait(20.0) == 2
     time.sleep(0.1)  # let the reader thread collect the last line
     assert [ln for ln in proc.lines if ln.strip()] == [
-        "error: PlantParams parameters: plant parameter m must be finite and > 0, got -1.0"
+        "error: parameter m: value m out of range Min: 0.001, Max: 1000.0, value: -1.0"
     ]
 
 

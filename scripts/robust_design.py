@@ -1,0 +1,91 @@
+"""How the robust agent's observer and training perturbations were chosen — on surrogates only.
+
+Protocol (docs/decisions.md §Robust agent): identification seed 90 and
+learning seeds 90,000+ are never reported anywhere else. Each candidate is
+trained on one identified surrogate and validated on *another* surrogate
+family standing in for the plant (PLM → improved NLARX and back), so neither
+the true plant nor a reported seed takes part in the choice. Scored under the
+three conditions the floors name: nominal, noise=0.005 and delay=1.
+
+    python scripts/robust_design.py [--seeds 32]   # prints JSON, writes docs/results/robust_design.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from msd_bench.app.config import RunConfig  # noqa: E402
+from msd_bench.app.pipeline import identify_surrogates, make_records  # noqa: E402
+from msd_bench.core.closed_loop import greedy_under  # noqa: E402
+from msd_bench.core.metrics import compute  # noqa: E402
+from msd_bench.core.qconfig import QConfig, improved_config, packed  # noqa: E402
+from msd_bench.core.qtrain import train  # noqa: E402
+from msd_bench.core.robustness import conditions, sensor_noise  # noqa: E402
+from msd_bench.core.scenarios import parse  # noqa: E402
+
+DESIGN_ID_SEED = 90
+DESIGN_FIRST_SEED = 90_000
+CONDITIONS = ("nominal", "noise=0.005", "delay=1")
+
+
+def candidates() -> list[tuple[str, QConfig]]:
+    """The improved agent, then α-β observers (critically damped b = a²/(2-a)) × training perturbations."""
+    out = [("improved", improved_config())]
+    for a, noise, delay in itertools.product((0.15, 0.25, 0.4), (0.0, 0.006), (0, 1)):
+        b = round(a * a / (2 - a), 4)
+        out.append((f"a={a},b={b},noise={noise},delay={delay}",
+                    improved_config(obs_gain=a, obs_velocity_gain=b, train_noise=noise, train_delay=delay)))
+    return out
+
+
+def score(cfg: QConfig, q: np.ndarray, stand_in, seeds: list[int]) -> dict[str, int]:
+    """Successes under each condition, validated on the stand-in surrogate."""
+    out = {}
+    for text in CONDITIONS:
+        sc = parse(text)
+        xs, _ = greedy_under(stand_in.kernel, packed(cfg), q, conditions(sc, 0.01),
+                             sensor_noise(sc, seeds, 3000))
+        out[text] = int(sum(compute(x, sc.setpoint, 0.01, 500).sse < 5.0 for x in xs))
+    return out
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--seeds", type=int, default=32)
+    args = p.parse_args()
+    run = RunConfig()
+    models, _ = identify_surrogates(make_records(run, DESIGN_ID_SEED), ["plm", "nlarx-improved"],
+                                    DESIGN_ID_SEED, run.plant)
+    seeds = list(range(DESIGN_FIRST_SEED, DESIGN_FIRST_SEED + args.seeds))
+    rows = []
+    for name, cfg in candidates():
+        t0 = time.perf_counter()
+        row: dict[str, object] = {"candidate": name}
+        for train_on, stand_in in (("plm", "nlarx-improved"), ("nlarx-improved", "plm")):
+            q = train(models[train_on], replace(cfg, force=run.plant.F), seeds).q
+            for cond, wins in score(cfg, q, models[stand_in], seeds).items():
+                row[f"{train_on}->{stand_in} {cond}"] = wins
+        row["worst"] = min(v for k, v in row.items() if "->" in k)
+        row["total"] = sum(v for k, v in row.items() if "->" in k)
+        row["seconds"] = round(time.perf_counter() - t0, 1)
+        rows.append(row)
+        print(json.dumps(row), flush=True)
+    doc = {"command": "python scripts/robust_design.py --seeds " + str(args.seeds), "n": args.seeds,
+           "design_id_seed": DESIGN_ID_SEED, "design_first_seed": DESIGN_FIRST_SEED, "table": rows}
+    (REPO / "docs" / "results" / "robust_design.json").write_text(json.dumps(doc, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

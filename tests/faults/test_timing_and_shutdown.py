@@ -1,0 +1,115 @@
+"""Fault rows "bad timing accepted", "shutdown" and "bench.py processes and paths", from outside."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from msd_bench import launch
+from msd_bench.io.bags import write_experiment
+
+REPO = Path(__file__).resolve().parents[2]
+pytestmark = pytest.mark.e2e
+
+
+def _bag(path: Path, t: np.ndarray, role: str) -> None:
+    n = t.size
+    u = np.random.default_rng(0).choice([-10.0, 0.0, 10.0], n)
+    write_experiment(path, t, u, np.zeros(n), np.zeros(n), params={"role": role, "signal": "multilevel"})
+
+
+def _run(argv: list[str], cwd: Path = REPO) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(argv, cwd=cwd, capture_output=True, text=True, timeout=180,
+                          env=launch.ros_env(int(os.environ["ROS_DOMAIN_ID"])))
+
+
+def test_identifier_refuses_a_1khz_bag_naming_both_rates(tmp_path: Path) -> None:
+    bags = tmp_path / "bags"
+    _bag(bags / "broad", np.arange(2000, dtype=np.int64) * 1_000_000, "train")
+    _bag(bags / "val", np.arange(2000, dtype=np.int64) * 10_000_000, "validation")
+    proc = _run([sys.executable, "launch_scripts/identifier.py", "--ros-args", "-p", f"bags_dir:={bags}",
+                 "-p", "models:=[glm]", "-p", f"out_dir:={tmp_path / 'models'}"])
+    assert proc.returncode == 2, proc.stderr
+    line = proc.stderr.strip()
+    assert "\n" not in line and str(bags / "broad") in line and "1000 Hz" in line and "100 Hz" in line
+    assert not (tmp_path / "models" / "glm.json").exists()
+
+
+def test_bench_bags_with_a_killed_recording_points_at_recover(tmp_path: Path) -> None:
+    bags = tmp_path / "bags"
+    _bag(bags / "broad", np.arange(500, dtype=np.int64) * 10_000_000, "train")
+    _bag(bags / "val", np.arange(500, dtype=np.int64) * 10_000_000, "validation")
+    (bags / "broad" / "metadata.yaml").unlink()
+    proc = _run([sys.executable, str(REPO / "launch_scripts" / "bench.py"), "--bags", "bags",
+                 "--out", "run", "--stages", "identify", "--agents", "glm"], cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    assert "msd-bench bag recover" in proc.stderr and str(bags / "broad") in proc.stderr
+    assert "no broad-range" not in proc.stderr
+    assert (tmp_path / "run").is_dir() and not (REPO / "run").exists()  # relative to the caller
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_sigint_at_a_random_moment_exits_0(seed: int) -> None:
+    delay = random.Random(seed).uniform(0.0, 3.0)
+    proc = launch.start("plant.py", ["-p", "duplicate_check:=0.0"])
+    time.sleep(delay)
+    os.killpg(proc.pid, signal.SIGINT)
+    status = proc.wait(20.0)
+    assert status == 0, (delay, proc.output())
+    assert "Traceback" not in proc.output() and "error:" not in proc.output()
+
+
+def test_children_die_with_a_killed_bench(tmp_path: Path) -> None:
+    bench = subprocess.Popen([sys.executable, str(REPO / "launch_scripts" / "bench.py"), "--out", "run",
+                              "--samples", "600", "--val-samples", "400", "--agents", "glm"],
+                             cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                             env=launch.ros_env(None), start_new_session=True)
+    try:
+        children = _wait_for_children(bench.pid, 60.0)
+        assert children, "bench.py started no node process"
+        os.kill(bench.pid, signal.SIGKILL)
+        bench.wait(10)
+        deadline = time.monotonic() + 15.0
+        while time.monotonic() < deadline and any(_alive(c) for c in children):
+            time.sleep(0.1)
+        assert not [c for c in children if _alive(c)]
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(bench.pid, signal.SIGKILL)  # bench.py's own session, should it have survived
+        bench.stderr.close()  # type: ignore[union-attr]
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        text = Path(f"/proc/{pid}/task/{pid}/children").read_text()
+    except OSError:
+        return []
+    return [int(c) for c in text.split()]
+
+
+def _wait_for_children(pid: int, timeout: float) -> list[int]:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        kids = _children(pid)
+        if kids:
+            time.sleep(1.0)  # let the plant get past its imports
+            return _children(pid)
+        time.sleep(0.1)
+    return []
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
