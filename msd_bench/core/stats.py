@@ -91,3 +91,26 @@ def rate_text(k: int, n: int) -> str:
     if n <= 0:
         return f"{k}/{n}"
     return f"{k}/{n} ({100 * k / n:.0f} %, CI {100 * lo:.0f}–{100 * hi:.0f} %)"
+
+
+def prediction_interval(k: int, n: int, m: int, level: float = 0.99) -> tuple[int, int]:
+    """Counts a rerun of ``m`` trials may show, given ``k`` of ``n`` before, at ``level`` (two-sided).
+
+    Why: a seed reproduces bit for bit only on the same machine; on another CPU
+    the last digits of an identified model differ and a chaotic learner turns
+    that into other outcomes, so a rerun agrees only in distribution. The
+    interval is the beta-binomial predictive of the Jeffreys posterior
+    Beta(k + ½, n − k + ½): it carries both the rerun's sampling noise and
+    the uncertainty of the stored rate.
+    """
+    from scipy.special import betaln, gammaln
+
+    a, b = k + 0.5, n - k + 0.5
+    js = np.arange(m + 1)
+    logp = (gammaln(m + 1) - gammaln(js + 1) - gammaln(m - js + 1)
+            + betaln(js + a, m - js + b) - betaln(a, b))
+    cdf = np.cumsum(np.exp(logp))
+    tail = (1.0 - level) / 2.0
+    lo = int(np.searchsorted(cdf, tail, side="left"))
+    hi = int(np.searchsorted(cdf, 1.0 - tail, side="left"))
+    return lo, min(hi, m)

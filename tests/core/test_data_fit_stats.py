@@ -78,3 +78,13 @@ def test_wilson_interval_matches_hand_computed_values():
     assert wilson(20, 20)[1] == 1.0 and 0.83 < wilson(20, 20)[0] < 0.85
     assert rate_text(55, 60) == "55/60 (92 %, CI 82–96 %)"
     assert all(v != v for v in wilson(1, 0))  # no trials: no interval
+
+
+def test_prediction_interval_covers_the_stored_count_and_widens_with_less_data():
+    from msd_bench.core.stats import prediction_interval
+
+    lo, hi = prediction_interval(55, 60, 60)
+    assert lo <= 55 <= hi and hi <= 60 and lo >= 40
+    assert prediction_interval(0, 64, 64)[0] == 0 and prediction_interval(64, 64, 64)[1] == 64
+    narrow, wide = prediction_interval(320, 640, 64), prediction_interval(32, 64, 64)
+    assert wide[1] - wide[0] > narrow[1] - narrow[0]
