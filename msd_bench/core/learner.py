@@ -48,6 +48,13 @@ class StepwiseLearner:
         self._a = -1
         self._total = 0.0
         self._steps_left = 0
+        # Observed learners (our robust agent): per-episode noise and delay, the observer's estimate.
+        self._sigma = 0.0
+        self._queue = np.zeros(self._lr.train_delay + 1)
+        self._delay = 0
+        self._k = 0
+        self._xh = 0.0
+        self._dh = 0.0
 
     @property
     def target(self) -> float:
@@ -64,7 +71,10 @@ class StepwiseLearner:
         self._target = float(qlearning.draw_target(self._lr, self._stream, 0))
         self._x = float(x0)
         self._err = abs(self._x - self._target)
-        self._s = self._encode(self._x - self._target, 0.0)
+        if self._lr.observed:
+            self._start_observed()
+        else:
+            self._s = self._encode(self._x - self._target, 0.0)
         self._total = 0.0
         self._steps_left = self.cfg.steps
         return self._target
@@ -74,7 +84,12 @@ class StepwiseLearner:
         if self._steps_left <= 0:
             raise InvalidInputError("episode is over: call start_episode first")
         self._a = int(qlearning.choose(self.q, self._s, self._lr.epsilon, self._stream, 0))
-        return float(self._lr.actions[self._a])
+        u = float(self._lr.actions[self._a])
+        if self._lr.observed and self._delay > 0:  # the actuator acts `delay` samples late
+            self._queue[self._k % (self._delay + 1)] = u
+            u = float(self._queue[(self._k + 1) % (self._delay + 1)])
+        self._k += 1
+        return u
 
     def learn(self, x_new: float) -> None:
         """Reward and temporal-difference update for the transition to ``x_new``."""
@@ -83,7 +98,7 @@ class StepwiseLearner:
         if not np.isfinite(x_new):
             raise InvalidInputError(f"position must be finite, got {x_new}")
         e_new = x_new - self._target
-        s2 = self._encode(e_new, x_new - self._x)
+        s2 = self._observed_state(x_new) if self._lr.observed else self._encode(e_new, x_new - self._x)
         r = float(qlearning.reward(self._lr, abs(e_new), self._err))
         qlearning.td_update(self.q, self._s, self._a, r, s2, self._lr)
         if self.planning_steps:
@@ -95,6 +110,23 @@ class StepwiseLearner:
         self._steps_left -= 1
         if self._steps_left == 0:
             self._end_episode()
+
+    def _start_observed(self) -> None:
+        """Draw the episode's noise and delay (in :func:`qlearning.learn_observed`'s order) and observe x0."""
+        lr, st = self._lr, self._stream
+        self._sigma = lr.train_noise * rng.uniform(st, 0) if lr.train_noise > 0.0 else 0.0
+        self._delay = int(rng.below(st, 0, lr.train_delay + 1)) if lr.train_delay > 0 else 0
+        self._queue[:] = 0.0
+        self._k = 0
+        self._xh, self._dh = qlearning.observe(lr, self._measure(self._x), 0.0, 0.0, True)
+        self._s = self._encode(self._xh - self._target, self._dh)
+
+    def _measure(self, x: float) -> float:
+        return x + self._sigma * float(qlearning.normal(self._stream, 0)) if self._sigma > 0.0 else x
+
+    def _observed_state(self, x_new: float) -> int:
+        self._xh, self._dh = qlearning.observe(self._lr, self._measure(x_new), self._xh, self._dh, False)
+        return self._encode(self._xh - self._target, self._dh)
 
     def _end_episode(self) -> None:
         self.returns.append(self._total)
@@ -118,10 +150,20 @@ class GreedyPolicy:
                 f"({n_states} x {N_ACTIONS})")
         self.target = float(target)
         self._x: float | None = None
+        self._dh = 0.0
 
     def force(self, x: float) -> float:
-        """Greedy force for position ``x`` (the direction term uses the previous call's x)."""
-        dx = 0.0 if self._x is None else x - self._x
-        self._x = x
-        s = qlearning.encode(self._lr.enc, x - self.target, dx, self.target)
+        """Greedy force for measured position ``x`` (the direction term uses the previous call's x).
+
+        Observed learners (our robust agent) see ``x`` through their observer,
+        exactly as :func:`msd_bench.core.closed_loop.greedy_under` does.
+        """
+        if self._lr.observed:
+            xh, self._dh = qlearning.observe(self._lr, x, self._x or 0.0, self._dh, self._x is None)
+            self._x = xh
+            s = qlearning.encode(self._lr.enc, xh - self.target, self._dh, self.target)
+        else:
+            dx = 0.0 if self._x is None else x - self._x
+            self._x = x
+            s = qlearning.encode(self._lr.enc, x - self.target, dx, self.target)
         return float(self._lr.actions[qlearning.greedy(self.q, s)])
