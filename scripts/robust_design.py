@@ -40,22 +40,24 @@ CONDITIONS = ("nominal", "noise=0.005", "delay=1")
 
 
 def candidates() -> list[tuple[str, QConfig]]:
-    """The improved agent, then α-β observers (critically damped b = a²/(2-a)) × training perturbations."""
-    out = [("improved", improved_config())]
-    for a, noise, delay in itertools.product((0.15, 0.25, 0.4), (0.0, 0.006), (0, 1)):
-        b = round(a * a / (2 - a), 4)
-        out.append((f"a={a},b={b},noise={noise},delay={delay}",
-                    improved_config(obs_gain=a, obs_velocity_gain=b, train_noise=noise, train_delay=delay)))
+    """The improved agent, an α-β tracker, then model observers × gains × training perturbations."""
+    ab = {"observer": "alpha-beta", "obs_gain": 0.25, "obs_velocity_gain": 0.0357}
+    out = [("improved", improved_config()),
+           ("alpha-beta a=0.25", improved_config(**ab,
+                                                 train_noise=0.006, train_delay=1))]
+    for gain, noise, delay in itertools.product((0.05, 0.1, 0.2), (0.0, 0.006), (0, 1)):
+        out.append((f"model L={gain},noise={noise},delay={delay}",
+                    improved_config(observer="model", obs_gain=gain, train_noise=noise, train_delay=delay)))
     return out
 
 
-def score(cfg: QConfig, q: np.ndarray, stand_in, seeds: list[int]) -> dict[str, int]:
+def score(cfg: QConfig, q: np.ndarray, stand_in, trained_on, seeds: list[int]) -> dict[str, int]:
     """Successes under each condition, validated on the stand-in surrogate."""
     out = {}
     for text in CONDITIONS:
         sc = parse(text)
         xs, _ = greedy_under(stand_in.kernel, packed(cfg), q, conditions(sc, 0.01),
-                             sensor_noise(sc, seeds, 3000))
+                             sensor_noise(sc, seeds, 3000), trained_on.kernel)
         out[text] = int(sum(compute(x, sc.setpoint, 0.01, 500).sse < 5.0 for x in xs))
     return out
 
@@ -74,7 +76,7 @@ def main() -> int:
         row: dict[str, object] = {"candidate": name}
         for train_on, stand_in in (("plm", "nlarx-improved"), ("nlarx-improved", "plm")):
             q = train(models[train_on], replace(cfg, force=run.plant.F), seeds).q
-            for cond, wins in score(cfg, q, models[stand_in], seeds).items():
+            for cond, wins in score(cfg, q, models[stand_in], models[train_on], seeds).items():
                 row[f"{train_on}->{stand_in} {cond}"] = wins
         row["worst"] = min(v for k, v in row.items() if "->" in k)
         row["total"] = sum(v for k, v in row.items() if "->" in k)

@@ -102,6 +102,8 @@ class Trained:
     x: FloatArray
     metrics: list[dict[str, float]]
     real_interactions: int
+    robustness: dict[str, dict[str, Any]]
+    """Per scenario id: the same tables under that scenario (:func:`robustness.evaluate`)."""
 
 
 def train_and_validate(kind: str, surrogate: StepModel, cfg: RunConfig, seeds: Sequence[int]) -> Trained:
@@ -115,9 +117,11 @@ def train_and_validate(kind: str, surrogate: StepModel, cfg: RunConfig, seeds: S
         tres = train(surrogate, qc, seeds)
         q, snaps = tres.q, tres.snapshots
         real = len(seeds) * qc.episodes * qc.steps if k.surrogate == PLANT else 0
-    x, _ = greedy_rollouts(plant, q, qc, cfg.target, cfg.validation_steps)
+    x, _ = greedy_rollouts(plant, q, qc, cfg.target, cfg.validation_steps, observer=surrogate)
     rows = [metric_row(xi, cfg.target, cfg.plant.dt, cfg.window) for xi in x]
-    return Trained(q, snaps[:, 0], snaps[:, -1], x, rows, real)
+    rob = robustness.evaluate(q, qc, cfg.plant, seeds, cfg.scenario_suite(), steps=cfg.validation_steps,
+                              window=cfg.window, observer=surrogate)
+    return Trained(q, snaps[:, 0], snaps[:, -1], x, rows, real, rob)
 
 
 def run_paper(cfg: RunConfig, progress: Progress | None = None) -> PaperRun:
@@ -170,6 +174,4 @@ def _collect(run: PaperRun, kind: str, parts: list[tuple[Trained, list[int], int
         "seeds": [s for _, seeds, _ in parts for s in seeds],
         "learner": qc,
     }
-    run.robustness[kind] = robustness.evaluate(
-        run.qtables[kind]["q"], qc, cfg.plant, run.qtables[kind]["seeds"], cfg.scenario_suite(),
-        steps=cfg.validation_steps, window=cfg.window)
+    run.robustness[kind] = robustness.merge([t.robustness for t in trained])

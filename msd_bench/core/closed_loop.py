@@ -63,22 +63,25 @@ def _advance(model: Kernel, state: FloatArray, u: float, load: float, friction: 
 
 @numba.njit(cache=True)
 def greedy_under(model: Kernel, lr: Learner, q: FloatArray, cond: Conditions,
-                 noise: FloatArray) -> tuple[FloatArray, FloatArray]:
+                 noise: FloatArray, obs: Kernel) -> tuple[FloatArray, FloatArray]:
     """Each table's greedy run from rest; ``noise[j, k]`` is added to the k-th measurement of run j.
 
-    Returns (true x, commanded u), each (n_tables, n_steps); ``x[j, k]`` is the
-    position before command ``u[j, k]`` is issued.
+    ``obs`` is the model a ``model`` observer predicts with (the surrogate the
+    agent trained on; ignored by other observers). Returns (true x, commanded
+    u), each (n_tables, n_steps); ``x[j, k]`` is the position before command
+    ``u[j, k]`` is issued.
     """
     n, n_steps = noise.shape
     xs = np.empty((n, n_steps))
     us = np.empty((n, n_steps))
     state = np.zeros(4)
+    ost = np.zeros(4)
     queue = np.zeros(cond.delay + 1)
     for j in range(n):
         state[:] = 0.0
         queue[:] = 0.0
         x = 0.0
-        xh, dh = observe(lr, quantise(x + noise[j, 0], cond.quant), 0.0, 0.0, True)
+        xh, dh = observe(lr, obs, ost, 0.0, quantise(x + noise[j, 0], cond.quant), 0.0, 0.0, True)
         for k in range(n_steps):
             s = encode(lr.enc, xh - cond.target, dh, cond.target)
             u = lr.actions[greedy(q[j], s)]
@@ -89,5 +92,6 @@ def greedy_under(model: Kernel, lr: Learner, q: FloatArray, cond: Conditions,
             load = cond.load if k >= cond.load_step else 0.0
             x = _advance(model, state, applied, load, cond.friction)
             if k + 1 < n_steps:
-                xh, dh = observe(lr, quantise(x + noise[j, k + 1], cond.quant), xh, dh, False)
+                y = quantise(x + noise[j, k + 1], cond.quant)
+                xh, dh = observe(lr, obs, ost, u, y, xh, dh, False)
     return xs, us

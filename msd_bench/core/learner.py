@@ -19,6 +19,9 @@ from numpy.typing import NDArray
 
 from msd_bench.core import qlearning, rng
 from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.kernels import Kernel
+from msd_bench.core.model import StepModel, plant_model
+from msd_bench.core.plant import PlantParams
 from msd_bench.core.qconfig import N_ACTIONS, QConfig, packed
 
 FloatArray = NDArray[np.float64]
@@ -27,7 +30,8 @@ FloatArray = NDArray[np.float64]
 class StepwiseLearner:
     """One agent: ``start_episode`` → (``act`` → model step → ``learn``) × steps."""
 
-    def __init__(self, cfg: QConfig, seed: int, planning_steps: int = 0) -> None:
+    def __init__(self, cfg: QConfig, seed: int, planning_steps: int = 0,
+                 observer: StepModel | None = None) -> None:
         if planning_steps < 0:
             raise InvalidInputError(f"planning_steps must be >= 0, got {planning_steps}")
         self.cfg = cfg
@@ -55,6 +59,9 @@ class StepwiseLearner:
         self._k = 0
         self._xh = 0.0
         self._dh = 0.0
+        self._u = 0.0
+        self._ost = np.zeros(4)
+        self._obs = _observer_kernel(cfg, observer)
 
     @property
     def target(self) -> float:
@@ -85,6 +92,7 @@ class StepwiseLearner:
             raise InvalidInputError("episode is over: call start_episode first")
         self._a = int(qlearning.choose(self.q, self._s, self._lr.epsilon, self._stream, 0))
         u = float(self._lr.actions[self._a])
+        self._u = u  # what the observer believes acts (the agent cannot know the delay)
         if self._lr.observed and self._delay > 0:  # the actuator acts `delay` samples late
             self._queue[self._k % (self._delay + 1)] = u
             u = float(self._queue[(self._k + 1) % (self._delay + 1)])
@@ -118,14 +126,16 @@ class StepwiseLearner:
         self._delay = int(rng.below(st, 0, lr.train_delay + 1)) if lr.train_delay > 0 else 0
         self._queue[:] = 0.0
         self._k = 0
-        self._xh, self._dh = qlearning.observe(lr, self._measure(self._x), 0.0, 0.0, True)
+        self._xh, self._dh = qlearning.observe(lr, self._obs, self._ost, 0.0, self._measure(self._x), 0.0,
+                                               0.0, True)
         self._s = self._encode(self._xh - self._target, self._dh)
 
     def _measure(self, x: float) -> float:
         return x + self._sigma * float(qlearning.normal(self._stream, 0)) if self._sigma > 0.0 else x
 
     def _observed_state(self, x_new: float) -> int:
-        self._xh, self._dh = qlearning.observe(self._lr, self._measure(x_new), self._xh, self._dh, False)
+        self._xh, self._dh = qlearning.observe(self._lr, self._obs, self._ost, self._u, self._measure(x_new),
+                                               self._xh, self._dh, False)
         return self._encode(self._xh - self._target, self._dh)
 
     def _end_episode(self) -> None:
@@ -140,8 +150,12 @@ class StepwiseLearner:
 class GreedyPolicy:
     """A trained table held fixed (paper §5): deterministic greedy force per position."""
 
-    def __init__(self, cfg: QConfig, q: FloatArray, target: float) -> None:
+    def __init__(self, cfg: QConfig, q: FloatArray, target: float,
+                 observer: StepModel | None = None) -> None:
         self._lr = packed(cfg)
+        self._obs = _observer_kernel(cfg, observer)
+        self._ost = np.zeros(4)
+        self._u = 0.0
         self.q = np.ascontiguousarray(q, dtype=np.float64)
         n_states = self._lr.enc.n_states
         if self.q.shape != (n_states, N_ACTIONS):
@@ -159,11 +173,22 @@ class GreedyPolicy:
         exactly as :func:`msd_bench.core.closed_loop.greedy_under` does.
         """
         if self._lr.observed:
-            xh, self._dh = qlearning.observe(self._lr, x, self._x or 0.0, self._dh, self._x is None)
+            xh, self._dh = qlearning.observe(self._lr, self._obs, self._ost, self._u, x, self._x or 0.0,
+                                             self._dh, self._x is None)
             self._x = xh
             s = qlearning.encode(self._lr.enc, xh - self.target, self._dh, self.target)
         else:
             dx = 0.0 if self._x is None else x - self._x
             self._x = x
             s = qlearning.encode(self._lr.enc, x - self.target, dx, self.target)
-        return float(self._lr.actions[qlearning.greedy(self.q, s)])
+        self._u = float(self._lr.actions[qlearning.greedy(self.q, s)])
+        return self._u
+
+
+def _observer_kernel(cfg: QConfig, observer: StepModel | None) -> Kernel:
+    """The model a ``model`` observer predicts with; other observers never read it."""
+    if observer is None:
+        if cfg.observer == "model":
+            raise InvalidInputError("a model observer needs the model the agent trains on")
+        return plant_model(PlantParams()).kernel
+    return observer.kernel

@@ -44,6 +44,8 @@ MODE_PAPER = 0
 MODE_IMPROVED = 1
 STATE_MODES = {"paper": MODE_PAPER, "improved": MODE_IMPROVED}
 SHAPINGS = ("away", "toward")
+OBSERVERS = ("none", "alpha-beta", "model")
+OBS_NONE, OBS_ALPHA_BETA, OBS_MODEL = 0, 1, 2
 N_ACTIONS = 5
 N_DIRECTIONS = 3
 
@@ -109,11 +111,14 @@ class QConfig:
     """Which actions the shaping penalty φ marks (docs/decisions.md §Shaping): ``"away"`` — a force
     that pushes away from the target, outside the zero-error bins; ``"toward"`` — every action that
     does not push toward the target, u = 0 included, in every bin."""
+    observer: str = "none"
+    """How the agent estimates position and velocity from measurements (our robust agent):
+    ``none`` — raw samples and their last difference (paper and improved agents); ``alpha-beta`` — an
+    α-β tracker; ``model`` — the model it trains on run as a predictor, corrected by the innovation."""
     obs_gain: float = 0.0
-    """Observer (our robust agent): position gain a of an α-β tracker on the measured position;
-    0 = no observer, the state is built from raw measurements (paper and improved agents)."""
+    """Observer: position gain on the innovation (measured minus predicted position), in (0, 1]."""
     obs_velocity_gain: float = 0.0
-    """Observer: velocity gain b of the α-β tracker (per-sample displacement), 0 <= b < a."""
+    """Observer: velocity gain on the innovation (α-β: per-sample displacement; model: per dt)."""
     train_noise: float = 0.0
     """Training on the surrogate: each episode draws a sensor noise σ uniformly in [0, train_noise] m."""
     train_delay: int = 0
@@ -139,8 +144,10 @@ class QConfig:
                  and self.error_edges[0] > 0, "error_edges must be positive and increasing")
         _require(_increasing(self.reference_edges), "reference_edges must be increasing")
         _require(self.shaping in SHAPINGS, f"shaping must be one of {SHAPINGS}, got {self.shaping!r}")
-        _require(0.0 <= self.obs_gain <= 1.0 and 0.0 <= self.obs_velocity_gain <= self.obs_gain,
-                 "observer gains need 0 <= obs_velocity_gain <= obs_gain <= 1")
+        _require(self.observer in OBSERVERS, f"observer must be one of {OBSERVERS}, got {self.observer!r}")
+        _require((self.observer == "none") == (self.obs_gain == 0.0) and 0.0 <= self.obs_gain <= 1.0
+                 and 0.0 <= self.obs_velocity_gain <= 1.0,
+                 "an observer needs a gain in (0, 1] (and none without one); velocity gain in [0, 1]")
         _require(math.isfinite(self.train_noise) and 0.0 <= self.train_noise <= 0.1,
                  "train_noise must be in [0, 0.1] m")
         _require(0 <= self.train_delay <= 10, "train_delay must be in 0..10 samples")
@@ -150,7 +157,7 @@ class QConfig:
     @property
     def observed(self) -> bool:
         """Whether the learner sees the plant through an observer or trains under perturbations."""
-        return self.obs_gain > 0.0 or self.train_noise > 0.0 or self.train_delay > 0
+        return self.observer != "none" or self.train_noise > 0.0 or self.train_delay > 0
 
     def snapshots(self) -> tuple[int, ...]:
         """Sorted episode counts at which a snapshot is taken (first and last included)."""
@@ -222,8 +229,10 @@ class Learner(NamedTuple):
     """Force per action index, N."""
     observed: bool
     """Whether :func:`qlearning.learn_observed` trains it (observer and/or training perturbations)."""
+    observer: int
+    """``OBS_NONE``, ``OBS_ALPHA_BETA`` or ``OBS_MODEL``."""
     obs_gain: float
-    """α-β tracker position gain (0: raw measurements)."""
+    """Observer position gain on the innovation."""
     obs_velocity_gain: float
     """α-β tracker velocity gain."""
     train_noise: float
@@ -253,7 +262,8 @@ def packed(cfg: QConfig) -> Learner:
     return Learner(enc, cfg.alpha, cfg.gamma, cfg.epsilon, cfg.reward_gain, cfg.g, cfg.zeta,
                    cfg.e_max, cfg.eta, cfg.target_low, cfg.target_high,
                    _phi_table(_error_side(cfg, enc), actions, cfg.shaping), actions, cfg.observed,
-                   cfg.obs_gain, cfg.obs_velocity_gain, cfg.train_noise, cfg.train_delay)
+                   OBSERVERS.index(cfg.observer), cfg.obs_gain, cfg.obs_velocity_gain, cfg.train_noise,
+                   cfg.train_delay)
 
 
 def _error_side(cfg: QConfig, enc: Encoding) -> NDArray[np.int64]:

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from msd_bench.core import kernels, rng
 from msd_bench.core.kernels import Kernel
-from msd_bench.core.qconfig import MODE_PAPER, N_ACTIONS, Encoding, Learner
+from msd_bench.core.qconfig import MODE_PAPER, N_ACTIONS, OBS_ALPHA_BETA, OBS_NONE, Encoding, Learner
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -227,22 +227,37 @@ def normal(state: rng.U64Array, i: int) -> float:
 
 
 @numba.njit(cache=True)
-def observe(lr: Learner, y: float, xh: float, dh: float, first: bool) -> tuple[float, float]:
-    """The observer's (position, per-sample displacement) estimate after measurement ``y``.
+def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: float, dh: float,
+            first: bool) -> tuple[float, float]:
+    """The agent's (position, per-sample displacement) estimate after measurement ``y``.
 
-    With ``obs_gain`` 0 it is the raw measurement and its last difference (the
-    improved agent's view). Otherwise an α-β tracker: predict with the last
-    displacement, correct by a fraction of the innovation — the steady-state
-    Kalman filter of a constant-velocity model, which does not differentiate
-    raw samples and so does not multiply the sensor noise.
+    ``none``: the raw measurement and its last difference (the improved agent's
+    view). ``alpha-beta``: predict with the last displacement, correct by a
+    fraction of the innovation. ``model``: run the model ``obs`` (the one the
+    agent trains on) from the observer state ``ost`` under the commanded force
+    ``u`` as a predictor and correct it by the innovation — a fixed-gain
+    Kalman-style observer; it does not differentiate raw samples, so it does
+    not multiply the sensor noise, and its prediction follows the force.
     """
     if first:
+        ost[:] = 0.0
+        ost[0] = y
+        ost[1] = y if obs.kind != kernels.KIND_PLANT else 0.0
         return y, 0.0
-    if lr.obs_gain == 0.0:
+    if lr.observer == OBS_NONE:
         return y, y - xh
-    pred = xh + dh
+    if lr.observer == OBS_ALPHA_BETA:
+        pred = xh + dh
+        innovation = y - pred
+        return pred + lr.obs_gain * innovation, dh + lr.obs_velocity_gain * innovation
+    pred = kernels.advance(obs, ost, u)
     innovation = y - pred
-    return pred + lr.obs_gain * innovation, dh + lr.obs_velocity_gain * innovation
+    ost[0] = pred + lr.obs_gain * innovation
+    if obs.kind == kernels.KIND_PLANT:
+        dt = obs.params[7]
+        ost[1] += lr.obs_velocity_gain * innovation / dt
+        return ost[0], ost[1] * dt
+    return ost[0], ost[0] - ost[1]
 
 
 @numba.njit(cache=True)
@@ -257,6 +272,7 @@ def learn_observed(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, sn
     true position (training happens on a model, whose truth is known).
     """
     plant = np.zeros(4)
+    ost = np.zeros(4)
     queue = np.zeros(lr.train_delay + 1)
     k_snap = 0
     for ep in range(budget.episodes):
@@ -268,7 +284,7 @@ def learn_observed(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, sn
         x = 0.0
         err = abs(x - target)
         y = x + sigma * normal(state, i) if sigma > 0.0 else x
-        xh, dh = observe(lr, y, 0.0, 0.0, True)
+        xh, dh = observe(lr, model, ost, 0.0, y, 0.0, 0.0, True)
         s = encode(lr.enc, xh - target, dh, target)
         total = 0.0
         for k in range(budget.steps):
@@ -276,7 +292,7 @@ def learn_observed(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, sn
             queue[k % (delay + 1)] = lr.actions[a]
             x = kernels.advance(model, plant, queue[(k + 1) % (delay + 1)] if delay > 0 else lr.actions[a])
             y = x + sigma * normal(state, i) if sigma > 0.0 else x
-            xh, dh = observe(lr, y, xh, dh, False)
+            xh, dh = observe(lr, model, ost, lr.actions[a], y, xh, dh, False)
             s2 = encode(lr.enc, xh - target, dh, target)
             e_new = abs(x - target)
             r = reward(lr, e_new, err)

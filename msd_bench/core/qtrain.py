@@ -58,11 +58,13 @@ def train(model: StepModel, cfg: QConfig, seeds: Sequence[int]) -> TrainResult:
 
 
 def greedy_rollouts(model: StepModel, q_tables: FloatArray, cfg: QConfig, target: float = 1.0,
-                    n_steps: int = 3000) -> tuple[FloatArray, FloatArray]:
+                    n_steps: int = 3000, observer: StepModel | None = None) -> tuple[FloatArray, FloatArray]:
     """Greedy closed loop of each fixed table from rest: (x, u), each (n_tables, n_steps).
 
     ``x[j, k]`` is the position before force ``u[j, k]`` acts, so ``x[:, 0] = 0``.
     Equal Q-values resolve to the lowest action index, keeping validation deterministic.
+    ``observer`` is the model a ``model`` observer predicts with: the one the
+    agent trained on (default: ``model`` itself).
     """
     lr = packed(cfg)
     n_states = lr.enc.n_states
@@ -81,7 +83,8 @@ def greedy_rollouts(model: StepModel, q_tables: FloatArray, cfg: QConfig, target
         from msd_bench.core.closed_loop import Conditions, greedy_under
 
         nominal = Conditions(float(target), 0.0, 0, 0.0, 0, 0.0)
-        return greedy_under(model.kernel, lr, q, nominal, np.zeros((q.shape[0], int(n_steps))))
+        obs = (observer or model).kernel
+        return greedy_under(model.kernel, lr, q, nominal, np.zeros((q.shape[0], int(n_steps))), obs)
     return qlearning.greedy_batch(model.kernel, lr, q, float(target), int(n_steps))
 
 

@@ -13,10 +13,11 @@ from typing import Any
 
 import numpy as np
 
-from msd_bench.app.agents import agent_kind, budget_note, learner_from_meta
+from msd_bench.app.agents import PLANT, agent_kind, budget_note, learner_from_meta
 from msd_bench.app.scoring import agent_result
 from msd_bench.core import robustness
 from msd_bench.core.identify import FitReport
+from msd_bench.core.model import StepModel
 from msd_bench.core.registry import needs_bias_records
 from msd_bench.core.results import AgentResult
 from msd_bench.io import artifacts
@@ -77,6 +78,13 @@ def figure_data(cfg: BenchConfig, results: list[AgentResult],
         qtables={k: a for k, (a, _, _) in qtables.items()}, responses=responses)
 
 
+def _trained_on(cfg: BenchConfig, kind: str) -> StepModel:
+    """The model an agent kind trained on: a ``model`` observer predicts with it."""
+    k = agent_kind(kind)
+    name = "plant" if k.surrogate == PLANT else k.surrogate
+    return artifacts.load_model(cfg.run_dir / "models" / f"{name}.json")
+
+
 def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any]:
     """Table 1 (md/csv/json), robustness and figures under ``report/``."""
     results = load_results(cfg)
@@ -85,7 +93,8 @@ def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any
     qtables = _qtables(cfg, results)
     paths["figures"] = write_figures(out / "figures", figure_data(cfg, results, qtables))
     rob = {kind: robustness.evaluate(arrays["q"], learner, cfg.run.plant, seeds, cfg.run.scenario_suite(),
-                                     steps=cfg.run.validation_steps, window=cfg.run.window)
+                                     steps=cfg.run.validation_steps, window=cfg.run.window,
+                                     observer=_trained_on(cfg, kind))
            for kind, (arrays, learner, seeds) in qtables.items()}
     paths["robustness"] = write_robustness(out, rob, {r.kind: r.label for r in results})
     return paths

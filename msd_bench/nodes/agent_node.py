@@ -32,6 +32,7 @@ from msd_bench.app.agents import SHAPINGS, agent_kind, learner_config
 from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.learner import GreedyPolicy, StepwiseLearner
+from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import QConfig
 from msd_bench.core.qtrain import train
 from msd_bench.core.results import per_seed_row
@@ -166,13 +167,17 @@ class AgentNode(Node):
         self.model = artifacts.load_model(Path(self.config.model_path))
         return artifacts.source(Path(self.config.model_path))
 
+    def _observer(self) -> StepModel | None:
+        """The model the agent trains on: a ``model`` observer (robust agent) predicts with it."""
+        return None if self.config.dyna else self.model
+
     def _start(self) -> None:
         self._start_timer.cancel()
         cfg, qc = self.config, self.config.qconfig()
         if cfg.dyna or cfg.via_ros:
             ns = cfg.plant_ns if cfg.dyna else cfg.surrogate_ns
             planning = cfg.planning_steps if cfg.dyna else 0
-            self._learners = [StepwiseLearner(qc, s, planning) for s in cfg.seeds]
+            self._learners = [StepwiseLearner(qc, s, planning, self._observer()) for s in cfg.seeds]
             for learner in self._learners:
                 for _ in range(qc.episodes):
                     self._client.submit(Episode(_Learn(learner), ns, qc.steps))
@@ -199,7 +204,7 @@ class AgentNode(Node):
                                            {"agent_kind": cfg.kind, "provenance": prov.as_dict()}))
         self.get_logger().info(f"trained; validating {len(cfg.seeds)} seed(s) on {cfg.plant_ns}")
         for i, seed in enumerate(cfg.seeds):
-            policy = GreedyPolicy(cfg.qconfig(), q[i], cfg.target)
+            policy = GreedyPolicy(cfg.qconfig(), q[i], cfg.target, self._observer())
             ep = Episode(_Greedy(policy, self._announce), cfg.plant_ns, cfg.validation_steps, record=True,
                          on_done=lambda e, s=seed: self._validated(s, e))
             self._client.submit(ep)

@@ -19,7 +19,7 @@ PLANT = plant_model(PlantParams())
 
 
 def _run_stepwise(cfg: QConfig, seed: int, planning: int = 0) -> StepwiseLearner:
-    agent = StepwiseLearner(cfg, seed, planning_steps=planning)
+    agent = StepwiseLearner(cfg, seed, planning_steps=planning, observer=PLANT)
     for _ in range(cfg.episodes):
         state = PLANT.initial_state()
         agent.start_episode(0.0)
@@ -28,12 +28,14 @@ def _run_stepwise(cfg: QConfig, seed: int, planning: int = 0) -> StepwiseLearner
     return agent
 
 
-ROBUST = improved_config(episodes=4, steps=400, obs_gain=0.3, obs_velocity_gain=0.05, train_noise=0.004,
-                         train_delay=2)
+ROBUST = improved_config(episodes=4, steps=400, observer="model", obs_gain=0.3, obs_velocity_gain=0.05,
+                         train_noise=0.004, train_delay=2)
+ALPHA_BETA = improved_config(episodes=4, steps=400, observer="alpha-beta", obs_gain=0.3,
+                             obs_velocity_gain=0.05, train_noise=0.004)
 
 
 @pytest.mark.parametrize("cfg", [QConfig(episodes=3, steps=400), improved_config(episodes=3, steps=400),
-                                 ROBUST])
+                                 ROBUST, ALPHA_BETA])
 def test_stepwise_equals_compiled_training(cfg: QConfig) -> None:
     batch = train(PLANT, cfg, [11])
     agent = _run_stepwise(cfg, 11)
@@ -50,11 +52,12 @@ def test_stepwise_with_planning_equals_dyna_q() -> None:
     assert agent.real_steps == int(dyna.real_steps[0]) == 600
 
 
-@pytest.mark.parametrize("cfg", [improved_config(episodes=5, steps=500), replace(ROBUST, episodes=5)])
+@pytest.mark.parametrize("cfg", [improved_config(episodes=5, steps=500), replace(ROBUST, episodes=5),
+                                 replace(ALPHA_BETA, episodes=5)])
 def test_greedy_policy_equals_greedy_rollouts(cfg: QConfig) -> None:
     q = train(PLANT, cfg, [3]).q
     x_ref, u_ref = greedy_rollouts(PLANT, q, cfg, 1.0, 400)
-    policy = GreedyPolicy(cfg, q[0], 1.0)
+    policy = GreedyPolicy(cfg, q[0], 1.0, observer=PLANT)
     state, x = PLANT.initial_state(), 0.0
     for k in range(400):
         u = policy.force(x)

@@ -67,12 +67,14 @@ def test_delay_shifts_the_applied_command_and_load_and_friction_act_on_the_plant
     model = plant_model(P).kernel
     q = _hold(4)  # always +F
     base = Conditions(1.0, 0.0, 0, 0.0, 0, 0.0)
-    x0, _ = greedy_under(model, lr, q, base, np.zeros((1, 50)))
-    x2, _ = greedy_under(model, lr, q, base._replace(delay=2), np.zeros((1, 50)))
+    x0, _ = greedy_under(model, lr, q, base, np.zeros((1, 50)), model)
+    x2, _ = greedy_under(model, lr, q, base._replace(delay=2), np.zeros((1, 50)), model)
     assert np.array_equal(x2[0, 2:], x0[0, :-2]) and np.all(x2[0, :3] == 0.0)
-    pushed, _ = greedy_under(model, lr, _hold(2), base._replace(load=3.0, load_step=10), np.zeros((1, 40)))
+    pushed, _ = greedy_under(model, lr, _hold(2), base._replace(load=3.0, load_step=10), np.zeros((1, 40)),
+                             model)
     assert np.all(pushed[0, :11] == 0.0) and pushed[0, -1] > 0.0
-    stuck, _ = greedy_under(model, lr, _hold(2), base._replace(load=3.0, friction=3.5), np.zeros((1, 40)))
+    stuck, _ = greedy_under(model, lr, _hold(2), base._replace(load=3.0, friction=3.5), np.zeros((1, 40)),
+                            model)
     assert np.all(stuck == 0.0)  # friction beyond the load holds the mass
 
 
