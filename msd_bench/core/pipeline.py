@@ -35,6 +35,7 @@ from msd_bench.core.plant import PlantParams, preset
 from msd_bench.core.qconfig import QConfig, improved_config
 from msd_bench.core.qtrain import greedy_rollouts, train
 from msd_bench.core.results import AgentResult, per_seed_row
+from msd_bench.core.sensor import SensorModel  # [h2, issue 11]
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[str, int, int], None]
@@ -147,17 +148,22 @@ def record_seeds(id_seed: int) -> tuple[int, int]:
     return 1000 + 10 * id_seed, 5000 + 10 * id_seed
 
 
-def make_records(cfg: PaperConfig, id_seed: int) -> Records:
-    """Drive the true plant with the paper's excitations (in-process)."""
+def make_records(cfg: PaperConfig, id_seed: int, sensor: SensorModel | None = None) -> Records:
+    """Drive the true plant with the paper's excitations (in-process).
+
+    [h2, issue 11] ``sensor``: measure every record through this sensor model
+    (noise seeded from each record's excitation seed); the noise-free position
+    stays in ``Experiment.truth`` for ``fit_sim_truth_percent``.
+    """
     p = cfg.plant
     train_seed, val_seed = record_seeds(id_seed)
     prbs_t, prbs_v = PrbsConfig(n_samples=cfg.samples), PrbsConfig(n_samples=cfg.val_samples)
     multi_t, multi_v = MultilevelConfig(n_samples=cfg.samples), MultilevelConfig(n_samples=cfg.val_samples)
     return Records(
-        {b: identify.bias_record(p, b, train_seed + i, prbs_t) for i, b in enumerate(PLM_BIASES)},
-        {b: identify.bias_record(p, b, val_seed + i, prbs_v) for i, b in enumerate(PLM_BIASES)},
-        identify.broad_record(p, train_seed + 7, multi_t),
-        identify.broad_record(p, val_seed + 7, multi_v),
+        {b: identify.bias_record(p, b, train_seed + i, prbs_t, sensor) for i, b in enumerate(PLM_BIASES)},
+        {b: identify.bias_record(p, b, val_seed + i, prbs_v, sensor) for i, b in enumerate(PLM_BIASES)},
+        identify.broad_record(p, train_seed + 7, multi_t, sensor),
+        identify.broad_record(p, val_seed + 7, multi_v, sensor),
     )
 
 

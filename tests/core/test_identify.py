@@ -11,6 +11,7 @@ from msd_bench.core.errors import ConfigError, InvalidInputError, MsdBenchError
 from msd_bench.core.excitation import MultilevelConfig, PrbsConfig
 from msd_bench.core.fit import fit_percent
 from msd_bench.core.identify import (
+    INIT_HORIZON,
     GlmConfig,
     PlmConfig,
     bias_record,
@@ -73,9 +74,17 @@ def test_evaluate_concatenates_experiments():
     data = IOData(tuple(exps))
     y = np.concatenate([e.y for e in exps])
     sim = np.concatenate([free_run(model, e) for e in exps])
-    assert evaluate(model, data).sim_fit == pytest.approx(fit_percent(y, sim), abs=1e-12)
-    np.testing.assert_array_equal(sim[:1], exps[0].y[:1])
-    np.testing.assert_array_equal(sim[300:301], exps[1].y[:1])  # each from its own start
+    raw = np.concatenate([free_run(model, e, "measured") for e in exps])
+    report = evaluate(model, data)
+    assert report.sim_fit == pytest.approx(fit_percent(y, sim), abs=1e-12)
+    assert report.sim_fit_raw_start == pytest.approx(fit_percent(y, raw), abs=1e-12)
+    assert report.sim_fit_truth is None  # a record without truth
+    np.testing.assert_array_equal(raw[:1], exps[0].y[:1])
+    np.testing.assert_array_equal(raw[300:301], exps[1].y[:1])  # each from its own start
+    # The estimated start fits each experiment's head at least as well as the raw one.
+    for lo, hi in ((0, 300), (300, 1200)):
+        n = min(INIT_HORIZON, hi - lo)
+        assert np.sum((sim - y)[lo : lo + n] ** 2) <= np.sum((raw - y)[lo : lo + n] ** 2) + 1e-15
 
 
 @pytest.fixture(scope="module")
@@ -132,5 +141,5 @@ def test_wrong_biases_and_configs_are_msd_bench_errors():
         GlmConfig(stroke=-1.0)
     with pytest.raises(ConfigError, match="max_nfev"):
         PlmConfig(max_nfev=0)
-    with pytest.raises(InvalidInputError, match="not the plant"):
-        free_run(StepModel(kernels.KIND_PLANT, DEFAULT.as_array()), rec.experiments[0])
+    with pytest.raises(ConfigError, match="'estimate' or 'measured'"):
+        free_run(StepModel(kernels.KIND_PLANT, DEFAULT.as_array()), rec.experiments[0], "zero")
