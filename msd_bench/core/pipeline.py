@@ -299,8 +299,8 @@ def _agent_result(kind: AgentKind, run: PaperRun, rows: list[dict[str, Any]],
         reports = [run.fits[i][kind.surrogate] for i in sorted(run.fits)]
         fit_sim = float(np.mean([r.sim_fit for r in reports]))
         fit_one = float(np.mean([r.one_step_fit for r in reports]))
-        by_id = [{"id_seed": i, "fit_sim_percent": r.sim_fit, "fit_one_step_percent": r.one_step_fit}
-                 for i, r in zip(sorted(run.fits), reports, strict=True)]
+        # [h2, issue 11] each entry also carries fit_sim_truth_percent and fit_sim_raw_start_percent
+        by_id = [{"id_seed": i, **r.as_row()} for i, r in zip(sorted(run.fits), reports, strict=True)]
         n_id = reports[0].n_identification
     notes = ""
     if kind.dyna and cfg.dyna_episodes != 300:
