@@ -22,6 +22,7 @@ from msd_bench.core.errors import ConfigError
 from msd_bench.core.plant import PlantParams, preset
 from msd_bench.core.qconfig import QConfig
 from msd_bench.core.scenarios import Scenario, suite
+from msd_bench.core.sensor import SensorModel
 
 _POSITIVE = ("seeds", "id_seeds", "episodes", "steps", "dyna_episodes", "samples", "val_samples",
              "validation_steps", "window")
@@ -65,6 +66,10 @@ class RunConfig:
     """Terminal window of the SSE, samples (paper: not given)."""
     nlarx_scale: float = 1.0
     """Multiplies the NLARX training iterations (< 1 for smoke runs)."""
+    record_noise: float = 0.0
+    """Sensor noise σ on every identification record's measured position, m (issue: a real sensor)."""
+    record_quant: float = 0.0
+    """Sensor quantisation of the identification records, m (after the noise, as an ADC)."""
     scenarios: tuple[str, ...] = ()
     """Scenario ids evaluated besides the standard suite (:mod:`msd_bench.core.scenarios`)."""
 
@@ -83,12 +88,19 @@ class RunConfig:
         if not 0 < self.nlarx_scale <= 10:
             raise ConfigError(f"nlarx_scale must be in (0, 10], got {self.nlarx_scale}")
         self.scenario_suite()  # a malformed --scenario fails here, in one line
+        SensorModel(self.record_noise, self.record_quant)  # likewise a bad sensor
         if self.shaping not in SHAPINGS:
             raise ConfigError(f"shaping must be one of {', '.join(SHAPINGS)}, got {self.shaping!r}")
 
     def scenario_suite(self) -> list[Scenario]:
         """The standard scenarios plus this run's extra ones, each once."""
         return suite(self.scenarios)
+
+    @property
+    def sensor(self) -> SensorModel | None:
+        """The sensor the identification records are measured through (None: the ideal one)."""
+        sensor = SensorModel(self.record_noise, self.record_quant)
+        return None if sensor.is_ideal else sensor
 
     @property
     def plant(self) -> PlantParams:

@@ -39,6 +39,10 @@ def add_run_arguments(p: argparse.ArgumentParser, **defaults: Any) -> None:
                    help=f"samples per validation record ({base['val_samples']})")
     p.add_argument("--validation-steps", type=int, default=base["validation_steps"],
                    help=f"closed-loop validation steps (paper: 3000; {base['validation_steps']})")
+    p.add_argument("--record-noise", type=float, default=base["record_noise"], metavar="SIGMA",
+                   help="Gaussian sensor noise on the identification records' position, m (0)")
+    p.add_argument("--record-quant", type=float, default=base["record_quant"], metavar="Q",
+                   help="sensor quantisation of the identification records, m (0)")
     p.add_argument("--shaping", choices=("away", "toward"), default=base["shaping"],
                    help="reading of the paper's shaping penalty for the paper agent "
                         f"(docs/decisions.md; default {base['shaping']})")
@@ -56,5 +60,6 @@ def run_config_from_args(args: argparse.Namespace) -> RunConfig:
         steps=args.steps, dyna_episodes=args.dyna_episodes, samples=args.samples,
         val_samples=args.val_samples, validation_steps=args.validation_steps,
         window=min(500, max(1, args.validation_steps)), nlarx_scale=args.nlarx_scale,
-        scenarios=tuple(args.scenario), shaping=args.shaping,
+        scenarios=tuple(args.scenario), shaping=args.shaping, record_noise=args.record_noise,
+        record_quant=args.record_quant,
     )

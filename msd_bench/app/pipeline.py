@@ -36,6 +36,7 @@ from msd_bench.core.qtrain import greedy_rollouts, train
 from msd_bench.core.records import Records
 from msd_bench.core.registry import FitRequest, fit_model
 from msd_bench.core.results import AgentResult, per_seed_row
+from msd_bench.core.sensor import SensorModel
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[str, int, int], None]
@@ -61,19 +62,25 @@ class PaperRun:
 
 
 def make_records(cfg: RunConfig, id_seed: int) -> Records:
-    """Drive the true plant with the plan's excitations (in-process)."""
-    return records_from_plan(cfg.plant, paper_plan(id_seed, cfg.samples, cfg.val_samples))
+    """Drive the true plant with the plan's excitations (in-process), measured through the run's sensor."""
+    return records_from_plan(cfg.plant, paper_plan(id_seed, cfg.samples, cfg.val_samples), cfg.sensor)
 
 
-def records_from_plan(p: PlantParams, plan: Sequence[PlannedExperiment]) -> Records:
-    """Simulate every planned experiment on the plant ``p``."""
+def records_from_plan(p: PlantParams, plan: Sequence[PlannedExperiment],
+                      sensor: SensorModel | None = None) -> Records:
+    """Simulate every planned experiment on the plant ``p``.
+
+    With a ``sensor`` each record holds the measured position (noise seeded
+    from the record's excitation seed) and keeps the noise-free truth beside it
+    for ``fit_sim_truth_percent``.
+    """
     bias: dict[str, dict[float, IOData]] = {"train": {}, "validation": {}}
     broad: dict[str, IOData] = {}
     for exp in plan:
         if isinstance(exp.signal, MultilevelConfig):
-            broad[exp.role] = identify.broad_record(p, exp.seed, exp.signal)
+            broad[exp.role] = identify.broad_record(p, exp.seed, exp.signal, sensor)
         elif exp.bias is not None:
-            bias[exp.role][exp.bias] = identify.bias_record(p, exp.bias, exp.seed, exp.signal)
+            bias[exp.role][exp.bias] = identify.bias_record(p, exp.bias, exp.seed, exp.signal, sensor)
     return Records(bias[TRAIN], bias["validation"], broad[TRAIN], broad["validation"])
 
 

@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.app.agents import PLANT, agent_kind
+from msd_bench.core.identify import FitReport
 from msd_bench.core.metrics import compute
 from msd_bench.core.results import AgentResult
 
@@ -25,17 +26,13 @@ def metric_row(x: FloatArray, target: float, dt: float, window: int) -> dict[str
     return {"mae": m.mae, "std": m.std, "po": m.po, "ts": m.ts2, "ts5": m.ts5, "sse": m.sse}
 
 
-def fit_entry(id_seed: int, report: Any) -> dict[str, Any]:
-    """One identification seed's fits for ``fit_by_id_seed`` (every ``*_fit`` figure it has)."""
-    entry: dict[str, Any] = {"id_seed": int(id_seed), "fit_sim_percent": float(report.sim_fit),
-                             "fit_one_step_percent": float(report.one_step_fit)}
-    truth = getattr(report, "sim_fit_truth", None)
-    if truth is not None:
-        entry["fit_sim_truth_percent"] = float(truth)
-    return entry
+def fit_entry(id_seed: int, report: FitReport) -> dict[str, Any]:
+    """One identification seed's fits for ``fit_by_id_seed``: simulation (estimated start), one-step,
+    against the noise-free truth where it is known, and from the two raw samples."""
+    return {"id_seed": int(id_seed), **report.as_row()}
 
 
-def agent_result(kind: str, per_seed: Sequence[Mapping[str, Any]], fits: Mapping[int, Any],
+def agent_result(kind: str, per_seed: Sequence[Mapping[str, Any]], fits: Mapping[int, FitReport],
                  real_interactions: int, notes: Sequence[str] = ()) -> AgentResult:
     """The Table-1 row of an agent kind from its per-seed rows and its surrogate's fits per id seed."""
     k = agent_kind(kind)

@@ -19,7 +19,7 @@ in torch (the NLARX) or python-control.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 from msd_bench.core.errors import ConfigError
@@ -104,9 +104,10 @@ def _nlarx_fitter(form: str) -> Fitter:
 
 def _fit_greybox(req: FitRequest) -> StepModel:
     from msd_bench.core import identify
+    from msd_bench.core.greybox import GreyboxConfig
 
-    return identify.identify_greybox(req.records.broad_train, identify.GreyboxConfig(
-        stroke=req.stroke, force=req.force))
+    cfg = GreyboxConfig(stroke=req.stroke, force=req.force)
+    return identify.identify_greybox(req.records.broad_train, cfg)
 
 
 MODEL_KINDS: dict[str, ModelKind] = {
@@ -147,8 +148,6 @@ def needs_bias_records(names: Iterable[str]) -> bool:
 
 def fit_model(name: str, req: FitRequest) -> StepModel:
     """Fit the kind ``name``; the model carries the registry name whatever its fitter called it."""
-    from msd_bench.core.model import StepModel
-
     entry = model_kind(name)
     model = entry.fit(req)
-    return StepModel(model.kind, model.params, name, {**model.info, "model_kind": name})
+    return replace(model, name=name, info={**model.info, "model_kind": name})

@@ -86,6 +86,8 @@ def save_model(model: StepModel, path: Path, provenance: Provenance) -> Path:
         "name": model.name,
         "kind": kernels.KIND_NAMES[model.kind],
         "params": [float(v) for v in model.params],
+        "dt": float(model.dt),
+        "force_limit": float(model.force_limit),
         "info": jsonable(model.info),
         "provenance": provenance.as_dict(),
     }
@@ -100,7 +102,9 @@ def load_model(path: Path) -> StepModel:
     if doc.get("kind") not in kinds:
         raise ArtifactError(f"{path}: unknown model kind {doc.get('kind')!r}")
     try:
-        return StepModel(kinds[doc["kind"]], np.asarray(doc["params"], float), doc["name"], doc["info"])
+        limits = {k: float(doc[k]) for k in ("dt", "force_limit") if k in doc}  # older artifacts: defaults
+        return StepModel(kinds[doc["kind"]], np.asarray(doc["params"], float), doc["name"], doc["info"],
+                         **limits)
     except (KeyError, TypeError, ValueError) as exc:
         raise ArtifactError(f"{path}: malformed model artifact ({exc})") from None
 

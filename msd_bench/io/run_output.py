@@ -8,7 +8,7 @@ object, so ``io`` stays below ``app``.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +32,7 @@ def write_models(out_dir: Path, models: Mapping[str, StepModel], fits: Mapping[s
     paths = {}
     for name, model in models.items():
         info = {**model.info, "validation_fit": asdict(fits[name])} if name in fits else model.info
-        tagged = StepModel(model.kind, model.params, model.name, info)
+        tagged = replace(model, info=info)
         paths[name] = artifacts.save_model(tagged, Path(out_dir) / f"{name}.json", provenance)
     return paths
 

@@ -9,9 +9,11 @@ import torch
 from msd_bench.core import kernels, plant
 from msd_bench.core.data import IOData
 from msd_bench.core.errors import ConfigError, IdentificationError
-from msd_bench.core.excitation import MultilevelConfig
-from msd_bench.core.identify import broad_record, evaluate, identify_nlarx
+from msd_bench.core.excitation import MultilevelConfig, multilevel
+from msd_bench.core.identify import broad_record, evaluate, identify_nlarx, naive_one_step_fits
+from msd_bench.core.model import StepModel
 from msd_bench.core.nlarx import NlarxConfig, NlarxNet, fit_nlarx
+from msd_bench.core.sensor import SensorModel
 
 DEFAULT = plant.preset("default")
 
@@ -88,8 +90,76 @@ def test_constant_record_is_rejected():
 
 @pytest.mark.parametrize(
     ("field", "value", "match"),
-    [("form", "deep", "form must be one of"), ("units", 0, "units must be >= 1"), ("lr", 0.0, "lr > 0")],
+    [("form", "deep", "form must be one of"), ("units", 0, "units must be >= 1"), ("lr", 0.0, "lr > 0"),
+     ("prefilter_hz", -1.0, "prefilter_hz"), ("prefilter_above", float("nan"), "prefilter_above")],
 )
 def test_bad_config_is_rejected(field, value, match):
     with pytest.raises(ConfigError, match=match):
         NlarxConfig(**{field: value})
+
+
+# --- known truth: a record made by a system of the NLARX's own structure -------------------------
+
+_DT, _M, _C, _K = 0.01, 1.0, 1.0, 2.0
+_SPRING = ((2.0, 2.0, 0.0), (1.5, 3.0, -2.0), (1.0, 1.5, 1.5))
+"""(a, b, e) of the spring's sigmoid terms a·sigmoid(b x + e): increasing in x, so restoring."""
+
+
+def _true_nlarx(stroke: float = 20.0) -> StepModel:
+    """``m x'' = u - c x' - K x - Σ a σ(b x + e)`` Euler-discretised: exactly the KIND_NLARX layout.
+
+    x_{k+1} = (2 - dt c/m - dt² K/m) x_k - (1 - dt c/m) x_{k-1} + dt²/m u_k - dt²/m Σ a σ(b x_k + e),
+    with x_scale 1 and u_scale 5, three sigmoid units, no u_{k-1} term.
+    """
+    xs, us = 1.0, 5.0
+    w = [2 - _DT * _C / _M - _DT**2 * _K / _M, -(1 - _DT * _C / _M), _DT**2 / _M * us / xs, 0.0]
+    units: list[float] = []
+    for a, b, e in _SPRING:
+        units += [-(_DT**2) / _M * a / xs, b * xs, 0.0, 0.0, 0.0, e]
+    return StepModel(kernels.KIND_NLARX, np.array([stroke, len(_SPRING), xs, us, 0.0, *w, *units]))
+
+
+def _record_of(model: StepModel, seed: int, n: int) -> IOData:
+    u = multilevel(MultilevelConfig(n_samples=n), seed)
+    return IOData.single(u, model.simulate(u))
+
+
+def test_nlarx_recovers_a_system_of_its_own_structure():
+    """Known truth: trained on 6,000 samples of a 3-unit NLARX system, the improved form with 3 units
+    reproduces a fresh validation record to >= 99 % in free run (measured 99.68 %) and its one-step
+    error is below 5 % of constant-velocity extrapolation's (measured < 0.2 %). Weights are not
+    compared: sigmoid networks are identifiable only up to permutation and sign symmetries."""
+    truth = _true_nlarx()
+    train, valid = _record_of(truth, 21, 6000), _record_of(truth, 22, 4000)
+    assert np.ptp(train.experiments[0].y) > 5.0  # the record spans the sigmoids' curved range
+    cfg = NlarxConfig(form="improved", seed=0, units=3, sim_iters=40)
+    report = evaluate(identify_nlarx(train, cfg, stroke=20.0), valid)
+    cv_error = 100.0 - naive_one_step_fits(valid)["constant_velocity"]
+    assert report.sim_fit >= 99.0
+    assert 100.0 - report.one_step_fit < 0.05 * cv_error
+
+
+# --- a 2 mm sensor ----------------------------------------------------------------------------------
+
+
+def test_improved_nlarx_survives_two_mm_of_sensor_noise():
+    """Records of identification seed 0 (excitation seeds as the pipeline's) measured with 2 mm noise;
+    scored against the noise-free truth from an estimated initial state. Floor 93 % (issue 11).
+
+    Measured over identification seeds 0, 1, 2: 97.24, 96.80, 99.27 % (clean: 97.45, 97.66, 99.04);
+    without the prefilter the same records gave 65.6, 67.9, 68.2 %.
+    """
+    sensor = SensorModel(noise_std=0.002)
+    train = broad_record(DEFAULT, 1007, sensor=sensor)
+    valid = broad_record(DEFAULT, 5007, MultilevelConfig(n_samples=4000), sensor=sensor)
+    model = identify_nlarx(train, NlarxConfig(form="improved", seed=0))
+    assert model.info["prefilter_hz"] > 0 and model.info["noise_ratio"] > 0.5
+    report = evaluate(model, valid)
+    assert report.sim_fit_truth is not None and report.sim_fit_truth >= 93.0
+
+
+def test_noise_free_records_are_not_prefiltered(records):
+    """The prefilter switches on with noise only, so clean-record fits are those of the raw method."""
+    train, _ = records
+    model = identify_nlarx(train, NlarxConfig(form="improved", seed=0, one_step_iters=5, sim_iters=0))
+    assert model.info["prefilter_hz"] == 0.0 and model.info["noise_ratio"] < 0.02

@@ -8,15 +8,16 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from msd_bench.core import kernels
+from msd_bench.core import kernels, plant
 from msd_bench.core.data import IOData
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.excitation import PrbsConfig, prbs
+from msd_bench.core.excitation import MultilevelConfig, PrbsConfig, prbs
 from msd_bench.core.fit import fit_percent
-from msd_bench.core.identify import PlmConfig, free_run, identify_plm
+from msd_bench.core.identify import PlmConfig, bias_record, broad_record, evaluate, free_run, identify_plm
 from msd_bench.core.linear import LinearFit
 from msd_bench.core.model import StepModel
 from msd_bench.core.plm import PLM_BIASES, blend, local_from_params
+from msd_bench.core.sensor import SensorModel
 
 DT = 0.01
 # Five distinct stable systems; operating points inside each membership's plateau/peak
@@ -113,3 +114,24 @@ def test_mixed_sample_times_are_rejected():
     records[5.0] = IOData.single(e.u, e.y, dt=0.02)
     with pytest.raises(InvalidInputError, match="different sample times"):
         identify_plm(records)
+
+
+def test_two_mm_of_sensor_noise_costs_the_plm_almost_nothing():
+    """Records of identification seed 0 (the pipeline's excitation seeds), clean and with 2 mm noise,
+    scored against the noise-free truth from estimated initial states.
+
+    Measured over identification seeds 0, 1, 2: clean 94.43, 92.94, 93.13 %; 2 mm 94.43, 92.96,
+    93.14 %. Before the output-error fit estimated its initial conditions and ranked a prefiltered
+    ARX start, 2 mm gave 94.59, 79.79, 93.31 % (the ±10 N local fits fell into wrong optima).
+    """
+    default = plant.preset("default")
+    fits = {}
+    for sigma in (0.0, 0.002):
+        sensor = SensorModel(noise_std=sigma)
+        records = {b: bias_record(default, b, 1000 + i, sensor=sensor) for i, b in enumerate(PLM_BIASES)}
+        valid = broad_record(default, 5007, MultilevelConfig(n_samples=4000), sensor=sensor)
+        report = evaluate(identify_plm(records), valid)
+        assert report.sim_fit_truth is not None
+        fits[sigma] = report.sim_fit_truth
+    assert fits[0.002] >= 93.0
+    assert abs(fits[0.002] - fits[0.0]) < 0.5
