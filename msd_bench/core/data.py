@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.plant import DT
 
 FloatArray = NDArray[np.float64]
 
@@ -80,7 +81,7 @@ class IOData:
 
     experiments: tuple[Experiment, ...]
     """The records, fitted jointly."""
-    dt: float = 0.01
+    dt: float = DT
     """Sample time in s."""
     meta: dict[str, object] = field(default_factory=dict)
     """Provenance (bag paths, hashes, excitation parameters)."""
@@ -92,7 +93,7 @@ class IOData:
             raise InvalidInputError(f"sample time must be finite and > 0, got {self.dt}")
 
     @classmethod
-    def single(cls, u: FloatArray, y: FloatArray, dt: float = 0.01, name: str = "") -> IOData:
+    def single(cls, u: FloatArray, y: FloatArray, dt: float = DT, name: str = "") -> IOData:
         """Wrap one record."""
         return cls((Experiment(np.asarray(u), np.asarray(y), name),), dt)
 

@@ -21,7 +21,7 @@ import platform
 import subprocess
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +33,7 @@ from msd_bench.core.qconfig import QConfig, improved_config
 from msd_bench.core.qtrain import greedy_rollouts, train
 from msd_bench.core.results import SUCCESS_SSE
 
-AGENTS = {"improved": improved_config, "paper": QConfig}
+AGENTS: dict[str, Callable[[], QConfig]] = {"improved": improved_config, "paper": QConfig}
 """Learner config per agent kind, at the paper's budget (300 episodes x 3000 steps)."""
 TARGET, VALIDATION_STEPS, WINDOW = 1.0, 3000, 500
 

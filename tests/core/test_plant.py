@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import fields
 
 import numpy as np
@@ -47,11 +48,13 @@ def test_out_of_range_force_acts_exactly_like_the_bound() -> None:
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
 def test_non_finite_force_raises_one_line_error_on_every_plant_path(bad: float) -> None:
-    calls = [lambda: plant.step(0.0, 0.0, bad, P),
-             lambda: plant.step_batch(np.zeros(3), np.zeros(3), np.array([0.0, bad, 1.0]), P),
-             lambda: plant.simulate(np.array([1.0, bad]), P),
-             lambda: plant.check_force(bad, P),
-             lambda: plant.equilibrium(bad, P)]
+    calls: list[Callable[[], object]] = [
+        lambda: plant.step(0.0, 0.0, bad, P),
+        lambda: plant.step_batch(np.zeros(3), np.zeros(3), np.array([0.0, bad, 1.0]), P),
+        lambda: plant.simulate(np.array([1.0, bad]), P),
+        lambda: plant.check_force(bad, P),
+        lambda: plant.equilibrium(bad, P),
+    ]
     for call in calls:
         with pytest.raises(InvalidInputError, match="force must be finite") as info:
             call()
