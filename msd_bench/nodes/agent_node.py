@@ -17,6 +17,7 @@ and the node writes ``qtables.npz`` and ``result.json`` under ``out_dir`` and ex
 
 from __future__ import annotations
 
+import functools
 import json
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -149,7 +150,7 @@ class AgentNode(Node):
         super().__init__("agent", **node_kwargs)
         self.config = config or declare_from_dataclass(self, AgentNodeConfig)
         self.out = Path(self.config.out_dir)
-        self.done: Future = Future()
+        self.done: Future[int] = Future()
         self.q: np.ndarray | None = None
         self.per_seed: list[dict[str, Any]] = []
         self.real_steps = 0
@@ -206,7 +207,7 @@ class AgentNode(Node):
         for i, seed in enumerate(cfg.seeds):
             policy = GreedyPolicy(cfg.qconfig(), q[i], cfg.target, self._observer())
             ep = Episode(_Greedy(policy, self._announce), cfg.plant_ns, cfg.validation_steps, record=True,
-                         on_done=lambda e, s=seed: self._validated(s, e))
+                         on_done=functools.partial(self._validated, seed))
             self._client.submit(ep)
         self._client.on_idle = self._finish
 

@@ -96,7 +96,7 @@ class IdentifierNode(Node):
     def __init__(self, config: IdentifierConfig | None = None, **node_kwargs: Any) -> None:
         super().__init__("identifier", **node_kwargs)
         self.config = config or declare_from_dataclass(self, IdentifierConfig)
-        self.done: Future = Future()
+        self.done: Future[int] = Future()
         self.report: dict[str, Any] = {}
         self._timer = self.create_timer(0.01, self._run)
 
