@@ -105,8 +105,9 @@ def test_validation_bag_is_a_complete_rosbag2(run):
 def test_robustness_of_every_agent_kind_is_reported(run):
     out, proc = run
     doc = json.loads((out / "report" / "robustness.json").read_text())
-    assert set(doc["agents"]) == set(AGENTS)
-    nominal = doc["agents"]["glm"]["nominal"]
+    cells = {a["kind"]: a["cells"] for a in doc["agents"]}
+    assert set(cells) == set(AGENTS) and "delay=1" in doc["scenarios"]
+    nominal = cells["glm"]["nominal"]
     result = json.loads((out / "agents" / "glm" / "result.json").read_text())
     assert nominal["n"] == SEEDS
     assert nominal["sse"] == [r["sse"] for r in result["per_seed"]]  # same tables, same plant

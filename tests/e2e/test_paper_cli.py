@@ -203,8 +203,14 @@ def test_out_that_is_a_file_is_refused_before_running(tmp_path):
 def test_robustness_is_written_and_printed(run, table):
     proc, out = run
     doc = json.loads((out / "robustness.json").read_text())
-    assert set(doc["agents"]) == {a["kind"] for a in table["agents"]}
+    assert (doc["schema"], doc["schema_version"]) == ("msd-bench/robustness", 2)
+    assert doc["scenarios"][:3] == ["nominal", "setpoint=-1.5", "setpoint=-0.5"]
+    assert len(doc["scenarios"]) == 13
+    cells = {a["kind"]: a["cells"] for a in doc["agents"]}
+    assert set(cells) == {a["kind"] for a in table["agents"]}
     for a in table["agents"]:
-        nominal = doc["agents"][a["kind"]]["nominal"]
-        assert nominal["sse"] == [s["sse"] for s in a["per_seed"]]
-    assert "Robustness" in proc.stdout
+        nominal = cells[a["kind"]]["nominal"]
+        assert nominal["sse"] == [s["sse"] for s in a["per_seed"]]  # nominal is the validation itself
+        lo, hi = nominal["ci95"]
+        assert lo <= nominal["n_success"] / nominal["n"] <= hi
+    assert "Robustness" in proc.stdout and "`noise=0.005`" in proc.stdout
