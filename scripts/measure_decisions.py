@@ -18,6 +18,9 @@ same learning seeds:
   about 50·√2 ≈ 71.
 * ``reward`` and ``targets`` — the paper agent trained on the true plant with
   other values of ζ, and with other ranges of training set-points.
+* ``fit`` — what one-step fit means at 100 Hz: the Best-Fit of two predictors
+  that know nothing about the plant (hold the last sample; extrapolate
+  ``2 y[k-1] - y[k-2]``) on the broad validation record `msd-bench paper` uses.
 * ``metrics`` — how the paper agent's success count on the true plant depends
   on the SSE window, and how often ts is defined under a 2 % and a 5 % band.
 
@@ -44,6 +47,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from msd_bench.core import identify, plant, qtrain  # noqa: E402
+from msd_bench.core.excitation import MultilevelConfig  # noqa: E402
+from msd_bench.core.fit import fit_percent  # noqa: E402
 from msd_bench.core.learner import GreedyPolicy  # noqa: E402
 from msd_bench.core.metrics import SUCCESS_SSE, compute  # noqa: E402
 from msd_bench.core.model import StepModel, plant_model  # noqa: E402
@@ -162,6 +167,16 @@ def measure_metrics(seeds: list[int], params: plant.PlantParams) -> dict[str, An
     return out
 
 
+def measure_fit_baselines(params: plant.PlantParams) -> dict[str, float]:
+    """One-step Best-Fit of model-free predictors on the broad validation record of id seed 0."""
+    y = identify.broad_record(params, 5007, MultilevelConfig(n_samples=4000)).experiments[0].y
+    hold, extrapolate = y.copy(), y.copy()
+    hold[1:] = y[:-1]
+    extrapolate[2:] = 2 * y[1:-1] - y[:-2]
+    return {"hold_last_sample": round(fit_percent(y, hold), 2),
+            "linear_extrapolation": round(fit_percent(y, extrapolate), 2)}
+
+
 def facts(argv: list[str]) -> dict[str, Any]:
     """Command, commit and machine, so a number can be traced and re-measured."""
     def git(*args: str) -> str:
@@ -190,7 +205,7 @@ def main() -> None:
            "of 3,000 validation steps on the true plant, unit step",
            "shaping": measure_shaping(seeds, params), **measure_learner(seeds, params),
            "noise": measure_noise(seeds, params),
-           "metrics": measure_metrics(seeds, params)}
+           "fit": measure_fit_baselines(params), "metrics": measure_metrics(seeds, params)}
     doc["seconds"] = round(time.perf_counter() - t0, 1)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1) + "\n")
