@@ -28,7 +28,7 @@ OUTSIDE = re.compile(
 )
 """Names of the design card, the style notes and the paper notes kept outside the repository."""
 CITATION = re.compile(r"(?<![\w/.-])(docs/[\w/.-]+\.md)(?:\s+§([\w-]+))?")
-"""``docs/page.md`` optionally followed by ``§Section``."""
+"""A path under docs/ ending in .md, optionally followed by ``§Section``."""
 
 
 def tracked_text_files() -> dict[str, str]:
