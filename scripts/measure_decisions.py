@@ -16,6 +16,11 @@ same learning seeds:
   and the metrics use the true position). The improved agent's lead error
   ``e + 50 (x_k - x_{k-1})`` differences raw samples, so it multiplies σ by
   about 50·√2 ≈ 71.
+* ``reward`` and ``targets`` — the paper agent trained on the true plant with
+  other values of ζ, and with other ranges of training set-points.
+* ``fit`` — what one-step fit means at 100 Hz: the Best-Fit of two predictors
+  that know nothing about the plant (hold the last sample; extrapolate
+  ``2 y[k-1] - y[k-2]``) on the broad validation record `msd-bench paper` uses.
 * ``metrics`` — how the paper agent's success count on the true plant depends
   on the SSE window, and how often ts is defined under a 2 % and a 5 % band.
 
@@ -42,6 +47,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from msd_bench.core import identify, plant, qtrain  # noqa: E402
+from msd_bench.core.excitation import MultilevelConfig  # noqa: E402
+from msd_bench.core.fit import fit_percent  # noqa: E402
 from msd_bench.core.learner import GreedyPolicy  # noqa: E402
 from msd_bench.core.metrics import SUCCESS_SSE, compute  # noqa: E402
 from msd_bench.core.model import StepModel, plant_model  # noqa: E402
@@ -104,6 +111,20 @@ def measure_shaping(seeds: list[int], params: plant.PlantParams) -> dict[str, An
     return out
 
 
+def measure_learner(seeds: list[int], params: plant.PlantParams) -> dict[str, Any]:
+    """Paper agent on the true plant: ζ in {0, 10, 50, 200}; training targets over four ranges."""
+    truth = plant_model(params)
+    reward = {}
+    for zeta in (0.0, 10.0, 50.0, 200.0):
+        cfg = QConfig(zeta=zeta)
+        reward[f"zeta_{zeta:g}"] = counts(validate(qtrain.train(truth, cfg, seeds).q, cfg, truth))
+    targets = {}
+    for lo, hi in ((1.0, 1.0), (0.5, 1.5), (-2.0, 2.0), (-2.5, 2.5)):
+        cfg = QConfig(target_low=lo, target_high=hi)
+        targets[f"{lo:g}..{hi:g}"] = counts(validate(qtrain.train(truth, cfg, seeds).q, cfg, truth))
+    return {"reward": reward, "targets": targets}
+
+
 def noisy_run(policy: GreedyPolicy, params: plant.PlantParams, sigma: float,
               rng: np.random.Generator) -> np.ndarray:
     """3,000 greedy steps on the true plant, the policy seeing position + N(0, σ²)."""
@@ -146,6 +167,16 @@ def measure_metrics(seeds: list[int], params: plant.PlantParams) -> dict[str, An
     return out
 
 
+def measure_fit_baselines(params: plant.PlantParams) -> dict[str, float]:
+    """One-step Best-Fit of model-free predictors on the broad validation record of id seed 0."""
+    y = identify.broad_record(params, 5007, MultilevelConfig(n_samples=4000)).experiments[0].y
+    hold, extrapolate = y.copy(), y.copy()
+    hold[1:] = y[:-1]
+    extrapolate[2:] = 2 * y[1:-1] - y[:-2]
+    return {"hold_last_sample": round(fit_percent(y, hold), 2),
+            "linear_extrapolation": round(fit_percent(y, extrapolate), 2)}
+
+
 def facts(argv: list[str]) -> dict[str, Any]:
     """Command, commit and machine, so a number can be traced and re-measured."""
     def git(*args: str) -> str:
@@ -172,8 +203,9 @@ def main() -> None:
     doc = {"schema": "msd-bench/decisions", **facts(sys.argv[1:]), "preset": "default",
            "seeds": f"{seeds[0]}..{seeds[-1]}", "success": f"SSE < {SUCCESS_SSE:g} % over the last 500 "
            "of 3,000 validation steps on the true plant, unit step",
-           "shaping": measure_shaping(seeds, params), "noise": measure_noise(seeds, params),
-           "metrics": measure_metrics(seeds, params)}
+           "shaping": measure_shaping(seeds, params), **measure_learner(seeds, params),
+           "noise": measure_noise(seeds, params),
+           "fit": measure_fit_baselines(params), "metrics": measure_metrics(seeds, params)}
     doc["seconds"] = round(time.perf_counter() - t0, 1)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1) + "\n")

@@ -76,8 +76,8 @@ class QConfig:
     """Weight η >= 0 of the shaping *penalty* for actions pushing away from the target.
 
     The paper prints ``+ η φ(s,a)`` with φ >= 0 yet calls it a penalty; as
-    printed it is a bonus. We subtract it, which is what the text means
-    (docs/decisions.md §Shaping: success rose from ~25 % to ~69 % with η = 0.05). 0 disables it."""
+    printed it is a bonus. We subtract it, which is what the text means. Which
+    actions count as pushing away matters more than η (docs/decisions.md §Shaping). 0 disables it."""
     force: float = 10.0
     """Force magnitude F in N: actions are {-F, -F/2, 0, F/2, F} (paper: 10)."""
     target_low: float = -2.0

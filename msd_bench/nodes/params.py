@@ -1,7 +1,8 @@
 """Map a frozen config dataclass 1:1 onto declared ROS parameters (docs/design.md §Conventions).
 
-Why generic: every node (plant, excitation, surrogate, agent, recorder) has a
-config dataclass in ``core`` with a docstring under each field. Declaring the
+Why generic: every node (plant, excitation, surrogate, agent, recorder) has
+config dataclasses — core's for the science (e.g. ``PlantParams``), its own in
+``nodes`` for how it runs — with a docstring under each field. Declaring the
 parameters from the dataclass keeps the two from drifting: the field's
 docstring becomes the parameter's description, its default the default, and
 an optional range (``field(metadata={"range": (lo, hi)})`` or a per-class

@@ -100,6 +100,7 @@ def test_validation_bag_is_a_complete_rosbag2(run):
     out, _ = run
     info = bag_info(out / "agents" / "plant" / "validation" / "seed_0")
     assert info.topics["/msd/joint_states"][1] == STEPS
+    assert info.topics["/msd/reference"] == ("std_msgs/msg/Float64", 1)  # the set-point, at t_0
 
 
 def test_robustness_of_every_agent_kind_is_reported(run):
