@@ -33,7 +33,7 @@ class RunConfig:
     """What one run of the method does (defaults = the paper's budgets)."""
 
     preset: str = "default"
-    """Plant preset (``default`` or ``mild``; docs/design.md §The plant)."""
+    """Plant preset (``default`` or ``mild``; docs/design.md §Plant)."""
     seeds: int = 20
     """Learning seeds per identification seed and agent kind."""
     first_seed: int = 0
