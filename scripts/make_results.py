@@ -16,22 +16,32 @@ import datetime as dt
 import json
 import os
 import platform
+import shutil
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
 RESULTS = REPO / "docs" / "results"
 
 PAPER = [sys.executable, "-m", "msd_bench.cli", "paper", "--no-figures"]
+SURROGATE_ROWS = ",".join(f"{m}{d}" for d in ("", "+improved", "+robust") for m in ("plm", "nlarx-improved",
+                                                                                      "greybox"))
 COMMANDS: dict[str, list[str]] = {
     "table1_default": [*PAPER, "--seeds", "64"],
     "table1_idseeds": [*PAPER, "--seeds", "64", "--id-seeds", "3", "--id-first-seed", "1",
-                       "--first-seed", "1000", "--agents",
-                       "plm,nlarx-improved,greybox,plm+improved,nlarx-improved+improved,greybox+improved"],
-    "table1_mild": [*PAPER, "--seeds", "20", "--preset", "mild"],
+                       "--first-seed", "1000", "--agents", SURROGATE_ROWS],
+    "table1_shaping": [*PAPER, "--seeds", "64", "--agents",
+                       ",".join(f"{m}@{r}" for m in ("plant", "plm", "nlarx-improved", "glm")
+                                for r in ("away", "toward"))],
+    "robust_check": [*PAPER, "--seeds", "20", "--id-first-seed", "7", "--first-seed", "500", "--agents",
+                     "plm+robust,nlarx-improved+robust"],
+    "table1_noisy_id": [*PAPER, "--seeds", "2", "--id-seeds", "3", "--record-noise", "0.002", "--agents",
+                        "greybox,nlarx-improved,plm"],
+    "efficiency": [sys.executable, "-m", "msd_bench.cli", "efficiency"],
 }
 """Named results: the exact ``msd-bench paper`` arguments behind each README table (``--out`` added)."""
 
@@ -55,6 +65,23 @@ def commit() -> str:
     return head + ("+dirty" if dirty else "")
 
 
+def outputs(out: Path) -> dict[str, Any]:
+    """The JSON a command wrote, without per-seed rows (they stay in the run's own files)."""
+    found: dict[str, Any] = {}
+    for key in ("table1", "robustness", "efficiency"):
+        if (out / f"{key}.json").is_file():
+            found[key] = json.loads((out / f"{key}.json").read_text())
+    for agent in found.get("table1", {}).get("agents", []):
+        agent.pop("per_seed", None)
+    for agent in found.get("robustness", {}).get("agents", []):
+        for cell in agent["cells"].values():
+            cell.pop("sse", None)
+            cell.pop("mae", None)
+    if (out / "efficiency.png").is_file():
+        shutil.copyfile(out / "efficiency.png", RESULTS / "efficiency.png")
+    return found
+
+
 def run(name: str) -> Path:
     """Run the named command into a temporary directory and store its JSON outputs."""
     with tempfile.TemporaryDirectory(prefix=f"results_{name}_") as tmp:
@@ -72,14 +99,8 @@ def run(name: str) -> Path:
             "machine": machine(),
             "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
             "seconds": round(seconds, 1),
-            "table1": json.loads((out / "table1.json").read_text()),
-            "robustness": json.loads((out / "robustness.json").read_text()),
+            **outputs(out),
         }
-    for agent in doc["table1"]["agents"]:
-        agent.pop("per_seed", None)  # the summary stays; per-seed rows stay in the run's own files
-    for cells in doc["robustness"]["agents"].values():
-        for cell in cells.values():
-            cell.pop("sse", None)
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / f"{name}.json"
     path.write_text(json.dumps(doc, indent=1) + "\n")

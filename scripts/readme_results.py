@@ -60,16 +60,47 @@ def view_table1(doc: dict[str, Any], name: str) -> str:
 
 
 def view_robustness(doc: dict[str, Any], name: str) -> str:
-    """Each agent kind's fixed tables under every scenario: successes/n with the interval."""
-    agents = doc["robustness"]["agents"]
-    labels = {a["kind"]: a["label"] for a in doc["table1"]["agents"]}
-    scenarios = list(next(iter(agents.values())))
-    lines = ["| Agent | " + " | ".join(scenarios) + " |", "|" + "---|" * (len(scenarios) + 1)]
-    for kind, cells in agents.items():
-        row = [f"{c['n_success']}/{c['n']} ({100 * wilson(c['n_success'], c['n'])[0]:.0f}–"
-               f"{100 * wilson(c['n_success'], c['n'])[1]:.0f} %)" for c in cells.values()]
-        lines.append(f"| {labels.get(kind, kind)} | " + " | ".join(row) + " |")
-    return "\n".join([*lines, "", _source(doc, name)]) + "\n"
+    """Each agent kind's fixed tables under every scenario: successes/n with the interval (transposed:
+    a row per scenario, a column per agent kind, so thirteen scenarios stay readable)."""
+    rob = doc["robustness"]
+    kinds = [a["kind"] for a in rob["agents"]]
+    cells = {a["kind"]: a["cells"] for a in rob["agents"]}
+    lines = ["| scenario | " + " | ".join(f"`{k}`" for k in kinds) + " |", "|" + "---|" * (len(kinds) + 1)]
+    for sid in rob["scenarios"]:
+        row = []
+        for k in kinds:
+            c = cells[k][sid]
+            lo, hi = wilson(c["n_success"], c["n"])
+            row.append(f"{c['n_success']}/{c['n']} ({100 * lo:.0f}–{100 * hi:.0f})")
+        lines.append(f"| `{sid}` | " + " | ".join(row) + " |")
+    note = "Cells: successes/n (Wilson 95 % interval, %). Columns are agent kinds (labels in Table 1 above)."
+    return "\n".join([*lines, "", note, "", _source(doc, name)]) + "\n"
+
+
+def view_efficiency(doc: dict[str, Any], name: str) -> str:
+    """Per method: success with its interval at each real-sample budget, and where it reaches the
+    on-plant learner's final rate."""
+    methods = doc["efficiency"]["methods"]
+    lines = ["| method | points: real samples → successes/n (Wilson 95 %) |", "|---|---|"]
+    for m in methods:
+        pts = sorted(m["points"], key=lambda p: p["real_samples"])
+        text = "; ".join(f"{p['real_samples']:,} → {p['n_success']}/{p['n']} "
+                         f"({100 * p['ci95'][0]:.0f}–{100 * p['ci95'][1]:.0f} %)" for p in pts)
+        lines.append(f"| {m['label']} | {text} |")
+    refs = [m for m in methods if m["name"] in ("plant", "plant+improved")]
+    notes = []
+    for ref in refs:
+        final = max(ref["points"], key=lambda p: p["real_samples"])
+        rate = final["n_success"] / final["n"]
+        reached = []
+        for m in methods:
+            at = next((p["real_samples"] for p in sorted(m["points"], key=lambda p: p["real_samples"])
+                       if p["n_success"] / p["n"] >= rate), None)
+            where = f"{at:,}" if at is not None else "not in the sweep"
+            reached.append(f"{m['label']}: {where}")
+        notes.append(f"- {ref['label']} reaches {100 * rate:.0f} % after {final['real_samples']:,} real "
+                     f"steps; that rate is first reached by — " + "; ".join(reached) + ".")
+    return "\n".join([*lines, "", *notes, "", _source(doc, name)]) + "\n"
 
 
 def view_json(doc: dict[str, Any], name: str) -> str:
@@ -88,7 +119,7 @@ def _cell(v: Any) -> str:
 
 
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
-    "table1": view_table1, "robustness": view_robustness, "table": view_json}
+    "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency}
 
 
 def render(readme: str, results_dir: Path) -> str:
