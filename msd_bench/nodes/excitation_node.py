@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock, ClockType  # type: ignore[attr-defined]  # re-exported at run time
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.task import Future
@@ -110,7 +110,7 @@ class ExcitationNode(Node):
         self.config = config or declare_from_dataclass(self, ExcitationNodeConfig)
         self.signal = np.asarray(signal if signal is not None else self._declare_signal(), dtype=float)
         self.sent = 0
-        self.done: Future = Future()
+        self.done: Future[int] = Future()
         self._pub = self.create_publisher(Float64, FORCE.name, qos(FORCE))
         self._reset = (
             self.create_publisher(Empty, RESET.name, qos(RESET)) if self.config.reset_first else None

@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock, ClockType  # type: ignore[attr-defined]  # re-exported at run time
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.publisher import Publisher
@@ -147,15 +147,15 @@ class PlantNode(Node):
         self._dt_ns = round(self.spec.dt * 1e9)
         self.counters = {"steps": 0, "rejected": 0, "saturated": 0, "watchdog": 0}
         reject_unknown_parameters(self)
-        self.done: Future = Future()
+        self.done: Future[int] = Future()
         """Completes with :data:`EXIT_CONFLICT` when an earlier plant claims the namespace."""
         self._claim_namespace()
         self.spec.model.step(self.spec.model.initial_state(), 0.0)  # compile before the first tick
-        self._pub_js: Publisher = self.create_publisher(
+        self._pub_js: Publisher[Any] = self.create_publisher(
             msg_class(JOINT_STATES), JOINT_STATES.name, qos(JOINT_STATES)
         )
         self._pub_x = self.create_publisher(Float64, POSITION.name, qos(POSITION))
-        self._pub_clock: Publisher | None = (
+        self._pub_clock: Publisher[Any] | None = (
             self.create_publisher(msg_class(CLOCK), CLOCK.name, qos(CLOCK)) if self.config.lockstep else None
         )
         self.create_subscription(Float64, FORCE.name, self._on_force, qos(FORCE))

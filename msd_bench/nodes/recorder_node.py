@@ -105,7 +105,7 @@ class RecorderNode(Node):
         self._recorder: BagRecorder | None = None  # set first: destroy_node() may run on a failed init
         super().__init__("recorder", **node_kwargs)
         self.config = declare_from_dataclass(self, RecorderConfig)
-        self.done: Future = Future()
+        self.done: Future[int] = Future()
         self._recorder = BagRecorder(
             self.config.bag_path,
             params=self.config.params(),
@@ -113,7 +113,7 @@ class RecorderNode(Node):
         ).open()
         self._started: float | None = None
         self._written = 0
-        self._unmatched: dict[str, Subscription] = {}
+        self._unmatched: dict[str, Subscription[Any]] = {}
         for spec in self.config.specs():
             self._subscribe(spec)
         self._timer = self.create_timer(self.config.flush_period_s / 2, self._on_timer)
