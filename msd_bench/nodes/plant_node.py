@@ -54,7 +54,7 @@ from msd_bench.core.plant import PRESETS, PlantParams, preset
 from msd_bench.nodes import plant_claim
 from msd_bench.nodes.health import StallTracker, diagnostic_array
 from msd_bench.nodes.params import declare_from_dataclass, reject_unknown_parameters
-from msd_bench.nodes.spin import DeadlinePacer
+from msd_bench.nodes.spin import DeadlinePacer, stops_deferred
 from msd_msgs_py.contract import (
     CLOCK,
     DIAGNOSTICS,
@@ -152,7 +152,8 @@ class PlantNode(Node):
         self.done: Future = Future()
         """Completes with :data:`EXIT_CONFLICT` when an earlier plant claims the namespace."""
         self._claim_namespace()
-        self.spec.model.step(self.spec.model.initial_state(), 0.0)  # compile before the first tick
+        with stops_deferred():  # compile before the first tick; a stop waits until it is done
+            self.spec.model.step(self.spec.model.initial_state(), 0.0)
         self._pub_js: Publisher = self.create_publisher(
             msg_class(JOINT_STATES), JOINT_STATES.name, qos(JOINT_STATES)
         )
