@@ -36,8 +36,10 @@ def one_stop(delay: float, sig: signal.Signals, domain: int) -> dict[str, object
         os.killpg(proc.pid, signal.SIGKILL)
         status = proc.popen.wait(5.0)
     proc.close_output()
-    bad = [ln for ln in proc.lines if "Traceback" in ln or "error:" in ln]
-    return {"delay": round(delay, 3), "status": status, "bad_line": bad[0] if bad else ""}
+    bad = [i for i, ln in enumerate(proc.lines) if "Traceback" in ln or "error:" in ln]
+    return {"delay": round(delay, 3), "status": status,
+            "bad_line": proc.lines[bad[0]] if bad else "",
+            "bad_output": proc.lines[bad[0]:][-12:] if bad else []}
 
 
 def _commit() -> str:

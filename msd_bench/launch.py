@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from msd_bench.core.errors import MsdBenchError
+from msd_bench.dds import confine_to_loopback
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SCRIPTS = REPO_ROOT / "launch_scripts"
@@ -99,6 +100,13 @@ def ros_env(domain_id: int | None = None, extra: dict[str, str] | None = None) -
     env.setdefault("PYTHONUNBUFFERED", "1")
     env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")
     env.update(extra or {})
+    confine_to_loopback(env)  # sockets on 127.0.0.1 only (msd_bench.dds)
+    return env
+
+
+def _confined(env: dict[str, str]) -> dict[str, str]:
+    env = dict(env)
+    confine_to_loopback(env)
     return env
 
 
@@ -136,7 +144,7 @@ def start(
     if ros_args:
         argv += ["--ros-args", *ros_args]
     popen = subprocess.Popen(
-        argv, cwd=REPO_ROOT, env=env or ros_env(domain_id), text=True,
+        argv, cwd=REPO_ROOT, env=_confined(env) if env else ros_env(domain_id), text=True,
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True,
         preexec_fn=functools.partial(_child_setup, os.getpid(), path.resolve().parent == SCRIPTS),
     )

@@ -5,6 +5,7 @@ Imported only by nodes (it needs rclpy); bag code uses :mod:`msd_msgs_py.contrac
 
 from __future__ import annotations
 
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -18,6 +19,7 @@ MESSAGE_CLASSES = {
     "std_msgs/msg/Empty": Empty,
     "sensor_msgs/msg/JointState": JointState,
     "rosgraph_msgs/msg/Clock": Clock,
+    "diagnostic_msgs/msg/DiagnosticArray": DiagnosticArray,
 }
 
 

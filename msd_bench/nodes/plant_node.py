@@ -52,10 +52,12 @@ from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.model import StepModel, plant_model
 from msd_bench.core.plant import PRESETS, PlantParams, preset
 from msd_bench.nodes import plant_claim
+from msd_bench.nodes.health import StallTracker, diagnostic_array
 from msd_bench.nodes.params import declare_from_dataclass, reject_unknown_parameters
-from msd_bench.nodes.spin import DeadlinePacer
+from msd_bench.nodes.spin import DeadlinePacer, stops_deferred
 from msd_msgs_py.contract import (
     CLOCK,
+    DIAGNOSTICS,
     FORCE,
     JOINT_STATES,
     PLANT_CLAIM,
@@ -150,7 +152,8 @@ class PlantNode(Node):
         self.done: Future[int] = Future()
         """Completes with :data:`EXIT_CONFLICT` when an earlier plant claims the namespace."""
         self._claim_namespace()
-        self.spec.model.step(self.spec.model.initial_state(), 0.0)  # compile before the first tick
+        with stops_deferred():  # compile before the first tick; a stop waits until it is done
+            self.spec.model.step(self.spec.model.initial_state(), 0.0)
         self._pub_js: Publisher[Any] = self.create_publisher(
             msg_class(JOINT_STATES), JOINT_STATES.name, qos(JOINT_STATES)
         )
@@ -166,6 +169,10 @@ class PlantNode(Node):
         self._mono0 = time.monotonic()
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(plant_claim.HEARTBEAT_S, self._on_heartbeat, clock=steady)
+        self._stalls = StallTracker(self.spec.dt)
+        self._pub_diag = self.create_publisher(msg_class(DIAGNOSTICS), DIAGNOSTICS.name, qos(DIAGNOSTICS))
+        self._last_counters = dict(self.counters)
+        self.create_timer(1.0, self._on_diagnostics, clock=steady)
         if not self.config.lockstep:
             self.create_timer(self.spec.dt, self._on_timer, clock=steady)
         mode = "lock-step" if self.config.lockstep else f"real-time {1 / self.spec.dt:g} Hz"
@@ -273,9 +280,39 @@ class PlantNode(Node):
     def _on_timer(self) -> None:
         """Run every step whose slot has begun (one, or a burst after a stall)."""
         now = time.monotonic()
-        for t_sched in self._pacer.due(now):
+        reanchors = self._pacer.reanchors
+        due = self._pacer.due(now)
+        gap = self._stalls.tick(now)
+        if gap is not None:
+            lost = self._pacer.reanchors > reanchors
+            what = "stamps skip the gap (re-anchored)" if lost else f"caught up {len(due)} samples"
+            text = f"stall: no timer tick for {gap:.3f} s; {what}"
+            if gap > 0.1 or lost:  # long stalls always; short ones (load jitter) once a second
+                self.get_logger().warning(text)
+            else:
+                self.get_logger().warning(text, throttle_duration_sec=1.0)
+        for t_sched in due:
             self._check_watchdog(t_sched)
             self._step(self._u, self._ros0 + round((t_sched - self._mono0) * 1e9))
+
+    def _on_diagnostics(self) -> None:
+        """Publish the node's health on /diagnostics (1 Hz)."""
+        c = self.counters
+        fresh = {k: c[k] - self._last_counters.get(k, 0) for k in c}
+        self._last_counters = dict(c)
+        watchdog = "n/a (lock-step)" if self.config.lockstep else (
+            "tripped" if c["watchdog"] and self._t_cmd is None else "armed" if self._t_cmd is not None
+            else "idle")
+        values = {
+            "mode": "lock-step" if self.config.lockstep else f"real-time {1 / self.spec.dt:g} Hz",
+            "sample": self._k, **c, "reanchors": self._pacer.reanchors, "watchdog_state": watchdog,
+            "stalls": self._stalls.count, "last_stall_s": self._stalls.last_s,
+            "longest_stall_s": self._stalls.longest_s, "force_applied": self._u,
+        }
+        warnings = [f"{n} {k} in the last second" for k, n in fresh.items() if n and k != "steps"]
+        self._pub_diag.publish(diagnostic_array(
+            self.get_clock().now().to_msg(), f"{self.get_fully_qualified_name()}: plant-like node",
+            self.spec.model.name or "model", values, warnings))
 
     def _check_watchdog(self, t: float) -> None:
         if self._t_cmd is not None and t - self._t_cmd > self.config.watchdog_timeout:

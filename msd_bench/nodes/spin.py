@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import signal
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import rclpy
@@ -68,6 +69,21 @@ class DeadlinePacer:
             out.append(self._next)
             self._next += self.period
         return out
+
+
+@contextmanager
+def stops_deferred() -> Iterator[None]:
+    """Hold SIGINT/SIGTERM while native code runs (numba compiling), deliver them after.
+
+    Why: a KeyboardInterrupt raised inside llvmlite leaves a half-built object
+    whose destructor prints a traceback at exit, though the stop itself is clean.
+    """
+    held = {signal.SIGINT, signal.SIGTERM}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def make_executor(context: rclpy.context.Context | None = None) -> Executor:
