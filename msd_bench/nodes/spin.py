@@ -1,6 +1,6 @@
 """The one thin ``main()`` every node process shares (ros2/examples pattern, STYLE.md §9).
 
-``with rclpy.init(args=args):`` build the node, spin, and end cleanly on
+``with ros_session(args):`` build the node, spin, and end cleanly on
 Ctrl-C (``KeyboardInterrupt``), SIGTERM (rclpy's handler shuts the context
 down, the spin raises ``ExternalShutdownException``) or when the node says it
 is done. A user mistake (:class:`MsdBenchError`, e.g. ``-p m:=-1``) prints one
@@ -15,7 +15,8 @@ there).
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import rclpy
@@ -62,6 +63,20 @@ class DeadlinePacer:
         return out
 
 
+@contextmanager
+def ros_session(args: Sequence[str] | None = None) -> Iterator[None]:
+    """``rclpy.init`` on the default context, ``rclpy.try_shutdown`` on the way out.
+
+    Why not ``with rclpy.init(args=...)``: only Kilted's rclpy returns a context
+    manager there; Jazzy's returns None and the ``with`` raises TypeError.
+    """
+    rclpy.init(args=None if args is None else list(args))
+    try:
+        yield
+    finally:
+        rclpy.try_shutdown()
+
+
 def make_executor(context: rclpy.context.Context | None = None) -> Executor:
     """The executor nodes run on: the single-threaded one (see benchmarks/bench_lockstep.py)."""
     return SingleThreadedExecutor(context=context)
@@ -92,7 +107,7 @@ def main(build: Callable[[], Node], args: Sequence[str] | None = None) -> int:
     node: Node | None = None
     status = 0
     try:
-        with rclpy.init(args=argv):
+        with ros_session(argv):
             try:
                 node = build()
                 status = spin_node(node, make_executor())
