@@ -4,10 +4,7 @@
         -p out_dir:=bags/<run>/agents/plm -p "seeds:=[0,1,2]" [-p via_ros:=true] [-p agent:=improved]
 """
 
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import _reexec  # noqa: F401  (first: the repo on sys.path; re-exec into the project's venv if needed)
 
 from msd_bench.nodes.agent_node import AgentNode
 from msd_bench.nodes.spin import run

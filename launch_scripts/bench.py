@@ -14,7 +14,7 @@ import random
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import _reexec  # noqa: F401  (first: the repo on sys.path; re-exec into the project's venv if needed)
 
 from msd_bench.core.agents import AGENT_KINDS
 from msd_bench.core.errors import MsdBenchError

@@ -3,10 +3,7 @@
     python launch_scripts/excitation.py [--ros-args -p signal:=multilevel -p seed:=3 -p lockstep:=true]
 """
 
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import _reexec  # noqa: F401  (first: the repo on sys.path; re-exec into the project's venv if needed)
 
 from msd_bench.nodes.excitation_node import ExcitationNode
 from msd_bench.nodes.spin import run

@@ -7,10 +7,7 @@
         -p validation_bag:=/data/val -p "models:=[glm,nlarx-improved]" -p out_dir:=models
 """
 
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import _reexec  # noqa: F401  (first: the repo on sys.path; re-exec into the project's venv if needed)
 
 from msd_bench.nodes.identifier_node import IdentifierNode
 from msd_bench.nodes.spin import run

@@ -3,10 +3,7 @@
     python launch_scripts/plant.py [--ros-args -p lockstep:=true -p preset:=mild -r __ns:=/msd]
 """
 
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import _reexec  # noqa: F401  (first: the repo on sys.path; re-exec into the project's venv if needed)
 
 from msd_bench.nodes.plant_node import PlantNode, declare_true_plant
 from msd_bench.nodes.spin import run

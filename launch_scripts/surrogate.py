@@ -4,10 +4,7 @@
         -p lockstep:=true [-r __ns:=/surrogate/plm]
 """
 
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import _reexec  # noqa: F401  (first: the repo on sys.path; re-exec into the project's venv if needed)
 
 from msd_bench.nodes.spin import run
 from msd_bench.nodes.surrogate_node import build_surrogate
