@@ -15,10 +15,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 distro="${1:-kilted}"
 case "$distro" in
-    kilted) venv=.venv; extras="dev,kilted"; venv_opts=() ;;
-    jazzy) venv=.venv-jazzy; extras="dev,jazzy"; venv_opts=() ;;
+    kilted) venv=.venv; extras="dev,kilted"; venv_opts=(); ros="Kilted, PyPI wheels" ;;
+    jazzy) venv=.venv-jazzy; extras="dev,jazzy"; venv_opts=(); ros="Jazzy, PyPI wheels" ;;
     system)
-        venv=.venv-system; extras="dev"; venv_opts=(--system-site-packages)
+        venv=.venv-system; extras="dev"; venv_opts=(--system-site-packages); ros="${ROS_DISTRO:-}, sourced"
         if [ -z "${ROS_DISTRO:-}" ]; then
             echo "setup_env.sh: DISTRO=system needs a sourced ROS 2 (source /opt/ros/<distro>/setup.bash first)" >&2
             exit 2
@@ -36,4 +36,4 @@ python3 -m venv "${venv_opts[@]}" "$venv"
     exit 1
 }
 echo "$venv" > .msd-env
-echo "$venv is the project's environment (ROS 2 $distro); launch scripts re-execute into it"
+echo "$venv is the project's environment (ROS 2 $ros); launch scripts re-execute into it"
