@@ -1,6 +1,10 @@
-# Each target sets up its own environment first (.venv with everything pinned).
-PY := .venv/bin/python
-STAMP := .venv/.installed
+# Each target sets up its own environment first (a venv with everything pinned).
+# DISTRO picks the ROS 2 distribution: kilted (default, .venv), jazzy (.venv-jazzy) or
+# system (.venv-system: an apt-installed ROS 2 sourced in this shell); docs/distributions.md.
+DISTRO ?= kilted
+VENV := $(if $(filter kilted,$(DISTRO)),.venv,.venv-$(DISTRO))
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
 
 .PHONY: bench test lint setup
 
@@ -14,8 +18,10 @@ lint: $(STAMP)
 	$(PY) -m ruff check .
 	$(PY) -m mypy
 
+# Also records $(VENV) as the environment the launch scripts re-execute into.
 setup: $(STAMP)
+	@echo $(VENV) > .msd-env
 
 $(STAMP): pyproject.toml scripts/setup_env.sh
-	bash scripts/setup_env.sh
+	bash scripts/setup_env.sh $(DISTRO)
 	touch $(STAMP)

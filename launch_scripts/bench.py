@@ -10,9 +10,8 @@ Everything it does is in :mod:`msd_bench.graph.main`.
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import _reexec  # noqa: F401  (first: the repo on sys.path; re-exec into the project's venv if needed)
 
 from msd_bench.graph.main import main
 

@@ -15,10 +15,7 @@ for _sig in (signal.SIGINT, signal.SIGTERM):  # stopped while importing: nothing
     signal.signal(_sig, lambda *_: os._exit(0))
 signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})  # launch.start blocked them
 
-import sys
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import _reexec  # noqa: F401  (the repo on sys.path; re-exec into the project's venv if needed)
 
 from msd_bench.nodes.identifier_node import IdentifierNode
 from msd_bench.nodes.spin import run

@@ -1,5 +1,8 @@
 """The ``msd-bench`` console script: ``paper``, ``efficiency``, ``bag``, ``echo``, ``hz``.
 
+Also runs as ``python -m msd_bench`` with any interpreter: one that lacks the
+project's dependencies re-executes with the project's venv (``msd_bench/_bootstrap.py``).
+
 Every subcommand module exposes ``register(subparsers)`` and sets ``func`` on
 its parser. A user mistake (:class:`MsdBenchError`) prints one line on stderr
 and exits with status 2 — never a traceback.
@@ -11,7 +14,12 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from msd_bench.core.errors import MsdBenchError
+from msd_bench._bootstrap import ensure_environment
+
+if __name__ == "__main__":  # `python -m msd_bench.cli` with an interpreter lacking the deps
+    ensure_environment(module="msd_bench.cli")
+
+from msd_bench.core.errors import MsdBenchError  # only after the re-exec above
 
 
 def build_parser() -> argparse.ArgumentParser:

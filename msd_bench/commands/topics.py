@@ -29,6 +29,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
 
 from msd_bench.core.errors import MsdBenchError
+from msd_bench.nodes.spin import ros_session
 from msd_msgs_py.contract import ALL_TOPICS
 from msd_msgs_py.ros import qos
 
@@ -151,7 +152,7 @@ def rate_report(times: Sequence[float]) -> str:
 
 def _run(probe_cls: type[_Probe], args: argparse.Namespace) -> int:
     try:
-        with rclpy.init(args=[]):
+        with ros_session([]):
             probe = probe_cls(args)
             try:
                 probe.spin()

@@ -170,7 +170,8 @@ class PlantNode(Node):
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(plant_claim.HEARTBEAT_S, self._on_heartbeat, clock=steady)
         self._stalls = StallTracker(self.spec.dt)
-        self._pub_diag = self.create_publisher(msg_class(DIAGNOSTICS), DIAGNOSTICS.name, qos(DIAGNOSTICS))
+        self._pub_diag: Publisher[Any] = self.create_publisher(msg_class(DIAGNOSTICS), DIAGNOSTICS.name,
+                                                               qos(DIAGNOSTICS))
         self._last_counters = dict(self.counters)
         self.create_timer(1.0, self._on_diagnostics, clock=steady)
         if not self.config.lockstep:

@@ -1,6 +1,6 @@
 """The one thin ``main()`` every node process shares (ros2/examples pattern, docs/design.md §Conventions).
 
-``with rclpy.init(args=args):`` build the node, spin, and end cleanly on
+``with ros_session(args):`` build the node, spin, and end cleanly on
 Ctrl-C (``KeyboardInterrupt``), SIGTERM (rclpy's handler shuts the context
 down, the spin raises ``ExternalShutdownException``) or when the node says it
 is done. A user mistake (:class:`MsdBenchError`, e.g. ``-p m:=-1``) prints one
@@ -86,6 +86,20 @@ def stops_deferred() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
+@contextmanager
+def ros_session(args: Sequence[str] | None = None) -> Iterator[None]:
+    """``rclpy.init`` on the default context, ``rclpy.try_shutdown`` on the way out.
+
+    Why not ``with rclpy.init(args=...)``: only Kilted's rclpy returns a context
+    manager there; Jazzy's returns None and the ``with`` raises TypeError.
+    """
+    rclpy.init(args=None if args is None else list(args))
+    try:
+        yield
+    finally:
+        rclpy.try_shutdown()
+
+
 def make_executor(context: rclpy.context.Context | None = None) -> Executor:
     """The executor nodes run on: the single-threaded one (see benchmarks/bench_lockstep.py)."""
     return SingleThreadedExecutor(context=context)
@@ -128,7 +142,8 @@ def main(build: Callable[[], Node], args: Sequence[str] | None = None) -> int:
     for sig in (signal.SIGINT, signal.SIGTERM):  # replace a launch script's start-up handler:
         signal.signal(sig, signal.default_int_handler)  # a stop from here on is KeyboardInterrupt
     try:
-        context = rclpy.init(args=argv)
+        # no `with rclpy.init(...)`: only Kilted's rclpy returns a context manager there, Jazzy's None
+        rclpy.init(args=argv)
     except RCLError as exc:  # malformed --ros-args: rcl refuses to initialise
         print(f"error: {str(exc).split(', at ')[0]}", file=sys.stderr)
         return EXIT_USAGE
@@ -138,10 +153,11 @@ def main(build: Callable[[], Node], args: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         return 0
     try:
-        with context:
-            return _run_node(build, argv)
+        return _run_node(build, argv)
     except KeyboardInterrupt:
         return 0
+    finally:
+        rclpy.try_shutdown()
 
 
 def _run_node(build: Callable[[], Node], argv: list[str]) -> int:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import time
 import warnings
 from collections.abc import Callable, Iterator
@@ -10,12 +12,32 @@ import pytest
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
 
 # rclpy imports lark lazily (parameter events), which imports the deprecated sre_parse;
 # import it once here with that one warning silenced so warnings-as-errors stays on for ours.
 with warnings.catch_warnings():
     warnings.filterwarnings("ignore", "module 'sre_.*' is deprecated", DeprecationWarning)
     import lark  # noqa: F401
+
+
+def shutdown_context(context: Context) -> None:
+    """Destroy the nodes still alive in ``context``, then shut it down.
+
+    Why: Kilted's rclpy destroys a context's nodes when it shuts down; Jazzy's only
+    shuts the context down, so its nodes — and their DDS participant, with every
+    publisher and subscription — stay in the graph until garbage collection. The
+    next test's plant then refuses to start ("already has a publisher"), and its
+    publishers see the old subscriptions as matched and send before the new node
+    listens. Nodes a test forgot (or whose ``__init__`` raised) are found by scanning
+    the heap: only on an rclpy without ``Context.track_node`` (Jazzy), ~0.1 s.
+    """
+    if not hasattr(context, "track_node"):
+        for obj in gc.get_objects():
+            if issubclass(type(obj), Node) and obj.context is context:  # type(): no proxy __class__
+                with contextlib.suppress(AttributeError):  # Node.__init__ failed before its rcl node
+                    obj.destroy_node()  # a second destroy (test already did) is a no-op
+    rclpy.try_shutdown(context=context)
 
 
 @pytest.fixture
@@ -26,7 +48,7 @@ def ctx() -> Iterator[Context]:
     try:
         yield context
     finally:
-        rclpy.try_shutdown(context=context)
+        shutdown_context(context)
 
 
 @pytest.fixture

@@ -25,6 +25,7 @@ from msd_bench.io.bags import bag_info, read_experiment, read_topic
 from msd_bench.nodes.recorder_node import RecorderNode
 from msd_msgs_py.contract import FORCE, JOINT_STATES, PLANT_NAMESPACE, POSITION, RECORDER_READY
 from msd_msgs_py.ros import float64, joint_state, msg_class, qos
+from tests.nodes.conftest import shutdown_context
 
 pytestmark = [
     pytest.mark.ros,
@@ -42,7 +43,7 @@ def ctx() -> Iterator[Context]:
     try:
         yield context
     finally:
-        rclpy.shutdown(context=context)
+        shutdown_context(context)
 
 
 def _spin_until(executor: SingleThreadedExecutor, cond: Callable[[], bool], timeout: float = 15.0) -> None:
