@@ -52,6 +52,7 @@ CONTRACT_MODELS: dict[str, Callable[[], StepModel]] = {
     "plm": _stored("plm"),
     "nlarx-paper": _stored("nlarx-paper"),
     "nlarx-improved": _stored("nlarx-improved"),
+    "greybox": _stored("greybox"),
 }
 """Every model kind under contract: the true plant and one stored artifact per surrogate kind."""
 
@@ -182,3 +183,9 @@ def test_learner_batch_equals_single(model: StepModel, cfg: QConfig) -> None:
     xs, us = greedy_rollouts(model, batch.q, cfg, 1.0, 400)
     x1, u1 = greedy_rollout(model, batch.q[1], cfg, 1.0, 400)
     assert np.array_equal(xs[1], x1) and np.array_equal(us[1], u1)
+
+
+def test_every_registered_model_kind_is_under_contract() -> None:
+    from msd_bench.core.registry import MODEL_KINDS
+
+    assert set(MODEL_KINDS) <= set(CONTRACT_MODELS), "store an artifact of the new kind in tests/data/pinned"
