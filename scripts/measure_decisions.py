@@ -36,8 +36,6 @@ import platform
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -53,30 +51,10 @@ from msd_bench.core.learner import GreedyPolicy  # noqa: E402
 from msd_bench.core.metrics import SUCCESS_SSE, compute  # noqa: E402
 from msd_bench.core.model import StepModel, plant_model  # noqa: E402
 from msd_bench.core.plm import PLM_BIASES  # noqa: E402
-from msd_bench.core.qconfig import Encoding, QConfig, improved_config  # noqa: E402
+from msd_bench.core.qconfig import QConfig, improved_config  # noqa: E402
 
 NOISE_MM = (0.0, 0.2, 0.5, 1.0, 2.0, 5.0)
 """Sensor noise levels, standard deviation in mm."""
-
-
-def not_toward_phi(enc: Encoding) -> np.ndarray:
-    """φ = 1 for every action that does not push toward the target, in every bin (paper grid only)."""
-    n = enc.n_states
-    side = np.sign(2 * np.arange(n) - (n - 1))  # sign of each bin centre's error; never 0 for even n
-    toward = side[:, None] * np.sign(enc.actions)[None, :] < 0
-    return (~toward).astype(float)
-
-
-@contextmanager
-def shaping_reading(reading: str) -> Iterator[None]:
-    """Make :func:`qtrain.train` use the φ table of ``reading`` (``away`` = unchanged)."""
-    original = qtrain.encoding
-    if reading == "not_toward":
-        qtrain.encoding = lambda cfg: original(cfg)._replace(phi=not_toward_phi(original(cfg)))  # type: ignore[assignment]
-    try:
-        yield
-    finally:
-        qtrain.encoding = original  # type: ignore[assignment]
 
 
 def validate(q: np.ndarray, cfg: QConfig, truth: StepModel, window: int = 500) -> list[Any]:
@@ -104,9 +82,9 @@ def measure_shaping(seeds: list[int], params: plant.PlantParams) -> dict[str, An
     out: dict[str, Any] = {}
     for name, model in (("plant", truth), ("plm", identified_plm(params))):
         for reading in ("none", "away", "not_toward"):
-            cfg = QConfig(eta=0.0) if reading == "none" else QConfig()
-            with shaping_reading(reading):
-                q = qtrain.train(model, cfg, seeds).q
+            cfg = QConfig(eta=0.0) if reading == "none" else QConfig(
+                shaping="toward" if reading == "not_toward" else "away")
+            q = qtrain.train(model, cfg, seeds).q
             out[f"{name}/{reading}"] = counts(validate(q, cfg, truth))
     return out
 
