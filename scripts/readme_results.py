@@ -112,6 +112,44 @@ def view_json(doc: dict[str, Any], name: str) -> str:
     return "\n".join([*lines, "", _source(doc, name)]) + "\n"
 
 
+def view_peers(doc: dict[str, Any], name: str) -> str:
+    """Identification methods side by side: simulation fit against the truth, clean and noisy."""
+    rows = doc["summary"]
+    noises = list(dict.fromkeys(r["noise_std"] for r in rows))
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    by = {(r["method"], r["noise_std"]): r for r in rows}
+    head = [f"sim fit vs truth, σ = {1000 * n:g} mm (mean; min)" for n in noises]
+    lines = ["| method | " + " | ".join(head) + " | one-step fit (clean) | fit time (s) |",
+             "|" + "---|" * (len(noises) + 3)]
+    for m in methods:
+        cells = []
+        for n in noises:
+            r = by.get((m, n))
+            if r is None or r["sim_fit_truth_mean"] is None:
+                cells.append("diverged")
+            else:
+                extra = f", {r['diverged']} diverged" if r["diverged"] else ""
+                cells.append(f"{r['sim_fit_truth_mean']:.2f}; {r['sim_fit_truth_min']:.2f}{extra}")
+        clean = by.get((m, noises[0]))
+        one = f"{clean['one_step_fit_mean']:.2f}" if clean else "—"
+        secs = f"{clean['fit_seconds_mean']:.2f}" if clean else "—"
+        lines.append(f"| {m} | " + " | ".join(cells) + f" | {one} | {secs} |")
+    naive = doc.get("naive_one_step", {})
+    note = ("One-step fit of predictors that know nothing of the plant, on the same records: "
+            + "; ".join(f"{k} {_num(v)}" for k, v in naive.items()) + ".") if naive else ""
+    m = doc.get("machine", {})
+    src = (f"_Generated from `docs/results/{name}.json`: `{doc.get('command', '?')}` at commit "
+           f"`{str(doc.get('git_commit', '?'))[:10]}` on {m.get('processor', '?')} "
+           f"({m.get('cpus', '?')} cores)._")
+    return "\n".join([*lines, "", note, "", src]) + "\n"
+
+
+def _num(v: Any) -> str:
+    if isinstance(v, dict):
+        return ", ".join(f"{k} {_num(x)}" for k, x in v.items())
+    return f"{v:.2f} %" if isinstance(v, float) else str(v)
+
+
 def _cell(v: Any) -> str:
     if isinstance(v, float):
         return f"{v:.2f}"
@@ -119,7 +157,8 @@ def _cell(v: Any) -> str:
 
 
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
-    "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency}
+    "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency,
+    "peers": view_peers}
 
 
 def render(readme: str, results_dir: Path) -> str:
