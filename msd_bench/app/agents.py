@@ -29,8 +29,8 @@ def robust_config() -> QConfig:
     return improved_config(**ROBUST)
 
 
-ROBUST: dict[str, object] = {"observer": "model", "obs_gain": 0.1, "obs_velocity_gain": 0.0,
-                             "train_noise": 0.006, "train_delay": 1}
+ROBUST: dict[str, object] = {"observer": "model", "obs_gain": 0.05, "obs_velocity_gain": 0.0,
+                             "train_noise": 0.0, "train_delay": 1}
 """The robust agent's observer gains and training perturbations (chosen on surrogates, see docs)."""
 
 LEARNERS: dict[str, Callable[[], QConfig]] = {
