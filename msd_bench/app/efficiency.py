@@ -24,7 +24,7 @@ from msd_bench.app.agents import PLANT, agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import identify_surrogates, records_from_plan, train_and_validate
 from msd_bench.app.plan import paper_plan, real_samples
-from msd_bench.core.errors import ConfigError
+from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.model import plant_model
 from msd_bench.core.registry import model_kind
 from msd_bench.core.results import SUCCESS_SSE
@@ -32,7 +32,7 @@ from msd_bench.core.stats import wilson
 
 Progress = Callable[[str, int, int], None]
 
-RECORD_SAMPLES = (150, 400, 1_000, 2_500, 6_000, 12_000)
+RECORD_SAMPLES = (300, 1_000, 2_500, 6_000, 12_000)
 """Samples per identification record; with settle and validation, 1k–60k plant samples in total."""
 EPISODES = (10, 30, 100, 300)
 """On-plant training budgets in episodes of 3,000 steps: 30,000 to 900,000 real steps."""
@@ -90,17 +90,26 @@ def surrogate_points(cfg: EfficiencyConfig, tell: Progress) -> dict[str, list[di
         tell(f"surrogate route, {n} samples per record", i, len(cfg.record_samples))
         wins: dict[str, int] = dict.fromkeys(cfg.surrogate_agents, 0)
         reals: dict[str, int] = {}
+        failed: dict[str, str] = {}
         for j, id_seed in enumerate(run.id_seed_values()):
             plan = paper_plan(id_seed, n, validation_samples(n), settle_for(n))
-            models, _ = identify_surrogates(records_from_plan(run.plant, plan), models_needed, id_seed,
-                                            run.plant, run.nlarx_scale)
+            records = records_from_plan(run.plant, plan)
+            for name in models_needed:
+                try:
+                    models, _ = identify_surrogates(records, [name], id_seed, run.plant, run.nlarx_scale)
+                except MsdBenchError as err:  # too little data to identify: the route fails here
+                    failed[name] = str(err)
+                    continue
+                for kind in (k for k in cfg.surrogate_agents if agent_kind(k).surrogate == name):
+                    trained = train_and_validate(kind, models[name], run, run.learning_seeds(j))
+                    wins[kind] += sum(m["sse"] < SUCCESS_SSE for m in trained.metrics)
             for kind in cfg.surrogate_agents:
-                name = agent_kind(kind).surrogate
-                trained = train_and_validate(kind, models[name], run, run.learning_seeds(j))
-                wins[kind] += sum(m["sse"] < SUCCESS_SSE for m in trained.metrics)
-                reals[kind] = real_samples(plan, model_kind(name).records)
+                reals[kind] = real_samples(plan, model_kind(agent_kind(kind).surrogate).records)
         for kind in cfg.surrogate_agents:
-            out[kind].append(_point(wins[kind], run.seeds * run.id_seeds, reals[kind]))
+            point = _point(wins[kind], run.seeds * run.id_seeds, reals[kind])
+            if agent_kind(kind).surrogate in failed:  # agents of a failed identification count as failures
+                point["identification_failed"] = failed[agent_kind(kind).surrogate]
+            out[kind].append(point)
     return out
 
 

@@ -26,7 +26,7 @@ def register(sub: Any) -> None:
 
     add_run_arguments(p, seeds=20, id_seeds=2, agents=(*SURROGATE_AGENTS, *PLANT_AGENTS))
     p.add_argument("--out", type=Path, required=True, help="output directory (created)")
-    p.add_argument("--record-samples", default="150,400,1000,2500,6000,12000",
+    p.add_argument("--record-samples", default="300,1000,2500,6000,12000",
                    help="samples per identification record at each surrogate-route point")
     p.add_argument("--budgets", default="10,30,100,300",
                    help="on-plant training budgets, in episodes of --steps steps")
