@@ -34,6 +34,8 @@ from msd_bench.dds import confine_to_loopback
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SCRIPTS = REPO_ROOT / "launch_scripts"
 SHM = Path("/dev/shm")
+SHM_PREFIXES = ("/dev/shm/fastdds", "/dev/shm/fastrtps")
+"""Fast DDS 3 (Kilted) names its segments fastdds_*, Fast DDS 2 (Jazzy) fastrtps_*."""
 
 
 class LaunchError(MsdBenchError):
@@ -193,7 +195,7 @@ def shm_files_of(pid: int) -> set[str]:
         names |= {line.split()[-1] for line in Path(f"/proc/{pid}/maps").read_text().splitlines()}
     except OSError:
         pass
-    return {Path(n).name.removesuffix("_el") for n in names if n.startswith("/dev/shm/fastdds")}
+    return {Path(n).name.removesuffix("_el") for n in names if n.startswith(SHM_PREFIXES)}
 
 
 def _in_use() -> set[str]:

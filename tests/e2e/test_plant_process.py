@@ -93,7 +93,7 @@ def test_sigkilled_plant_leaves_no_shared_memory():
     proc.wait_for_line("ready", timeout=20.0)
     status = launch.stop(proc, grace=(0.0, 0.0, 5.0))  # escalate straight to SIGKILL
     assert status == -signal.SIGKILL and _gone(proc.pid)
-    own = [s for s in proc.shm_files if not s.startswith("fastdds_port")]
+    own = [s for s in proc.shm_files if not s.startswith(("fastdds_port", "fastrtps_port"))]
     assert own, "the plant had a Fast DDS segment of its own"
     leftovers = [s for s in proc.shm_files if (Path("/dev/shm") / s).exists()]
     assert not [s for s in leftovers if s in own]
