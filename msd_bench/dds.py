@@ -15,11 +15,21 @@ A user's own profile or another RMW is left alone.
 
 from __future__ import annotations
 
+from importlib import metadata
 from pathlib import Path
 
 LOOPBACK_PROFILE = Path(__file__).with_name("fastdds_loopback.xml")
 """UDPv4 on 127.0.0.1 only + shared memory; the default participant profile."""
 _PROFILE_VARS = ("FASTDDS_DEFAULT_PROFILES_FILE", "FASTRTPS_DEFAULT_PROFILES_FILE")
+
+
+def _profile_var() -> str:
+    """Fast DDS 3 (Kilted) reads FASTDDS_..., 2.x (Jazzy) FASTRTPS_...; rmw warns on the other."""
+    try:
+        major = int(metadata.version("ros-fastdds").split(".")[0])
+    except (metadata.PackageNotFoundError, ValueError):
+        major = 3
+    return _PROFILE_VARS[0] if major >= 3 else _PROFILE_VARS[1]
 
 
 def confine_to_loopback(env: dict[str, str]) -> None:
@@ -30,6 +40,5 @@ def confine_to_loopback(env: dict[str, str]) -> None:
         return  # the user's own Fast DDS profile wins
     if env.get("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp") != "rmw_fastrtps_cpp":
         return
-    for var in _PROFILE_VARS:
-        env[var] = str(LOOPBACK_PROFILE)
+    env[_profile_var()] = str(LOOPBACK_PROFILE)
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "SUBNET"  # confined by the profile; see the module docstring

@@ -27,6 +27,7 @@ from msd_bench.graph.bench import (
     write_run_facts,
 )
 from msd_bench.graph.domains import claim_domain
+from msd_bench.io.bag_records import roles_from_dir
 from msd_bench.io.paths import writable_dir
 from msd_bench.launch import process_group
 from msd_bench.progress import StageProgress
@@ -103,6 +104,8 @@ def run_graph_stages(cfg: BenchConfig) -> None:
 def run(cfg: BenchConfig) -> int:
     """All requested stages; prints Table 1 and where the report is."""
     writable_dir(cfg.run_dir, "--out")
+    if cfg.bags is not None and "identify" in cfg.stages:
+        roles_from_dir(cfg.bags)  # a killed or badly timed bag is one line now, not after the stage starts
     say(f"run directory {cfg.run_dir}  (ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']})")
     if any(s in cfg.stages for s in ("record", "identify", "agents")):
         run_graph_stages(cfg)

@@ -65,7 +65,7 @@ def test_plant_process_reports_health_and_logs_a_stall() -> None:
         assert "Traceback" not in plant.output()
     assert len(got) >= 6
     gaps = [b[0] - a[0] for a, b in itertools.pairwise(got[:3])]
-    assert all(0.7 < g < 1.3 for g in gaps), gaps  # 1 Hz before the stall
+    assert all(0.5 < g < 1.5 for g in gaps), gaps  # 1 Hz before the stall (loaded machine: ±0.5 s)
     last = _values(got[-1][1])
     assert last["mode"] == "real-time 100 Hz"
     assert int(last["rejected"]) == 1 and int(last["saturated"]) == 1

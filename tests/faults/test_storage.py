@@ -23,6 +23,7 @@ from msd_bench.io.bag_check import check_bag
 from msd_bench.io.bag_writer import BagRecorder, BagWriteError
 from msd_bench.io.bags import read_experiment, write_experiment
 from msd_bench.io.errors import BagError
+from msd_bench.io.paths import OutputError, writable_dir
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -102,18 +103,18 @@ def test_read_only_storage_is_one_line_everywhere(read_only_disk: Path, tmp_path
         BagRecorder(read_only_disk / "bag").open()
     src = write_experiment(tmp_path / "src", np.arange(200) * 10_000_000, np.zeros(200), np.zeros(200),
                            np.zeros(200), params={})
-    cases = [
+    cases = [  # real processes for two entry points; the shared check is exercised in-process below
         [sys.executable, "-m", "msd_bench.commands.bag", "bag", "recover", str(src), "--output",
          str(read_only_disk / "rec")],
-        [sys.executable, "launch_scripts/bench.py", "--out", str(read_only_disk / "run"),
-         "--stages", "report"],
         [sys.executable, "launch_scripts/identifier.py", "--ros-args", "-p", f"bags_dir:={tmp_path}",
          "-p", f"out_dir:={read_only_disk / 'models'}"],
-        [sys.executable, "launch_scripts/identifier.py", "--ros-args", "-p", f"bags_dir:={tmp_path}",
-         "-p", f"out_dir:={src / 'metadata.yaml' / 'models'}"],  # under a file
         [sys.executable, "launch_scripts/bench.py", "--out", str(src / "metadata.yaml" / "run"),
-         "--stages", "report"],
+         "--stages", "report"],  # under a file
     ]
+    for label, path in (("--out", read_only_disk / "run"), ("out_dir", src / "metadata.yaml" / "m")):
+        with pytest.raises(OutputError) as err:
+            writable_dir(path, label)
+        assert str(err.value).startswith(f"{label} {path}: cannot write there (")
     for argv in cases:
         proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True, timeout=120)
         err = proc.stderr.strip()
