@@ -39,6 +39,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import SingleThreadedExecutor
@@ -149,7 +150,7 @@ class PlantNode(Node):
         self._dt_ns = round(self.spec.dt * 1e9)
         self.counters = {"steps": 0, "rejected": 0, "saturated": 0, "watchdog": 0}
         reject_unknown_parameters(self)
-        self.done: Future = Future()
+        self.done: Future[int] = Future()
         """Completes with :data:`EXIT_CONFLICT` when an earlier plant claims the namespace."""
         self._claim_namespace()
         with stops_deferred():  # compile before the first tick; a stop waits until it is done
@@ -170,7 +171,8 @@ class PlantNode(Node):
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(plant_claim.HEARTBEAT_S, self._on_heartbeat, clock=steady)
         self._stalls = StallTracker(self.spec.dt)
-        self._pub_diag = self.create_publisher(msg_class(DIAGNOSTICS), DIAGNOSTICS.name, qos(DIAGNOSTICS))
+        self._pub_diag: Publisher[DiagnosticArray] = self.create_publisher(
+            DiagnosticArray, DIAGNOSTICS.name, qos(DIAGNOSTICS))
         self._last_counters = dict(self.counters)
         self.create_timer(1.0, self._on_diagnostics, clock=steady)
         if not self.config.lockstep:
