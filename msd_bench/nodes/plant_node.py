@@ -39,6 +39,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.clock import Clock, ClockType  # type: ignore[attr-defined]  # re-exported at run time
 from rclpy.executors import SingleThreadedExecutor
@@ -170,8 +171,8 @@ class PlantNode(Node):
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(plant_claim.HEARTBEAT_S, self._on_heartbeat, clock=steady)
         self._stalls = StallTracker(self.spec.dt)
-        self._pub_diag: Publisher[Any] = self.create_publisher(msg_class(DIAGNOSTICS), DIAGNOSTICS.name,
-                                                               qos(DIAGNOSTICS))
+        self._pub_diag: Publisher[DiagnosticArray] = self.create_publisher(
+            DiagnosticArray, DIAGNOSTICS.name, qos(DIAGNOSTICS))
         self._last_counters = dict(self.counters)
         self.create_timer(1.0, self._on_diagnostics, clock=steady)
         if not self.config.lockstep:
