@@ -91,10 +91,10 @@ class AgentNodeConfig:
             raise ConfigError(f"shaping must be one of {', '.join(SHAPINGS)}, got {self.shaping!r}")
         if not self.out_dir:
             raise ConfigError("out_dir is required")
-        if not self.dyna and not self.model_path:
-            raise ConfigError("model_path is required unless dyna is set")
         if not self.seeds:
             raise ConfigError("seeds must not be empty")
+        if not self.dyna and not self.model_path:
+            raise ConfigError("model_path is required unless the kind is dyna-q")
         if self.window > self.validation_steps:
             raise ConfigError("window must not exceed validation_steps")
 

@@ -74,7 +74,7 @@ def test_two_experiments_record_exactly_what_the_plant_simulates(tmp_path):
 
 
 def test_paper_plan_has_the_papers_experiments():
-    plan = paper_plan(seed=3, n_samples=1200, val_samples=400)
+    plan = paper_plan(id_seed=3, n_samples=1200, val_samples=400)
     names = [s.name for s in plan]
     assert names == ["bias_m10", "bias_m5", "bias_0", "bias_p5", "bias_p10", "broad",
                      "val_bias_m10", "val_bias_m5", "val_bias_0", "val_bias_p5", "val_bias_p10", "val_broad"]
