@@ -64,3 +64,18 @@ def test_fits_carry_the_fit_against_the_truth(run):
     # 2 mm of noise on a stroke-wide record moves the fit a little, not a lot
     assert abs(glm["sim_fit_truth"] - glm["sim_fit"]) < 2.0
     assert glm["sim_fit_truth"] != glm["sim_fit"]
+
+
+def test_plant_args_carry_the_sensor_only_for_recording(tmp_path):
+    from msd_bench.app.config import RunConfig
+    from msd_bench.graph.bench import BenchConfig, plant_args, record_plan
+
+    noisy = BenchConfig(tmp_path, RunConfig(record_noise=NOISE, record_quant=0.0005, id_first_seed=4,
+                                            agents=("glm",)))
+    args = plant_args(noisy, sensor=True)
+    assert {"sensor_noise:=0.002", "sensor_quant:=0.0005", "sensor_seed:=4"} <= set(args)
+    assert not any(a.startswith("sensor_") for a in plant_args(noisy, sensor=False))  # agents: ideal plant
+    assert not any(a.startswith("sensor_") for a in plant_args(BenchConfig(tmp_path), sensor=True))
+    assert [s.name for s in record_plan(noisy)] == ["broad", "val_broad"]
+    with_plm = BenchConfig(tmp_path, RunConfig(agents=("plm+improved",)))
+    assert len(record_plan(with_plm)) == 12

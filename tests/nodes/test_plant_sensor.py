@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import os
+import platform
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -111,6 +113,10 @@ def test_noisy_sensor_measures_with_the_right_spread_and_publishes_the_truth(ctx
     assert abs(v_err - np.sqrt(2) * noise / DT) < 0.2 * np.sqrt(2) * noise / DT, v_err
     if SPREAD_OUT:
         Path(SPREAD_OUT).write_text(json.dumps({
+            "command": f"MSD_SENSOR_SPREAD_OUT={SPREAD_OUT} pytest tests/nodes/test_plant_sensor.py",
+            "commit": subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                                     cwd=Path(__file__).parent).stdout.strip(),
+            "machine": f"{platform.machine()} {os.cpu_count()} cores, {platform.python_version()}",
             "samples": n, "sensor_noise_m": noise, "position_error_std_m": spread,
             "position_error_mean_m": float(np.mean(err)), "velocity_error_std_mps": v_err,
             "velocity_error_std_expected_mps": float(np.sqrt(2) * noise / DT)}, indent=1) + "\n")
