@@ -53,6 +53,13 @@ JOINT_STATES = TopicSpec(
     RECORD_DEPTH,
     "stamped position (m), velocity (m/s), effort = force actually applied (N) over the next sample",
 )
+TRUTH_JOINT_STATES = TopicSpec(
+    "truth/joint_states",
+    "sensor_msgs/msg/JointState",
+    RECORD_DEPTH,
+    "scoring only: the emulator's noise-free row k (true position and velocity, effort as in "
+    "joint_states, same stamp), published only while a sensor model measures joint_states",
+)
 FORCE = TopicSpec(
     "force", "std_msgs/msg/Float64", 1, "force command in N; non-finite rejected, saturated at ±F"
 )
@@ -75,4 +82,4 @@ DIAGNOSTICS = TopicSpec(
 )
 CLOCK = TopicSpec("/clock", "rosgraph_msgs/msg/Clock", TELEMETRY_DEPTH, "sim time, lock-step mode only")
 
-ALL_TOPICS = (POSITION, JOINT_STATES, FORCE, REFERENCE, RESET, CLOCK)
+ALL_TOPICS = (POSITION, JOINT_STATES, TRUTH_JOINT_STATES, FORCE, REFERENCE, RESET, CLOCK)

@@ -26,7 +26,8 @@ from typing import Any
 from msd_bench.app.agents import PLANT, agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.graph.record import paper_plan, record_experiments
+from msd_bench.core.registry import needs_bias_records
+from msd_bench.graph.record import ExperimentSpec, paper_plan, record_experiments
 from msd_bench.launch import NodeProcess, ProcessSet
 from msd_msgs_py.contract import PLANT_NAMESPACE
 
@@ -82,22 +83,46 @@ class BenchConfig:
 Say = Callable[[str], None]
 
 
-def plant_args(cfg: BenchConfig) -> list[str]:
-    """ROS arguments of the emulated plant process."""
-    return ["-p", f"preset:={cfg.run.preset}", "-p", f"lockstep:={str(not cfg.realtime).lower()}"]
+def plant_args(cfg: BenchConfig, sensor: bool = False) -> list[str]:
+    """ROS arguments of the emulated plant process; ``sensor``: measured through the run's sensor.
+
+    The sensor (``--record-noise``/``--record-quant``) is for the identification
+    records only, as in ``msd-bench paper``: agents are validated on the ideal
+    plant. Its noise is seeded by the identification seed, so two identification
+    seeds see different noise and one seed the same noise run after run.
+    """
+    args = ["-p", f"preset:={cfg.run.preset}", "-p", f"lockstep:={str(not cfg.realtime).lower()}"]
+    if sensor and cfg.run.sensor is not None:
+        args += ["-p", f"sensor_noise:={float(cfg.run.record_noise)!r}",
+                 "-p", f"sensor_quant:={float(cfg.run.record_quant)!r}", "-p", f"sensor_seed:={cfg.id_seed}"]
+    return args
 
 
-def start_plant(procs: ProcessSet, cfg: BenchConfig) -> NodeProcess:
-    """Start the plant and wait until it says it is ready."""
-    proc = procs.start("plant.py", plant_args(cfg), name="plant")
+def start_plant(procs: ProcessSet, cfg: BenchConfig, sensor: bool = False) -> NodeProcess:
+    """Start the plant (with the run's sensor if ``sensor``) and wait until it says it is ready."""
+    proc = procs.start("plant.py", plant_args(cfg, sensor), name="plant")
     proc.wait_for_line(r"ready \(", timeout=60.0)
     return proc
 
 
+def record_plan(cfg: BenchConfig) -> list[ExperimentSpec]:
+    """The paper's experiments the run's surrogates use.
+
+    The ten bias PRBS records (training and validation) are only for models
+    fitted on bias records (the PLM); a run without one records the two broad
+    records alone, a sixth of the recording time.
+    """
+    specs = paper_plan(cfg.id_seed, cfg.run.samples, cfg.run.val_samples)
+    if needs_bias_records(cfg.run.surrogates_needed()):
+        return specs
+    return [s for s in specs if s.params.get("bias") is None]
+
+
 def stage_record(cfg: BenchConfig, procs: ProcessSet, bar: Callable[[int, int, str], None]) -> list[Path]:
-    """Record the paper's experiments through the recorder and excitation processes."""
-    plan = paper_plan(cfg.id_seed, cfg.run.samples, cfg.run.val_samples)
-    return record_experiments(plan, cfg.excitation_dir, procs, PLANT_NAMESPACE, not cfg.realtime, bar)
+    """Record the run's experiments through the recorder and excitation processes (and its sensor)."""
+    return record_experiments(record_plan(cfg), cfg.excitation_dir, procs, PLANT_NAMESPACE, not cfg.realtime,
+                              bar, force_limit=cfg.run.plant.F, dt=cfg.run.plant.dt,
+                              truth=cfg.run.sensor is not None)
 
 
 def stage_identify(cfg: BenchConfig, procs: ProcessSet) -> dict[str, Any]:

@@ -29,7 +29,7 @@ from msd_bench.graph.bench import (
 from msd_bench.graph.domains import claim_domain
 from msd_bench.io.bag_records import roles_from_dir
 from msd_bench.io.paths import writable_dir
-from msd_bench.launch import process_group
+from msd_bench.launch import process_group, stop
 from msd_bench.progress import StageProgress
 
 REPO = Path(__file__).resolve().parents[2]
@@ -80,20 +80,33 @@ def write_plant_model(cfg: BenchConfig) -> None:
 
 
 def run_graph_stages(cfg: BenchConfig) -> None:
-    """record → identify → agents, each through node processes, the plant started once."""
+    """record → identify → agents, each through node processes, the plant started once.
+
+    With a sensor (``--record-noise``/``--record-quant``) the plant records
+    through it, then is restarted ideal for the agents (validated on the true
+    plant, as in ``msd-bench paper``).
+    """
+    recording = "record" in cfg.stages and cfg.bags is None
+    sensor = recording and cfg.run.sensor is not None
     with process_group() as procs:
+        plant = None
         if "record" in cfg.stages or "agents" in cfg.stages:
-            timed(cfg, "plant_start", lambda: start_plant(procs, cfg))
-        if "record" in cfg.stages and cfg.bags is None:
+            plant = timed(cfg, "plant_start", lambda: start_plant(procs, cfg, sensor))
+        if recording:
             with StageProgress("record") as bar:
                 timed(cfg, "record", lambda: stage_record(cfg, procs, lambda d, t, n: bar.update(n, d, t)))
         if "identify" in cfg.stages:
             say("identifying surrogates (identifier node)")
             fits = timed(cfg, "identify", lambda: stage_identify(cfg, procs))
             for name, f in fits.items():
-                say(f"  {name}: fit {f['sim_fit']:.1f} % simulation, {f['one_step_fit']:.2f} % one-step")
+                truth = "" if f.get("sim_fit_truth") is None else f" ({f['sim_fit_truth']:.1f} % vs truth)"
+                say(f"  {name}: fit {f['sim_fit']:.1f} % simulation{truth}, "
+                    f"{f['one_step_fit']:.2f} % one-step")
             write_plant_model(cfg)
         if "agents" in cfg.stages:
+            if sensor and plant is not None:
+                stop(plant)
+                timed(cfg, "plant_restart", lambda: start_plant(procs, cfg, sensor=False))
             with StageProgress("agents") as bar:
                 def agents_bar(done: int, total: int, name: str) -> None:
                     bar.update(name, done, total)

@@ -17,6 +17,11 @@ the samples played, bit for bit after saturation. A bag that lacks samples
 takes 1-3 s) is recorded once more; a second shortfall, a wrong force or a
 plant that missed its reset fails loudly, naming the experiment.
 
+A plant with a sensor model (``truth=True``) publishes measured positions on
+``joint_states`` and its noise-free rows on ``truth/joint_states``; both are
+recorded (the truth for scoring only), and the start-at-rest check reads the
+truth, since a measured x_0 is noise.
+
 Real-time mode (``lockstep=False``) records the free-running plant from the
 recorder's start to its stop, so the check is weaker: no gap in the stamps and
 at least as many samples as commands.
@@ -41,7 +46,7 @@ from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.io.bags import bag_info, read_experiment, read_topic
 from msd_bench.launch import LaunchError, NodeProcess, ProcessSet, stop
-from msd_msgs_py.contract import JOINT_STATES, PLANT_NAMESPACE
+from msd_msgs_py.contract import JOINT_STATES, PLANT_NAMESPACE, TRUTH_JOINT_STATES, TopicSpec
 
 SignalConfig = exc.PrbsConfig | exc.MultilevelConfig | exc.StepsConfig
 Progress = Callable[[int, int, str], None]
@@ -50,6 +55,13 @@ _KINDS: dict[str, type] = {
 }
 _TOPICS = (JOINT_STATES,)
 """Recorded for identification: each joint_states row holds x_k, v_k and the force applied."""
+_TRUTH_TOPICS = (JOINT_STATES, TRUTH_JOINT_STATES)
+"""Recorded from a plant with a sensor: the measured rows and, for scoring only, the true ones."""
+
+
+def recorded_topics(truth: bool) -> tuple[TopicSpec, ...]:
+    """The topics a bag holds: ``joint_states``, plus ``truth/joint_states`` from a plant with a sensor."""
+    return _TRUTH_TOPICS if truth else _TOPICS
 
 
 class RecordError(MsdBenchError):
@@ -147,8 +159,12 @@ def record_experiments(
     *,
     force_limit: float = 10.0,
     dt: float = 0.01,
+    truth: bool = False,
 ) -> list[Path]:
-    """Record every spec into ``out_dir/<name>`` from the running plant under ``namespace``."""
+    """Record every spec into ``out_dir/<name>`` from the running plant under ``namespace``.
+
+    ``truth``: the plant measures through a sensor and publishes ``truth/joint_states`` (recorded too).
+    """
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
         raise ConfigError(f"experiment names must be unique, got {names}")
@@ -157,11 +173,11 @@ def record_experiments(
     bags = []
     for i, spec in enumerate(specs):
         try:
-            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt)
+            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth)
         except SampleLossError as err:
             print(f"warning: {err}; recording it again", file=sys.stderr, flush=True)
             shutil.rmtree(out / spec.name)
-            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt)
+            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth)
         bags.append(bag)
         if progress is not None:
             progress(i + 1, len(specs), spec.name)
@@ -170,7 +186,7 @@ def record_experiments(
 
 def record_one(
     spec: ExperimentSpec, bag: Path, procs: ProcessSet, namespace: str, lockstep: bool,
-    force_limit: float, dt: float,
+    force_limit: float, dt: float, truth: bool = False,
 ) -> Path:
     """Record one experiment through a recorder and an excitation process; verify the bag."""
     if bag.exists():
@@ -179,7 +195,9 @@ def record_one(
     t0 = time.monotonic()
     # Both start at once (process start-up dominates a short experiment); the excitation
     # waits until the recorder's reader is in the graph, then settles before playing.
-    rec = procs.start("recorder.py", _recorder_args(spec, bag, namespace, u.size if lockstep else 0),
+    topics = recorded_topics(truth)
+    rec = procs.start("recorder.py",
+                      _recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
                       name=f"recorder[{spec.name}]")
     ex = procs.start("excitation.py", _excitation_args(spec, bag, namespace, lockstep, dt),
                      name=f"excitation[{spec.name}]")
@@ -194,14 +212,15 @@ def record_one(
     finally:
         for proc in (ex, rec):
             stop(proc)
-    _verify(spec, bag, namespace, np.clip(u, -force_limit, force_limit), None if lockstep else dt)
+    _verify(spec, bag, namespace, np.clip(u, -force_limit, force_limit), None if lockstep else dt, topics)
     TIMINGS.append(RecordTiming(spec.name, int(u.size), startup, time.monotonic() - t0))
     return bag
 
 
-def _recorder_args(spec: ExperimentSpec, bag: Path, namespace: str, max_messages: int) -> list[str]:
+def _recorder_args(spec: ExperimentSpec, bag: Path, namespace: str, max_messages: int,
+                   recorded: Sequence[TopicSpec] = _TOPICS) -> list[str]:
     params = json.dumps(spec.bag_params(), sort_keys=True).replace("'", "''")
-    topics = ",".join(t.name for t in _TOPICS)  # joint_states alone: x, v and applied force per row
+    topics = ",".join(t.name for t in recorded)  # joint_states (+ truth): x, v and applied force per row
     return ["-p", f"bag_path:={bag}", "-p", f"namespace:={namespace}", "-p", f"topics:=[{topics}]",
             "-p", f"params_json:='{params}'", "-p", f"max_messages:={max_messages}"]
 
@@ -251,10 +270,16 @@ def _last(proc: NodeProcess) -> str:
     return lines[-1].strip() if lines else "no output"
 
 
-def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: float | None) -> None:
-    """The bag holds exactly the played samples (lock-step: ``dt`` None), or a gap-free superset."""
+def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: float | None,
+            topics: Sequence[TopicSpec] = _TOPICS) -> None:
+    """The bag holds exactly the played samples (lock-step: ``dt`` None), or a gap-free superset.
+
+    With the truth recorded, every topic holds every sample and the plant must
+    have started at rest by the *true* x_0 (the measured one is noisy).
+    """
     try:
-        counts = {t: bag_info(bag).topics.get(t.resolve(namespace), ("", 0))[1] for t in _TOPICS}
+        info = bag_info(bag).topics
+        counts = {t: info.get(t.resolve(namespace), ("", 0))[1] for t in topics}
         if not counts[JOINT_STATES]:
             raise SampleLossError(f"experiment {spec.name}: bag {bag} has no joint_states sample")
         experiment, _ = read_experiment(bag, namespace)
@@ -264,13 +289,16 @@ def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: 
         raise RecordError(f"experiment {spec.name}: {err}") from None
     if dt is None:
         got = {t.name: c for t, c in counts.items()}
-        want = {JOINT_STATES.name: u.size}
+        want = {t.name: u.size for t in topics}
         if got != want:
             _, msgs = read_topic(bag, JOINT_STATES.resolve(namespace))
             k = sorted(round((m.header.stamp.sec * 10**9 + m.header.stamp.nanosec) * 100 / 1e9) for m in msgs)
             raise SampleLossError(f"experiment {spec.name}: expected {want} messages, got {got} "
                                   f"(samples {k[0]}..{k[-1]} present)")
-        if experiment.y[0] != 0.0 or not np.array_equal(experiment.u, u):
+        x0 = experiment.y[0] if experiment.truth is None else experiment.truth[0]
+        if TRUTH_JOINT_STATES in topics and experiment.truth is None:
+            raise RecordError(f"experiment {spec.name}: bag {bag} lacks the truth of the plant's sensor")
+        if x0 != 0.0 or not np.array_equal(experiment.u, u):
             raise RecordError(f"experiment {spec.name}: recorded force differs from the signal "
                               f"(or the plant did not start at rest)")
         return

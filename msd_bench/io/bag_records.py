@@ -131,7 +131,7 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
             exp = align_to_played(exp, r.params)
         if r.settle >= len(exp) - 3:
             raise BagError(f"{r.path}: {len(exp)} samples, fewer than the {r.settle} settle samples to drop")
-        trimmed = Experiment(exp.u[r.settle:], exp.y[r.settle:], str(r.path))
+        trimmed = exp.segment(r.settle)  # keeps the truth of an emulator's sensor bag, if any
         data[(r.role, r.bias)] = IOData((trimmed,), 0.01, {"bag": str(r.path)})
     for role in ("train", "validation"):
         if (role, None) not in data:

@@ -34,7 +34,7 @@ from msd_bench.io.bag_writer import (  # noqa: F401  (re-exported: one module fo
     write_experiment,
 )
 from msd_bench.io.errors import BagError
-from msd_msgs_py.contract import JOINT_NAME, JOINT_STATES, PLANT_NAMESPACE
+from msd_msgs_py.contract import JOINT_NAME, JOINT_STATES, PLANT_NAMESPACE, TRUTH_JOINT_STATES, TopicSpec
 
 UNCHECKED = TimingPolicy(min_samples=0, rate_tolerance=float("inf"), gap_factor=float("inf"))
 """Timing policy that only refuses stamps going backwards or repeating (closed-loop runs, tests)."""
@@ -121,21 +121,20 @@ def read_experiment(
     rig); the parameters dict is empty when the bag carries none. The header
     stamps, in the order the bag stores them, must pass ``timing`` (default:
     the run's 10 ms, in order, no gaps; see :mod:`.bag_timing`).
+
+    A bag that also holds ``<namespace>/truth/joint_states`` (an emulator with
+    a sensor model) gives the experiment its noise-free ``truth``, matched row
+    by row on the header stamp; see :func:`_with_truth`.
     """
     path = Path(path)
     topic = JOINT_STATES.resolve(namespace)
+    truth_topic = TRUTH_JOINT_STATES.resolve(namespace)
     with _open_bag(path) as reader:
-        conns = [c for c in reader.connections if c.topic == topic]
-        if not conns:
-            raise BagError(f"bag {path} has no topic {topic} (has: {_topic_list(reader)})")
-        wrong = [c.msgtype for c in conns if c.msgtype != JOINT_STATES.ros_type]
-        if wrong:
-            raise BagError(f"bag {path}: topic {topic} has type {wrong[0]}, expected {JOINT_STATES.ros_type}")
-        store = typestore()
-        rows = [_sample(path, topic, store, raw) for _, _, raw in reader.messages(connections=conns)]
+        rows = _rows(path, reader, JOINT_STATES, topic)
+        if not rows:
+            raise BagError(f"bag {path}: topic {topic} has no messages")
+        truth_rows = _rows(path, reader, TRUTH_JOINT_STATES, truth_topic, required=False)
         params = _params(path, reader)
-    if not rows:
-        raise BagError(f"bag {path}: topic {topic} has no messages")
     stamps = np.array([r[0] for r in rows], dtype=np.int64)
     check_timing(path, stamps, READ if timing is None else timing)
     data = np.array([r[1:] for r in rows], dtype=np.float64)
@@ -144,7 +143,54 @@ def read_experiment(
         exp = Experiment(u=data[order, 1], y=data[order, 0], name=str(path))
     except MsdBenchError as exc:
         raise BagError(f"bag {path}: topic {topic}: {exc}") from None
+    if truth_rows:
+        exp = _with_truth(path, truth_topic, exp, stamps[order], truth_rows)
     return exp, params
+
+
+def _rows(
+    path: Path, reader: Reader, spec: TopicSpec, topic: str, *, required: bool = True
+) -> list[tuple[int, float, float]]:
+    """(stamp, position, effort) rows of a JointState topic; [] for an absent optional topic."""
+    conns = [c for c in reader.connections if c.topic == topic]
+    if not conns:
+        if not required:
+            return []
+        raise BagError(f"bag {path} has no topic {topic} (has: {_topic_list(reader)})")
+    wrong = [c.msgtype for c in conns if c.msgtype != spec.ros_type]
+    if wrong:
+        raise BagError(f"bag {path}: topic {topic} has type {wrong[0]}, expected {spec.ros_type}")
+    store = typestore()
+    return [_sample(path, topic, store, raw) for _, _, raw in reader.messages(connections=conns)]
+
+
+def _with_truth(
+    path: Path, topic: str, exp: Experiment, stamps: np.ndarray, truth_rows: list[tuple[int, float, float]]
+) -> Experiment:
+    """``exp`` with the truth row of the same header stamp attached to every sample.
+
+    A lock-step bag holds both topics for every sample. A real-time recorder may
+    catch one topic a sample before or after the other, so samples without a
+    truth row are cut *at the ends only*; a missing truth row inside the record,
+    or a truth row whose force differs from the measured row's, is a BagError
+    (the two topics would not describe the same run).
+    """
+    truth = {stamp: (x, effort) for stamp, x, effort in truth_rows}
+    has = np.array([int(s) in truth for s in stamps], dtype=bool)
+    if not has.any():
+        raise BagError(f"bag {path}: topic {topic} shares no header stamp with joint_states")
+    first, last = int(np.argmax(has)), int(has.size - np.argmax(has[::-1]))
+    if not has[first:last].all():
+        k = first + int(np.argmin(has[first:last]))
+        raise BagError(f"bag {path}: topic {topic} lacks sample {k} inside the record")
+    rows = [truth[int(s)] for s in stamps[first:last]]
+    x = np.array([r[0] for r in rows], dtype=np.float64)
+    if not np.array_equal([r[1] for r in rows], exp.u[first:last]):
+        raise BagError(f"bag {path}: topic {topic} has another force than joint_states")
+    try:
+        return Experiment(exp.u[first:last], exp.y[first:last], exp.name, truth=x)
+    except MsdBenchError as exc:
+        raise BagError(f"bag {path}: topic {topic}: {exc}") from None
 
 
 def _sample(path: Path, topic: str, store: Typestore, raw: bytes) -> tuple[int, float, float]:

@@ -29,6 +29,18 @@ lock-step the node acknowledges a reset by publishing ``position`` = x_0: a
 client sends ``reset``, waits for that one position, then sends ``u_0`` — the
 reset and force topics are not ordered with respect to each other, so without
 the acknowledgement a command could overtake the reset.
+
+Sensor (``sensor_noise``/``sensor_quant`` > 0): a real rig reports what its
+encoder reads, not the state, so ``joint_states.position`` and ``position``
+carry the position measured through core's :class:`SensorModel` (one draw per
+sample: x_{k+1} is measured once, published on ``position`` and reused as row
+k+1), and ``joint_states.velocity`` is core's backward-difference estimate from
+those measured positions (0 at sample 0). The state itself — what the model
+steps — is never touched. The noise-free row goes to ``truth/joint_states``
+(scoring only: identification never reads it), published only while a sensor
+is active so a rig-like graph without one has no such topic. The generator is
+seeded once from ``sensor_seed`` and runs on across resets, so a node's noise
+is a function of its seed and of the commands it has stepped.
 """
 
 from __future__ import annotations
@@ -52,6 +64,7 @@ from msd_bench.core import kernels
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.model import StepModel, plant_model
 from msd_bench.core.plant import PRESETS, PlantParams, preset
+from msd_bench.core.sensor import SensorModel, VelocityEstimator, sensor_rng
 from msd_bench.nodes import plant_claim
 from msd_bench.nodes.health import StallTracker, diagnostic_array
 from msd_bench.nodes.params import declare_from_dataclass, reject_unknown_parameters
@@ -65,6 +78,7 @@ from msd_msgs_py.contract import (
     PLANT_NAMESPACE,
     POSITION,
     RESET,
+    TRUTH_JOINT_STATES,
 )
 from msd_msgs_py.ros import clock, float64, joint_state, msg_class, qos
 
@@ -88,6 +102,23 @@ class PlantNodeConfig:
     duplicate_check: float = field(default=4.0, metadata={"range": (0.0, 30.0)})
     """Seconds to listen for an earlier plant-like node's claim on the namespace before serving
     (claims are also re-checked every second afterwards); 0 serves at once."""
+    sensor_noise: float = field(default=0.0, metadata={"range": (0.0, 1.0)})
+    """Standard deviation (m) of the Gaussian noise on the published position; 0 = none. With a
+    sensor, joint_states carries measured positions, an estimated velocity, and the truth goes to
+    truth/joint_states (scoring only)."""
+    sensor_quant: float = field(default=0.0, metadata={"range": (0.0, 1.0)})
+    """Quantisation step (m) of the published position, applied after the noise; 0 = none."""
+    sensor_seed: int = field(default=0, metadata={"range": (0, 2**31 - 1)})
+    """Seed of the sensor noise generator (read once at start-up; resets do not re-seed it)."""
+
+    def __post_init__(self) -> None:
+        SensorModel(self.sensor_noise, self.sensor_quant)  # a bad sensor is one ConfigError line
+
+    @property
+    def sensor(self) -> SensorModel | None:
+        """The sensor the node measures through (None: positions published as they are)."""
+        sensor = SensorModel(self.sensor_noise, self.sensor_quant)
+        return None if sensor.is_ideal else sensor
 
 
 @dataclass(frozen=True)
@@ -162,6 +193,7 @@ class PlantNode(Node):
         self._pub_clock: Publisher[Any] | None = (
             self.create_publisher(msg_class(CLOCK), CLOCK.name, qos(CLOCK)) if self.config.lockstep else None
         )
+        self._init_sensor()
         self.create_subscription(Float64, FORCE.name, self._on_force, qos(FORCE))
         self.create_subscription(Empty, RESET.name, self._on_reset_msg, qos(RESET))
         self._on_reset(None)
@@ -178,7 +210,27 @@ class PlantNode(Node):
         if not self.config.lockstep:
             self.create_timer(self.spec.dt, self._on_timer, clock=steady)
         mode = "lock-step" if self.config.lockstep else f"real-time {1 / self.spec.dt:g} Hz"
-        self.get_logger().info(f"plant-like node {self.spec.model.name or 'model'} ready ({mode})")
+        self.get_logger().info(f"plant-like node {self.spec.model.name or 'model'} ready ({mode}"
+                               f"{', ' + self._sensor_text() if self._sensor else ''})")
+
+    def _init_sensor(self) -> None:
+        """The sensor, its generator and velocity estimator, and the truth topic (only with a sensor)."""
+        self._sensor = self.config.sensor
+        self._rng = sensor_rng(self.config.sensor_seed)
+        self._velocity_estimate = VelocityEstimator(self.spec.dt)
+        self._pub_truth: Publisher[Any] | None = None
+        if self._sensor is not None:
+            self._pub_truth = self.create_publisher(
+                msg_class(TRUTH_JOINT_STATES), TRUTH_JOINT_STATES.name, qos(TRUTH_JOINT_STATES))
+
+    def _sensor_text(self) -> str:
+        s = self._sensor
+        return "ideal sensor" if s is None else (
+            f"sensor noise {s.noise_std:g} m, quantisation {s.quant:g} m, seed {self.config.sensor_seed}")
+
+    def _measure(self, x: float) -> float:
+        """What the sensor reads at true position ``x`` (``x`` itself without a sensor)."""
+        return float(x) if self._sensor is None else self._sensor.measure_one(x, self._rng)
 
     @property
     def k(self) -> int:
@@ -245,6 +297,8 @@ class PlantNode(Node):
 
     def _on_reset(self, _msg: Empty | None) -> None:
         self._state = self.spec.model.initial_state()
+        self._y = self._measure(float(self._state[0]))
+        self._velocity_estimate.reset()
         self._k = 0
         self._u = 0.0
         self._t_cmd: float | None = None
@@ -252,7 +306,7 @@ class PlantNode(Node):
     def _on_reset_msg(self, msg: Empty) -> None:
         self._on_reset(msg)
         if self.config.lockstep:
-            self._pub_x.publish(float64(float(self._state[0])))
+            self._pub_x.publish(float64(self._y))
 
     def _accept(self, u: float) -> float | None:
         """The force to apply, or None if the command must be rejected."""
@@ -310,6 +364,7 @@ class PlantNode(Node):
             "sample": self._k, **c, "reanchors": self._pacer.reanchors, "watchdog_state": watchdog,
             "stalls": self._stalls.count, "last_stall_s": self._stalls.last_s,
             "longest_stall_s": self._stalls.longest_s, "force_applied": self._u,
+            "sensor": self._sensor_text(),
         }
         warnings = [f"{n} {k} in the last second" for k, n in fresh.items() if n and k != "steps"]
         self._pub_diag.publish(diagnostic_array(
@@ -329,12 +384,23 @@ class PlantNode(Node):
         return float(s[1]) if self._is_plant else float(s[0] - s[1]) / self.spec.dt
 
     def _step(self, u: float, stamp: int) -> None:
-        """Publish row k (x_k, v_k, u_k) stamped ``stamp``, advance, publish x_{k+1}."""
-        self._pub_js.publish(joint_state(stamp, float(self._state[0]), self._velocity(), u))
+        """Publish row k (x_k, v_k, u_k) stamped ``stamp``, advance, publish x_{k+1}.
+
+        With a sensor, row k carries the measured y_k and the velocity estimated
+        from measured positions, the truth row goes to ``truth/joint_states``, and
+        ``position`` is the measured y_{k+1} (which row k+1 then repeats).
+        """
+        if self._pub_truth is None:
+            self._pub_js.publish(joint_state(stamp, self._y, self._velocity(), u))
+        else:
+            v_est = self._velocity_estimate.update(self._y)
+            self._pub_js.publish(joint_state(stamp, self._y, v_est, u))
+            self._pub_truth.publish(joint_state(stamp, float(self._state[0]), self._velocity(), u))
         x_next = self.spec.model.step(self._state, u)
+        self._y = self._measure(x_next)
         self._k += 1
         self.counters["steps"] += 1
-        self._pub_x.publish(float64(x_next))
+        self._pub_x.publish(float64(self._y))
         if self._pub_clock is not None:
             self._pub_clock.publish(clock(self._k * self._dt_ns))
 
