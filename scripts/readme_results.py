@@ -112,6 +112,18 @@ def view_json(doc: dict[str, Any], name: str) -> str:
     return "\n".join([*lines, "", _source(doc, name)]) + "\n"
 
 
+def view_fits(doc: dict[str, Any], name: str) -> str:
+    """Every model's simulation fit per identification seed: against the truth and the measured record."""
+    lines = ["| model | id. seed | sim fit vs truth (%) | sim fit vs measured (%) | one-step (%) |",
+             "|---|---|---|---|---|"]
+    for a in doc["table1"]["agents"]:
+        for e in a["fit_by_id_seed"]:
+            truth = e.get("fit_sim_truth_percent")
+            lines.append(f"| {a['surrogate']} | {e['id_seed']} | {_pct(truth, 2)} | "
+                         f"{_pct(e['fit_sim_percent'], 2)} | {_pct(e['fit_one_step_percent'], 2)} |")
+    return "\n".join([*lines, "", _source(doc, name)]) + "\n"
+
+
 def view_peers(doc: dict[str, Any], name: str) -> str:
     """Identification methods side by side: simulation fit against the truth, clean and noisy."""
     rows = doc["summary"]
@@ -158,7 +170,7 @@ def _cell(v: Any) -> str:
 
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency,
-    "peers": view_peers}
+    "peers": view_peers, "fits": view_fits}
 
 
 def render(readme: str, results_dir: Path) -> str:
