@@ -124,6 +124,13 @@ def view_fits(doc: dict[str, Any], name: str) -> str:
     return "\n".join([*lines, "", _source(doc, name)]) + "\n"
 
 
+def view_stoploop(doc: dict[str, Any], name: str) -> str:
+    """One line: how many stops of a node at random moments exited 0."""
+    return (f"{doc['clean']} of {doc['runs']} SIG{doc['signal']} stops of the plant at random moments "
+            f"(start-up included) exited 0 — `{doc['command']}` at commit `{doc['commit']}` on "
+            f"{doc['machine']} (`docs/results/{name}.json`).\n")
+
+
 def view_peers(doc: dict[str, Any], name: str) -> str:
     """Identification methods side by side: simulation fit against the truth, clean and noisy."""
     rows = doc["summary"]
@@ -170,7 +177,7 @@ def _cell(v: Any) -> str:
 
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency,
-    "peers": view_peers, "fits": view_fits}
+    "peers": view_peers, "fits": view_fits, "stoploop": view_stoploop}
 
 
 def render(readme: str, results_dir: Path) -> str:
