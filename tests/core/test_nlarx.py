@@ -63,7 +63,10 @@ def test_improved_form_simulation_fit(records):
     model = identify_nlarx(train, NlarxConfig(form="improved", seed=0))
     report = evaluate(model, valid)
     assert report.sim_fit > 95.0
-    assert report.one_step_fit > 99.9
+    # One-step floor relative to constant-velocity extrapolation on the same record (99.90 %):
+    # measured error ratio about 0.03.
+    cv_error = 100.0 - naive_one_step_fits(valid)["constant_velocity"]
+    assert 100.0 - report.one_step_fit < 0.1 * cv_error
     assert model.info["n_samples"] == 12_000
 
 
