@@ -47,13 +47,17 @@ def test_torch_forward_equals_kernel(improved):
         np.testing.assert_array_equal(params[5:9], 0.0)  # paper form: no linear term
 
 
-def test_paper_form_one_step_fit_is_excellent(records):
+def test_paper_form_one_step_fit_beats_repeating_the_last_sample_but_says_little(records):
+    """The paper form's one-step fit (measured 99.80-99.83 % over seeds 0-2) beats repeating the
+    last sample (98.33 %; error ratio about 0.11) but not constant-velocity extrapolation (99.90 %),
+    while its free run is poor (-33 to +1 %): a one-step number alone means nothing here."""
     train, valid = records
     model = identify_nlarx(train, NlarxConfig(form="paper", seed=0))
     report = evaluate(model, valid)
     assert model.name == "nlarx-paper" and model.info["form"] == "paper"
     np.testing.assert_array_equal(model.params[5:9], 0.0)
-    assert report.one_step_fit > 99.0
+    last_error = 100.0 - naive_one_step_fits(valid)["last_sample"]
+    assert 100.0 - report.one_step_fit < 0.3 * last_error
     # The paper form's known weakness (docs/decisions.md §NLARX): free run is far worse than one step.
     assert report.sim_fit < report.one_step_fit - 5.0
 
@@ -64,7 +68,10 @@ def test_improved_form_simulation_fit(records):
     model = identify_nlarx(train, NlarxConfig(form="improved", seed=0))
     report = evaluate(model, valid)
     assert report.sim_fit > 95.0
-    assert report.one_step_fit > 99.9
+    # One-step floor relative to constant-velocity extrapolation on the same record (99.90 %):
+    # measured error ratio about 0.03.
+    cv_error = 100.0 - naive_one_step_fits(valid)["constant_velocity"]
+    assert 100.0 - report.one_step_fit < 0.1 * cv_error
     assert model.info["n_samples"] == 12_000
 
 
