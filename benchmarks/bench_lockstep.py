@@ -32,7 +32,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from std_msgs.msg import Float64
 
-from msd_bench import launch
+from msd_bench.graph import launch
 from msd_bench.nodes.spin import main as spin_main
 from msd_msgs_py.contract import FORCE, POSITION
 from msd_msgs_py.ros import float64, qos

@@ -25,7 +25,7 @@ import numpy as np
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
-from msd_bench import launch
+from msd_bench.graph import launch
 from msd_msgs_py.contract import JOINT_STATES, PLANT_NAMESPACE
 from msd_msgs_py.ros import msg_class, qos
 

@@ -25,9 +25,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from msd_bench import launch
 from msd_bench.core.plant import preset, simulate
-from msd_bench.graph import record
+from msd_bench.graph import launch, record
 from msd_bench.io.bags import write_experiment
 
 

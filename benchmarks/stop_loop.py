@@ -22,7 +22,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from msd_bench.launch import ros_env, start
+from msd_bench.graph.launch import ros_env, start
 
 
 def one_stop(delay: float, sig: signal.Signals, domain: int) -> dict[str, object]:

@@ -27,8 +27,8 @@ from msd_bench.app.agents import PLANT, agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.registry import needs_bias_records
+from msd_bench.graph.launch import NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, paper_plan, record_experiments
-from msd_bench.launch import NodeProcess, ProcessSet
 from msd_msgs_py.contract import PLANT_NAMESPACE
 
 STAGES = ("record", "identify", "agents", "report")

@@ -27,9 +27,9 @@ from msd_bench.graph.bench import (
     write_run_facts,
 )
 from msd_bench.graph.domains import claim_domain
+from msd_bench.graph.launch import process_group, stop
 from msd_bench.io.bag_records import roles_from_dir
 from msd_bench.io.paths import writable_dir
-from msd_bench.launch import process_group, stop
 from msd_bench.progress import StageProgress
 
 REPO = Path(__file__).resolve().parents[2]

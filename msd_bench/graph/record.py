@@ -44,8 +44,8 @@ import numpy as np
 from msd_bench.app import plan
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet, stop
 from msd_bench.io.bags import bag_info, read_experiment, read_topic
-from msd_bench.launch import LaunchError, NodeProcess, ProcessSet, stop
 from msd_msgs_py.contract import JOINT_STATES, PLANT_NAMESPACE, TRUTH_JOINT_STATES, TopicSpec
 
 SignalConfig = exc.PrbsConfig | exc.MultilevelConfig | exc.StepsConfig

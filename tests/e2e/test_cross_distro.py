@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-from msd_bench import launch
+from msd_bench.graph import launch
 
 pytestmark = pytest.mark.e2e
 

@@ -15,8 +15,8 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from std_msgs.msg import Float64
 
-from msd_bench import launch
 from msd_bench.commands import topics
+from msd_bench.graph import launch
 from msd_msgs_py.contract import PLANT_NAMESPACE, POSITION
 from msd_msgs_py.ros import qos
 

@@ -8,9 +8,9 @@ import os
 import numpy as np
 import pytest
 
-from msd_bench import launch
 from msd_bench.core import excitation as exc
 from msd_bench.core.plant import preset, simulate
+from msd_bench.graph import launch
 from msd_bench.graph.record import ExperimentSpec, RecordError, paper_plan, record_experiments
 from msd_bench.io.bags import read_experiment, read_topic
 

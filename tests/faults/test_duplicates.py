@@ -8,7 +8,7 @@ import pytest
 import rclpy
 from rclpy.context import Context
 
-from msd_bench import launch
+from msd_bench.graph import launch
 from msd_bench.nodes import plant_claim
 from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
 

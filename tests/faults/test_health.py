@@ -16,7 +16,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from std_msgs.msg import Float64
 
-from msd_bench import launch
+from msd_bench.graph import launch
 from msd_bench.nodes.health import StallTracker
 from msd_msgs_py.contract import DIAGNOSTICS, FORCE
 from msd_msgs_py.ros import qos

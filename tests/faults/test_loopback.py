@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from msd_bench import launch
+from msd_bench.graph import launch
 
 pytestmark = pytest.mark.e2e
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench import launch
+from msd_bench.graph import launch
 from msd_bench.io import bag_writer
 from msd_bench.io.bag_check import check_bag
 from msd_bench.io.bag_writer import BagRecorder, BagWriteError

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench import launch
+from msd_bench.graph import launch
 from msd_bench.io.bags import write_experiment
 from msd_bench.io.errors import BagError
 from msd_bench.nodes.identifier_node import IdentifierConfig, identify_from_bags

@@ -8,10 +8,10 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64
 
-from msd_bench import launch
 from msd_bench.core import kernels
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.model import StepModel
+from msd_bench.graph import launch
 from msd_bench.io.artifacts import ArtifactError, Provenance, load_model, save_model
 from msd_bench.nodes.surrogate_node import build_surrogate, surrogate_namespace
 from msd_msgs_py.contract import FORCE, JOINT_STATES, POSITION

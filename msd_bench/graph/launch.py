@@ -31,7 +31,7 @@ from pathlib import Path
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.dds import confine_to_loopback
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
+REPO_ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = REPO_ROOT / "launch_scripts"
 SHM = Path("/dev/shm")
 SHM_PREFIXES = ("/dev/shm/fastdds", "/dev/shm/fastrtps")
