@@ -23,7 +23,7 @@ from mcap.records import Chunk, Footer, Message
 from mcap.stream_reader import CRCValidationError, StreamReader, breakup_chunk
 from mcap.summary import Summary
 
-from msd_bench.io.errors import BagError
+from msd_bench.io.bag_recover import mcap_file
 
 _OP_CHUNK = 0x06
 _OP_MESSAGE_INDEX = 0x07
@@ -46,17 +46,6 @@ class CheckReport:
     def ok(self) -> bool:
         """True when no fault was found."""
         return not self.problems
-
-
-def _mcap_of(path: Path) -> Path:
-    if path.is_file():
-        return path
-    if not path.is_dir():
-        raise BagError(f"bag {path} does not exist")
-    files = sorted(path.glob("*.mcap"))
-    if len(files) != 1:
-        raise BagError(f"bag {path}: expected one .mcap file, found {len(files)}")
-    return files[0]
 
 
 def _scan(report: CheckReport) -> None:
@@ -145,7 +134,7 @@ def _check_metadata(bag_dir: Path, report: CheckReport) -> None:
 def check_bag(path: str | Path) -> CheckReport:
     """Verify CRCs, index and counts of a bag directory (or one ``.mcap`` file)."""
     path = Path(path)
-    report = CheckReport(_mcap_of(path))
+    report = CheckReport(mcap_file(path))
     _scan(report)
     _check_index(report)
     if path.is_dir():
@@ -155,6 +144,6 @@ def check_bag(path: str | Path) -> CheckReport:
 
 def crc_problem(path: str | Path) -> str | None:
     """The first CRC fault of a bag (front-to-back scan only), or None; for ``bag info``'s warning."""
-    report = CheckReport(_mcap_of(Path(path)))
+    report = CheckReport(mcap_file(Path(path)))
     _scan(report)
     return report.problems[0] if report.problems else None

@@ -64,7 +64,7 @@ class _Salvage:
     stopped: str = "end of data"
 
 
-def _mcap_file(path: Path) -> Path:
+def mcap_file(path: Path) -> Path:
     """The one MCAP file of a bag directory (or the file itself)."""
     if path.is_file():
         return path
@@ -143,7 +143,7 @@ def recover(path: str | Path, *, output: str | Path | None = None, overwrite: bo
     at all can be salvaged.
     """
     path = Path(path)
-    source = _mcap_file(path)
+    source = mcap_file(path)
     bag_dir = path if path.is_dir() else path.parent
     out = Path(output) if output is not None else bag_dir.with_name(bag_dir.name + RECOVERED_SUFFIX)
     _prepare_target(out, overwrite)
