@@ -11,17 +11,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from msd_bench.app.agents import learner_from_meta
 from msd_bench.core.metrics import compute
 from msd_bench.core.model import plant_model
 from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import QConfig, encoding, improved_config
+from msd_bench.core.qconfig import encoding, improved_config
 from msd_bench.core.qtrain import greedy_rollouts
 from msd_bench.io import artifacts
 from msd_bench.io.bags import bag_info, read_experiment
 
 pytestmark = pytest.mark.e2e
 REPO = Path(__file__).resolve().parents[2]
-AGENTS = ("glm", "plm+improved", "nlarx-improved", "dyna-q", "plant")
+AGENTS = ("glm", "plm+improved", "nlarx-improved+robust", "dyna-q", "plant")
 SEEDS = 2
 STEPS = 600
 
@@ -64,12 +65,18 @@ def test_models_carry_provenance_of_the_bags(run):
     assert set(fits) == {"glm", "plm", "nlarx-improved"}
 
 
-def test_validation_bags_match_the_core_greedy_run(run):
+@pytest.mark.parametrize("kind", ["glm", "nlarx-improved+robust"])
+def test_validation_bags_match_the_core_greedy_run(run, kind):
+    """Over the plant node's topics, each table runs exactly as in-process — the robust agent's
+    observer (which predicts with the surrogate it trained on) included."""
     out, _ = run
-    arrays, meta = artifacts.load_qtables(out / "agents" / "glm" / "qtables.npz")
-    x_ref, u_ref = greedy_rollouts(plant_model(PlantParams()), arrays["q"], QConfig(), 1.0, STEPS)
+    arrays, meta = artifacts.load_qtables(out / "agents" / kind / "qtables.npz")
+    learner = learner_from_meta(meta)
+    trained_on = artifacts.load_model(out / "models" / f"{kind.split('+')[0]}.json")
+    x_ref, u_ref = greedy_rollouts(plant_model(PlantParams()), arrays["q"], learner, 1.0, STEPS,
+                                   observer=trained_on)
     for i, seed in enumerate(meta["seeds"]):
-        exp, _ = read_experiment(out / "agents" / "glm" / "validation" / f"seed_{seed}")
+        exp, _ = read_experiment(out / "agents" / kind / "validation" / f"seed_{seed}")
         assert np.array_equal(exp.y, x_ref[i]) and np.array_equal(exp.u, u_ref[i])
     arrays, _ = artifacts.load_qtables(out / "agents" / "plm+improved" / "qtables.npz")
     assert arrays["q"].shape == (SEEDS, encoding(improved_config()).n_states, 5)
