@@ -8,4 +8,4 @@ python3 -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip
 .venv/bin/python -m pip install -q "torch==2.13.0"
 .venv/bin/python -m pip install -q -e ".[dev]"
-.venv/bin/python -c "import rclpy, torch, numba, rosbags, mcap, control; print('environment ready')"
+.venv/bin/python -c "import rclpy, torch, numba, rosbags, mcap, control, gymnasium; print('environment ready')"
