@@ -33,8 +33,10 @@ environment's seeded generator, unless ``target`` is fixed or
 
 Backends (:mod:`msd_bench.gym.backends`): the emulated NL-MSD in-process
 (default, ``preset`` names its parameter set), any model artifact
-(``model="models/plm.json"`` or a :class:`StepModel`), or a lock-step
-plant-like node over ROS 2 (``ros_namespace="/msd"``).
+(``model="models/plm.json"`` or a :class:`StepModel`), or a plant-like node
+over ROS 2 (``ros_namespace="/msd"``): lock-step by default, real time with
+``ros_lockstep=False`` (then an episode starts wherever the node came to rest,
+see :mod:`msd_bench.gym.ros_backend`).
 """
 
 from __future__ import annotations
@@ -78,6 +80,7 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
         sensor_quant: float = 0.0,
         qconfig: QConfig | None = None,
         ros_timeout: float = 5.0,
+        ros_lockstep: bool = True,
         render_mode: str | None = None,
     ) -> None:
         """See the module docstring; every argument is checked here, with a one-line error."""
@@ -91,7 +94,7 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
         self.sensor = SensorModel(sensor_noise, sensor_quant)
         self.episode_steps = episode_steps
         self._learner = packed(self.cfg)
-        self.backend: Backend = self._backend(model, preset, ros_namespace, ros_timeout)
+        self.backend: Backend = self._backend(model, preset, ros_namespace, ros_timeout, ros_lockstep)
         self.dt = self.backend.dt
         self._fixed_target = None if target is None else self._check_target(target, "target")
         self._check_target(self.cfg.target_low, "qconfig.target_low")
@@ -114,7 +117,7 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
         self._target = 0.0
 
     def _backend(self, model: str | os.PathLike[str] | StepModel | None, preset: str,
-                 ros_namespace: str | None, ros_timeout: float) -> Backend:
+                 ros_namespace: str | None, ros_timeout: float, ros_lockstep: bool) -> Backend:
         if ros_namespace is None:
             return model_backend(model, preset)
         from msd_bench.core.plant import preset as plant_preset
@@ -123,7 +126,7 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
         params = plant_preset(preset)
         # Discovery takes longer than one lock-step answer: allow it three answer timeouts.
         return RosBackend(ros_namespace, timeout_s=ros_timeout, match_timeout_s=3.0 * ros_timeout,
-                          dt=params.dt, x_max=0.5 * params.L)
+                          dt=params.dt, x_max=0.5 * params.L, lockstep=ros_lockstep)
 
     def _check_target(self, t: float, what: str) -> float:
         xm = self.backend.x_max if hasattr(self, "backend") else math.inf

@@ -1,9 +1,20 @@
-"""The ROS 2 backend: step a lock-step plant-like node, one force per ``env.step``.
+"""The ROS 2 backend: step a plant-like node, one force per ``env.step``.
 
-The exchange is the lock-step contract of :mod:`msd_bench.nodes.plant_node`:
-``reset`` is acknowledged by one ``position`` (x_0), and each ``force``
-command is answered by exactly one ``position`` (x_{k+1}). One command is in
-flight at a time, so an episode is as deterministic as the node.
+Lock-step (default) follows the lock-step contract of
+:mod:`msd_bench.nodes.plant_node`: ``reset`` is acknowledged by one
+``position`` (x_0), and each ``force`` command is answered by exactly one
+``position`` (x_{k+1}). One command is in flight at a time, so an episode is
+as deterministic as the node.
+
+Real time (``lockstep=False``): the node runs its own 100 Hz clock and holds
+the latest command. A step publishes the force and returns the next position
+sample that arrives after it (which may still have been computed with the
+previous force: a real rig's one-sample latency; the agent must be quicker
+than the node's watchdog between steps). An episode starts from rest: with
+``reset`` the node is sent 0 N and reset; without one (real hardware cannot
+teleport) the backend holds 0 N until the mass is still — every position
+difference below ``still_tol`` for ``still_samples`` samples — and the episode
+starts wherever it came to rest (x_0 is read, never assumed 0).
 
 The backend owns a private rclpy context and executor and spins them only
 while it waits for an answer, so it lives happily in a training loop that
@@ -11,7 +22,6 @@ knows nothing of ROS, beside other nodes of the same process. It uses the
 caller's ``ROS_DOMAIN_ID`` and discovery range. One environment per
 namespace: two clients stepping the same lock-step node would interleave.
 
-Real-time nodes (no ``reset``, a 100 Hz timer) are not supported here yet.
 """
 
 from __future__ import annotations
@@ -42,14 +52,21 @@ class RosBackend:
     """A lock-step plant-like node under ``namespace``, driven over its topics."""
 
     def __init__(self, namespace: str = "/msd", timeout_s: float = 5.0, match_timeout_s: float = 15.0,
-                 dt: float = DT, x_max: float = 0.5 * PlantParams().L) -> None:
-        """``dt`` and ``x_max`` are the node's sample time and half stroke (the topics do not carry them)."""
+                 dt: float = DT, x_max: float = 0.5 * PlantParams().L, *, lockstep: bool = True,
+                 still_tol: float = 1e-4, still_samples: int = 50, rest_timeout_s: float = 60.0) -> None:
+        """``dt`` and ``x_max`` are the node's sample time and half stroke (the topics do not carry them).
+
+        ``still_tol`` (m per sample), ``still_samples`` and ``rest_timeout_s``
+        say when a real-time node without ``reset`` counts as at rest.
+        """
         if not namespace.startswith("/"):
             raise RosBackendError(f"ROS namespace must be absolute (start with '/'), got {namespace!r}")
         self.namespace = namespace
         self.dt = float(dt)
         self.x_max = float(x_max)
         self.timeout_s = float(timeout_s)
+        self.lockstep = lockstep
+        self.still_tol, self.still_samples, self.rest_timeout_s = still_tol, still_samples, rest_timeout_s
         self._positions: deque[float] = deque()
         self._ctx = Context()
         rclpy.init(args=[], context=self._ctx)
@@ -63,16 +80,21 @@ class RosBackend:
         self._closed = False
         self._wait_for_match(match_timeout_s)
 
+    @property
+    def has_reset(self) -> bool:
+        """Whether the node subscribes to ``reset`` (a real rig may not)."""
+        return self._reset.get_subscription_count() > 0
+
     def _matched(self) -> bool:
-        return (self._force.get_subscription_count() > 0 and self._reset.get_subscription_count() > 0
-                and self._pos.get_publisher_count() > 0)
+        return (self._force.get_subscription_count() > 0 and self._pos.get_publisher_count() > 0
+                and (self.has_reset or not self.lockstep))
 
     def _wait_for_match(self, timeout_s: float) -> None:
         if not self._spin_until(self._matched, timeout_s):
             self.close()
+            needs = "force, reset and position" if self.lockstep else "force and position"
             raise RosBackendError(
-                f"no plant-like node with force, reset and position under {self.namespace} "
-                f"(waited {timeout_s:g} s)")
+                f"no plant-like node with {needs} under {self.namespace} (waited {timeout_s:g} s)")
         self._spin_for(MATCH_SETTLE_S)
 
     def _spin_until(self, done: Callable[[], bool], timeout_s: float) -> bool:
@@ -94,15 +116,46 @@ class RosBackend:
         return self._positions.popleft()
 
     def reset(self) -> float:
-        """Send ``reset`` and wait for its acknowledgement, the position at rest."""
+        """Bring the node to rest and return the position there (see the module docstring)."""
         self._check_open()
+        if self.lockstep:
+            self._positions.clear()
+            self._reset.publish(Empty())
+            return self._answer("reset")
+        self._force.publish(float64(0.0))
+        if not self.has_reset:
+            return self._come_to_rest()
         self._positions.clear()
+        for _ in range(2):  # two samples later the 0 N command has overtaken nothing: it is applied
+            self._answer("zero force")
         self._reset.publish(Empty())
+        self._positions.clear()
+        self._answer("reset")  # a sample from before the reset may still be in flight:
+        self._positions.clear()  # the next one is from after it
         return self._answer("reset")
 
+    def _come_to_rest(self) -> float:
+        """Hold 0 N until the position stops changing; the rest position (read, not assumed)."""
+        deadline = time.monotonic() + self.rest_timeout_s
+        self._positions.clear()
+        last = self._answer("zero force")
+        still = 0
+        while still < self.still_samples:
+            if time.monotonic() > deadline:
+                raise RosBackendError(
+                    f"{self.namespace}: not at rest after {self.rest_timeout_s:g} s of 0 N "
+                    f"(position still changes by more than {self.still_tol:g} m per sample)")
+            self._force.publish(float64(0.0))  # keeps the node's watchdog fed with a safe command
+            x = self._answer("zero force")
+            still = still + 1 if abs(x - last) < self.still_tol else 0
+            last = x
+        return last
+
     def step(self, u: float) -> float:
-        """Send one force and wait for the position it produced."""
+        """Send one force and wait for the position that follows it."""
         self._check_open()
+        if not self.lockstep:
+            self._positions.clear()  # real time: only a sample arriving after the command counts
         self._force.publish(float64(u))
         return self._answer("force command")
 

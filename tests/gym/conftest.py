@@ -24,6 +24,16 @@ def lockstep_plant() -> Iterator[str]:
     It runs on its own context and executor in a thread, as a separate node
     would, so the environment's ROS backend talks to it over DDS for real.
     """
+    yield from _served_plant(lockstep=True, with_reset=True)
+
+
+@pytest.fixture(params=[True, False], ids=["with-reset", "no-reset"])
+def realtime_plant(request: pytest.FixtureRequest) -> Iterator[str]:
+    """A real-time PlantNode (100 Hz), with or without its ``reset`` subscription (a rig has none)."""
+    yield from _served_plant(lockstep=False, with_reset=bool(request.param))
+
+
+def _served_plant(lockstep: bool, with_reset: bool) -> Iterator[str]:
     import rclpy
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
@@ -33,8 +43,12 @@ def lockstep_plant() -> Iterator[str]:
     ns = f"/gym{os.getpid()}_{next(_names)}"
     ctx = Context()
     rclpy.init(args=[], context=ctx)
-    node = PlantNode(true_plant_spec(), config=PlantNodeConfig(lockstep=True, duplicate_check=0.0),
+    node = PlantNode(true_plant_spec(), config=PlantNodeConfig(lockstep=lockstep, duplicate_check=0.0),
                      namespace=ns, context=ctx)
+    if not with_reset:
+        for sub in list(node.subscriptions):
+            if sub.topic_name.endswith("/reset"):
+                node.destroy_subscription(sub)
     executor = SingleThreadedExecutor(context=ctx)
     executor.add_node(node)
     thread = threading.Thread(target=executor.spin, daemon=True)

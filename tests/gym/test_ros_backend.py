@@ -48,3 +48,19 @@ def test_empty_namespace_fails_in_one_line() -> None:
     with pytest.raises(RosBackendError, match="no plant-like node") as exc:
         gymnasium.make("MsdBench-v0", ros_namespace="/nobody_here", ros_timeout=0.5)
     assert "\n" not in str(exc.value) and time.monotonic() - t0 < 10.0
+
+
+def test_real_time_node_episodes_start_from_rest(realtime_plant: str) -> None:
+    """Real time: steps follow the node's 100 Hz samples; each episode starts with the mass at rest."""
+    env = gymnasium.make("MsdBench-v0", ros_namespace=realtime_plant, ros_lockstep=False,
+                         episode_steps=30, target=1.0)
+    for _ in range(2):
+        obs, _ = env.reset(seed=0)
+        assert abs(obs[0]) < 0.01 and abs(obs[1]) < 1e-3  # at rest (without reset: wherever it stopped)
+        rows = [env.step(4) for _ in range(30)]
+        assert [r[3] for r in rows] == [False] * 29 + [True]
+        xs = np.array([r[4]["x"] for r in rows])
+        assert xs[-1] - xs[0] > 0.005  # +F moved the mass up
+        # A fresh sample per step, never a repeated one (the first may still be from before +F acted).
+        assert np.all(np.diff(xs[2:]) > 0)
+    env.close()
