@@ -96,9 +96,13 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
         self._learner = packed(self.cfg)
         self.backend: Backend = self._backend(model, preset, ros_namespace, ros_timeout, ros_lockstep)
         self.dt = self.backend.dt
-        self._fixed_target = None if target is None else self._check_target(target, "target")
-        self._check_target(self.cfg.target_low, "qconfig.target_low")
-        self._check_target(self.cfg.target_high, "qconfig.target_high")
+        try:
+            self._fixed_target = None if target is None else self._check_target(target, "target")
+            self._check_target(self.cfg.target_low, "qconfig.target_low")
+            self._check_target(self.cfg.target_high, "qconfig.target_high")
+        except ConfigError:
+            self.backend.close()  # a ROS backend holds a context and a node: never leak them
+            raise
         self.forces = self.cfg.actions()
         f = self.cfg.force
         self.action_space: spaces.Space[Any] = (
@@ -129,7 +133,7 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
                           dt=params.dt, x_max=0.5 * params.L, lockstep=ros_lockstep)
 
     def _check_target(self, t: float, what: str) -> float:
-        xm = self.backend.x_max if hasattr(self, "backend") else math.inf
+        xm = self.backend.x_max
         if not (isinstance(t, int | float) and math.isfinite(t) and abs(t) <= xm):
             raise ConfigError(f"{what} must be a finite set-point within the stroke ±{xm:g} m, got {t!r}")
         return float(t)

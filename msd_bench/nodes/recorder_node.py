@@ -14,10 +14,11 @@ seconds of wall clock): a stamped message (``joint_states``, ``/clock``) is
 logged at the time it carries, and an unstamped one (``position``, ``force``)
 at the newest sim time seen so far (one that arrives before any is held until
 the first). So a lock-step bag's log times equal its header stamps and its
-``duration`` is the sampled span. ``auto`` (default) takes ``stamp`` when
-``use_sim_time`` is set, a ``/clock`` publisher is in the graph (only
-lock-step nodes publish it) or the first stamp is a day or more from the
-recorder's clock (lock-step stamps count from 0), else ``receive``.
+``duration`` is the sampled span. ``auto`` (default) decides at the first
+stamped message: ``stamp`` when ``use_sim_time`` is set or the stamp is a day
+or more from the wall clock (lock-step stamps count from 0), else ``receive``;
+a recording of unstamped topics only is ``receive``. (Not "a /clock publisher
+exists": any lock-step node anywhere in the domain publishes one.)
 
 Each topic's ``offered_qos_profiles`` are the profiles its publishers offer in
 the graph when its first message is written, as ``ros2 bag record`` stores them.
@@ -35,6 +36,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from rclpy._rclpy_pybind11 import InvalidHandle, RCLError
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
@@ -49,7 +51,6 @@ from msd_bench.io.errors import BagError
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import (
     ALL_TOPICS,
-    CLOCK,
     FORCE,
     JOINT_STATES,
     PLANT_NAMESPACE,
@@ -66,7 +67,7 @@ LOG_TIMES = ("auto", "receive", "stamp")
 """Values of ``log_time`` (module docstring)."""
 
 SIM_TIME_GAP_NS = 86_400 * 1_000_000_000
-"""A stamp a day or more away from the recorder's clock was not taken on it: the graph runs on sim time."""
+"""A stamp a day or more away from the wall clock was not taken on it: the graph runs on sim time."""
 
 EXIT_WRITE_ERROR = 1
 """Exit status of a recorder whose storage refused a write (the bag is closed, shorter)."""
@@ -111,6 +112,8 @@ class RecorderConfig:
             raise ConfigError(f"topics must be among {sorted(_SPECS)}, got {list(self.topics)}")
         if self.log_time not in LOG_TIMES:
             raise ConfigError(f"log_time must be one of {', '.join(LOG_TIMES)}, got {self.log_time!r}")
+        if self.log_time == "stamp" and not any(s.ros_type in STAMPED_TYPES for s in self.specs()):
+            raise ConfigError("log_time stamp needs a stamped topic among the topics (joint_states, /clock)")
         self.params()
 
     def params(self) -> dict[str, Any]:
@@ -182,6 +185,7 @@ class RecorderNode(Node):
         for topic, sub in list(self._unmatched.items()):
             if sub.get_publisher_count() > 0:
                 del self._unmatched[topic]
+                self._offered_qos(topic)
                 self.get_logger().info(f"matched {topic}")
         if self._unmatched:
             return
@@ -198,21 +202,21 @@ class RecorderNode(Node):
         """Messages written so far."""
         return self._written
 
-    def _decide_log_time(self, stamp: int | None, now_ns: int) -> str | None:
-        """Resolve ``auto`` once, at the first message that tells (None: not yet).
+    def _decide_log_time(self, stamp: int | None) -> str | None:
+        """Resolve ``auto`` once, at the first stamped message (None: not yet).
 
-        Sim time when use_sim_time is on, when anyone publishes /clock, or when a
-        stamp is more than :data:`SIM_TIME_GAP_NS` from our clock (a lock-step
-        plant stamps k·dt from 0; the /clock publisher may not be discovered yet
-        when the first sample arrives). An unstamped message cannot tell while
-        stamped topics are recorded: it waits for the first stamped one.
+        Sim time when use_sim_time is on or the stamp is :data:`SIM_TIME_GAP_NS`
+        or more from the wall clock (a lock-step plant stamps k·dt from 0).
+        Without a stamped topic among those recorded there is no sim time to
+        read: arrival times, as rosbag2 (sim time already if use_sim_time is on).
         """
-        sim = bool(self.get_parameter("use_sim_time").value) or self.count_publishers(CLOCK.name) > 0
-        if not sim and stamp is None:
-            if self._expects_stamps:
-                return None
-        elif not sim and stamp is not None:
-            sim = abs(stamp - now_ns) > SIM_TIME_GAP_NS
+        if not self._expects_stamps:
+            sim = False
+        elif stamp is None:
+            return None
+        else:
+            sim = (bool(self.get_parameter("use_sim_time").value)
+                   or abs(stamp - time.time_ns()) >= SIM_TIME_GAP_NS)
         self._log_time = "stamp" if sim else "receive"
         self.get_logger().info(
             "log times: sim time from the stamps" if sim else "log times: node clock on arrival")
@@ -225,7 +229,7 @@ class RecorderNode(Node):
             self._started = time.monotonic()
         now = self.get_clock().now().nanoseconds
         stamp = leading_stamp(ros_type, data)
-        mode = self._log_time or self._decide_log_time(stamp, now)
+        mode = self._log_time or self._decide_log_time(stamp)
         if mode == "receive":
             self._release_held(None)
             self._write(topic, ros_type, now, data)
@@ -256,9 +260,18 @@ class RecorderNode(Node):
         self._check_limits()
 
     def _offered_qos(self, topic: str) -> list[Qos]:
-        """The profiles the topic's publishers offer, read from the graph once per topic."""
+        """The profiles the topic's publishers offer, read from the graph once per topic.
+
+        Read when the topic matches (:meth:`_on_match_poll`), or here at its first
+        message; a message written while closing after a signal (the context is
+        gone, the graph cannot be asked) gets none rather than losing the bag.
+        """
         if topic not in self._offered:
-            self._offered[topic] = [bag_qos(i.qos_profile) for i in self.get_publishers_info_by_topic(topic)]
+            try:
+                infos = self.get_publishers_info_by_topic(topic)
+            except (RCLError, InvalidHandle):
+                return []
+            self._offered[topic] = [bag_qos(i.qos_profile) for i in infos]
         return self._offered[topic]
 
     def _on_timer(self) -> None:

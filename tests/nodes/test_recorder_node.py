@@ -169,17 +169,24 @@ def _remove_orphan_shm(before: set[Path]) -> None:
             leftover.unlink(missing_ok=True)
 
 
-def test_launch_script_sigterm_leaves_a_complete_bag(ctx: Context, tmp_path: Path) -> None:
+@pytest.mark.parametrize("extra", [
+    [],
+    # sim-time logging: the positions wait for a stamp that never comes and are written while closing
+    ["-p", "topics:=[joint_states,position]", "-p", "log_time:=stamp"],
+], ids=["arrival", "held-until-close"])
+def test_launch_script_sigterm_leaves_a_complete_bag(ctx: Context, tmp_path: Path, extra: list[str]) -> None:
     """The real process: publish to it, SIGTERM it, the bag is complete without recovery."""
     bag = tmp_path / "proc"
     before = _shm_files()
     proc = subprocess.Popen(
         [sys.executable, "launch_scripts/recorder.py", "--ros-args", "-p", f"bag_path:={bag}",
-         "-p", "topics:=[position]", "-p", "params_json:='{\"run\": 1}'"],
+         "-p", "topics:=[position]", "-p", "params_json:='{\"run\": 1}'", *extra],
         cwd=REPO, env={**os.environ}, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )
     node = Node("fake_plant_proc", context=ctx)
     pub = node.create_publisher(msg_class(POSITION), POSITION.resolve("/msd"), qos(POSITION))
+    # A silent joint_states publisher: the recorder announces ready once every reader matched.
+    node.create_publisher(JointState, JOINT_STATES.resolve("/msd"), qos(JOINT_STATES))
     ready: list[str] = []
     node.create_subscription(msg_class(RECORDER_READY), RECORDER_READY.resolve("/msd"),
                              lambda m: ready.append(m.data), qos(RECORDER_READY))
@@ -328,3 +335,30 @@ def test_log_time_modes(ctx: Context, tmp_path: Path, log_time: str, t0: int | N
 def test_bad_log_time_is_a_one_line_error(ctx: Context, tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="log_time must be one of auto, receive, stamp"):
         _recorder(ctx, tmp_path / "b", log_time="wall")
+    with pytest.raises(ConfigError, match="needs a stamped topic"):
+        _recorder(ctx, tmp_path / "c", log_time="stamp", topics=[POSITION.name])
+
+
+def test_messages_waiting_for_a_stamp_are_kept_on_close(ctx: Context, tmp_path: Path) -> None:
+    """Sim-time logging holds unstamped messages until a stamp comes; if none ever does, none is lost."""
+    bag = tmp_path / "held"
+    rec = _recorder(ctx, bag, log_time="stamp", topics=[JOINT_STATES.name, POSITION.name])
+    pub_node = Node("fake_agent_held", context=ctx)
+    pos = pub_node.create_publisher(msg_class(POSITION), POSITION.resolve(PLANT_NAMESPACE), qos(POSITION))
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(rec)
+    executor.add_node(pub_node)
+    try:
+        _spin_until(executor, lambda: pos.get_subscription_count() >= 1)
+        for k in range(5):
+            pos.publish(float64(k))
+            _spin_until(executor, lambda k=k: len(rec._held) == k + 1)
+        assert rec.message_count == 0
+        rec.close()
+    finally:
+        executor.shutdown()
+        rec.destroy_node()
+        pub_node.destroy_node()
+    log_times, msgs = read_topic(bag, POSITION.resolve(PLANT_NAMESPACE))
+    assert [m.data for m in msgs] == [0.0, 1.0, 2.0, 3.0, 4.0]
+    assert np.all(np.diff(log_times) > 0)  # their own arrival times
