@@ -31,7 +31,7 @@ python3 -m venv "${venv_opts[@]}" "$venv"
 "$venv/bin/python" -m pip install -q --upgrade pip
 "$venv/bin/python" -m pip install -q "torch==2.13.0"
 "$venv/bin/python" -m pip install -q -e ".[$extras]"
-"$venv/bin/python" -c "import rclpy, torch, numba, rosbags, mcap, control; print('environment ready')" || {
+"$venv/bin/python" -c "import rclpy, torch, numba, rosbags, mcap, control, gymnasium; print('environment ready')" || {
     echo "setup_env.sh: $venv cannot import rclpy and the project's dependencies (for DISTRO=system: is ROS 2 sourced in this shell?)" >&2
     exit 1
 }

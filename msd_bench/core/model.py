@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,6 +24,11 @@ from numpy.typing import NDArray
 from msd_bench.core import kernels
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.plant import DT, PlantParams
+
+if TYPE_CHECKING:  # python-control is heavy: loaded only when a transfer function is asked for
+    import control
+
+    from msd_bench.core.linear import LinearFit
 
 FloatArray = NDArray[np.float64]
 
@@ -94,6 +99,34 @@ class StepModel:
         if x.shape != u.shape:
             raise InvalidInputError(f"position and force lengths differ: {x.size} vs {u.size}")
         return kernels.one_step(self.kernel, x, u)
+
+    def linear_fit(self) -> LinearFit:
+        """The linear model's coefficients as a :class:`LinearFit` (linear kernel kind only).
+
+        Why here: a user holding a loaded artifact should not have to know the
+        packed layout ``[L, n1, n2, d1, d2, u0, y0]`` to reach python-control.
+        """
+        if self.kind != kernels.KIND_LINEAR:
+            raise InvalidInputError(
+                f"model {self.name!r} is of kind {kernels.KIND_NAMES[self.kind]}: only a linear model "
+                "(the GLM) has a transfer function")
+        from msd_bench.core.linear import LinearFit
+
+        _, n1, n2, d1, d2, u0, y0 = (float(v) for v in self.params)
+        return LinearFit(n1, n2, d1, d2, u0, y0, self.dt, method=str(self.info.get("method", "oe")))
+
+    def to_transfer_function(self) -> control.TransferFunction:
+        """Discrete ``G(z) = (n1 z + n2) / (z^2 + d1 z + d2)`` with the model's ``dt``.
+
+        It maps deviations of the force from ``u0`` to deviations of the position
+        from ``y0`` (the operating point in ``info``; the paper's GLM has both 0),
+        and knows nothing of the stroke limits or the force saturation.
+        """
+        return self.linear_fit().to_transfer_function()
+
+    def to_continuous(self) -> control.TransferFunction:
+        """The continuous-time transfer function whose zero-order-hold image is this model."""
+        return self.linear_fit().to_continuous()
 
 
 def plant_model(params: PlantParams) -> StepModel:

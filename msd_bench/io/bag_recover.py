@@ -19,6 +19,9 @@ from pathlib import Path
 from mcap.exceptions import McapError
 from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Metadata, Schema
 from mcap.stream_reader import CRCValidationError, StreamReader, breakup_chunk
+from rosbags.interfaces import Qos
+from rosbags.rosbag2 import ReaderError
+from rosbags.rosbag2.metadata import parse_qos
 from rosbags.typesys import get_types_from_msg
 from rosbags.typesys.store import Typestore
 
@@ -130,9 +133,17 @@ def _write(salvage: _Salvage, out: Path) -> dict[str, int]:
             schema = salvage.schemas.get(channel.schema_id) if channel else None
             if channel is None or schema is None:
                 continue  # a message whose channel was lost cannot be typed
-            rec.write(channel.topic, schema.name, msg.log_time, msg.data)
+            rec.write(channel.topic, schema.name, msg.log_time, msg.data, _offered_qos(channel))
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
     return counts
+
+
+def _offered_qos(channel: Channel) -> list[Qos]:
+    """The channel's recorded QoS profiles, carried into the recovered bag (none if unreadable)."""
+    try:
+        return parse_qos(channel.metadata.get("offered_qos_profiles", ""))
+    except (ReaderError, KeyError, TypeError, ValueError):
+        return []
 
 
 def recover(path: str | Path, *, output: str | Path | None = None, overwrite: bool = False) -> RecoveryReport:

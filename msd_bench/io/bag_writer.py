@@ -9,6 +9,15 @@ once per ``flush_period_s`` (rosbags keeps up to 1 MiB in memory, minutes of
 100 Hz telemetry). A SIGKILLed recording therefore loses at most about one
 flush period; :mod:`msd_bench.io.bag_recover` turns it back into a bag.
 
+What a rosbag2 user expects of the metadata is filled in as rosbag2 writes it:
+each topic's ``offered_qos_profiles`` (the publishers' real profiles when a
+recorder saw them in the graph, the contract's profile for bags written
+offline, :func:`contract_qos`) in ``metadata.yaml`` and in the MCAP channel;
+the channel's ``topic_type_hash`` (RIHS01, the same hash the running rclpy
+reports for the type, computed by rosbags from the type description); and
+``ros_distro``, the distribution actually installed (:func:`ros_distro`)
+instead of rosbags' placeholder ``rosbags``.
+
 Experiment parameters are stored twice from the same JSON string: as an MCAP
 metadata record ``msd_bench`` (``params`` key) written when the bag opens, so
 it survives a kill and ``mcap``'s ``iter_metadata()`` sees it; and as
@@ -27,11 +36,14 @@ full disk.
 from __future__ import annotations
 
 import copy
+import importlib.metadata
 import json
 import os
+import re
 import shutil
+import struct
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import MappingProxyType, TracebackType
 from typing import IO, Any, cast
@@ -39,14 +51,30 @@ from typing import IO, Any, cast
 import numpy as np
 from mcap.writer import CompressionType
 from mcap.writer import Writer as _McapLibWriter
-from rosbags.interfaces import Connection
+from rosbags.interfaces import (
+    Connection,
+    Qos,
+    QosDurability,
+    QosHistory,
+    QosLiveliness,
+    QosReliability,
+    QosTime,
+)
 from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
 from rosbags.rosbag2.enums import CompressionMode
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
 from msd_bench.io.errors import BagError
-from msd_msgs_py.contract import FORCE, JOINT_NAME, JOINT_STATES, PLANT_NAMESPACE, POSITION, REFERENCE
+from msd_msgs_py.contract import (
+    FORCE,
+    JOINT_NAME,
+    JOINT_STATES,
+    PLANT_NAMESPACE,
+    POSITION,
+    REFERENCE,
+    TopicSpec,
+)
 
 PARAMS_KEY = "msd_bench.params"
 """rosbag2 ``custom_data`` key holding the experiment parameters as JSON."""
@@ -57,6 +85,61 @@ RESERVE_NAME = ".msd_bench_reserve"
 """The reserve file inside the bag directory (gone once the bag is closed)."""
 PARAMS_RECORD = "msd_bench"
 """Name of the MCAP metadata record holding the parameters (``params`` key)."""
+
+
+INFINITE = QosTime(9_223_372_036, 854_775_807)
+"""``RMW_DURATION_INFINITE`` as rosbag2 writes it (sec, nsec): no deadline, lifespan or lease."""
+
+RCLPY_DISTROS = {3: "humble", 4: "iron", 7: "jazzy", 9: "kilted"}
+"""ROS 2 distribution of each rclpy major version (the PyPI wheels carry no ROS_DISTRO)."""
+
+
+def ros_distro() -> str:
+    """The ROS 2 distribution actually running: ``ROS_DISTRO`` if set, else the installed rclpy's.
+
+    A sourced ROS install sets ``ROS_DISTRO``; the pip-installed rclpy wheels
+    do not, so its major version names the distribution. ``unknown`` when
+    neither says (bag tooling also runs without ROS).
+    """
+    env = os.environ.get("ROS_DISTRO", "").strip()
+    if env:
+        return env
+    try:
+        major = int(importlib.metadata.version("ros-rclpy").split(".")[0])
+    except (importlib.metadata.PackageNotFoundError, ValueError):
+        return "unknown"
+    return RCLPY_DISTROS.get(major, "unknown")
+
+
+def contract_qos(spec: TopicSpec) -> Qos:
+    """The profile a plant-like node offers on ``spec`` (``msd_msgs_py.ros.qos``), in rosbags' terms."""
+    return Qos(QosHistory.KEEP_LAST, spec.depth, QosReliability.RELIABLE,
+               QosDurability.TRANSIENT_LOCAL if spec.latched else QosDurability.VOLATILE,
+               INFINITE, INFINITE, QosLiveliness.AUTOMATIC, INFINITE, False)
+
+
+def _with_distro(metadata_text: str) -> str:
+    """rosbags writes ``ros_distro: rosbags``; put the real distribution in its place."""
+    return re.sub(r"^(\s*ros_distro:) rosbags$", lambda m: f"{m.group(1)} {ros_distro()}",
+                  metadata_text, count=1, flags=re.MULTILINE)
+
+
+STAMPED_TYPES = frozenset({JOINT_STATES.ros_type, "rosgraph_msgs/msg/Clock"})
+"""Types whose CDR body starts with a ``builtin_interfaces/Time`` (a header stamp, or /clock's time)."""
+
+
+def leading_stamp(ros_type: str, data: bytes | memoryview) -> int | None:
+    """The time (ns) a stamped message carries, read from its CDR bytes; None for other types.
+
+    Why not deserialize: the recorder writes raw bytes at 100 Hz and only needs
+    8 of them. The time is the first field after the 4-byte encapsulation
+    header (``int32 sec, uint32 nanosec``), little- or big-endian as it says.
+    """
+    if ros_type not in STAMPED_TYPES or len(data) < 12:
+        return None
+    raw = bytes(data[:12])
+    sec, nanosec = struct.unpack_from("<iI" if raw[1] & 1 else ">iI", raw, 4)
+    return int(sec) * 1_000_000_000 + int(nanosec)
 
 
 def typestore() -> Typestore:
@@ -156,7 +239,8 @@ class _FlushingMcapStorage:
             connection.topic,
             "cdr",
             self._schemas[connection.msgtype],
-            {"offered_qos_profiles": offered_qos_profiles},
+            # rosbag2's MCAP plugin stores both; its reader takes the type hash from here.
+            {"offered_qos_profiles": offered_qos_profiles, "topic_type_hash": connection.digest},
         )
         self._counts[connection.id] = 0
 
@@ -210,7 +294,7 @@ class _FlushingMcapStorage:
 
     def close(self, version: int, metadata: str) -> None:
         _ = version
-        self._mcap.add_metadata("rosbag2", {"serialized_metadata": metadata})
+        self._mcap.add_metadata("rosbag2", {"serialized_metadata": _with_distro(metadata)})
         self._mcap.finish()
         self._file.close()
         self.release_reserve()
@@ -224,6 +308,16 @@ class _BagWriter(Writer):
     """rosbags' rosbag2 writer with the MCAP storage replaced by :class:`_FlushingMcapStorage`."""
 
     STORAGE_PLUGINS = MappingProxyType({StoragePlugin.MCAP: _FlushingMcapStorage})
+
+    def close(self) -> None:
+        """rosbags' close, then ``ros_distro`` corrected in ``metadata.yaml`` (atomically, like rosbags)."""
+        super().close()
+        text = self.metapath.read_text("utf8")
+        fixed = _with_distro(text)
+        if fixed != text:
+            tmp = self.metapath.with_suffix(".yaml.tmp")
+            tmp.write_text(fixed, "utf8")
+            tmp.replace(self.metapath)
 
 
 def _why(exc: OSError | WriterError) -> str:
@@ -293,14 +387,20 @@ class BagRecorder:
         self._writer = writer
         return self
 
-    def write(self, topic: str, ros_type: str, t_ns: int, data: bytes | memoryview) -> None:
-        """Append one CDR-serialized message logged at ``t_ns``."""
+    def write(self, topic: str, ros_type: str, t_ns: int, data: bytes | memoryview,
+              offered_qos: Sequence[Qos] = ()) -> None:
+        """Append one CDR-serialized message logged at ``t_ns``.
+
+        ``offered_qos`` (the publishers' profiles) is stored with the topic when
+        its first message is written, and ignored after that.
+        """
         if self._writer is None:
             raise BagError(f"bag {self.path}: write on a recorder that is not open")
         try:
             conn = self._connections.get((topic, ros_type))
             if conn is None:
-                conn = self._writer.add_connection(topic, ros_type, typestore=self._store)
+                conn = self._writer.add_connection(topic, ros_type, typestore=self._store,
+                                                   offered_qos_profiles=list(offered_qos))
                 self._connections[(topic, ros_type)] = conn
             self._writer.write(conn, int(t_ns), data)
         except OSError as exc:
@@ -389,10 +489,11 @@ def write_experiment(
     types = store.types
     state_t, f64_t = JOINT_STATES.ros_type, POSITION.ros_type
     topics = (JOINT_STATES.resolve(namespace), POSITION.resolve(namespace), FORCE.resolve(namespace))
+    qos = {spec: [contract_qos(spec)] for spec in (JOINT_STATES, POSITION, FORCE, REFERENCE)}
     with BagRecorder(path, params=params, overwrite=overwrite) as rec:
         if reference is not None and t_ns.size:
             ref = store.serialize_cdr(types[f64_t](data=float(reference)), f64_t)
-            rec.write(REFERENCE.resolve(namespace), REFERENCE.ros_type, int(t_ns[0]), ref)
+            rec.write(REFERENCE.resolve(namespace), REFERENCE.ros_type, int(t_ns[0]), ref, qos[REFERENCE])
         for k in range(t_ns.size):
             ns = int(t_ns[k])
             stamp = types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
@@ -403,7 +504,9 @@ def write_experiment(
                 velocity=np.array([v[k]], dtype=np.float64),
                 effort=np.array([u[k]], dtype=np.float64),
             )
-            rec.write(topics[0], state_t, ns, store.serialize_cdr(state, state_t))
-            rec.write(topics[1], f64_t, ns, store.serialize_cdr(types[f64_t](data=float(x[k])), f64_t))
-            rec.write(topics[2], f64_t, ns, store.serialize_cdr(types[f64_t](data=float(u[k])), f64_t))
+            rec.write(topics[0], state_t, ns, store.serialize_cdr(state, state_t), qos[JOINT_STATES])
+            rec.write(topics[1], f64_t, ns, store.serialize_cdr(types[f64_t](data=float(x[k])), f64_t),
+                      qos[POSITION])
+            rec.write(topics[2], f64_t, ns, store.serialize_cdr(types[f64_t](data=float(u[k])), f64_t),
+                      qos[FORCE])
     return Path(path)

@@ -7,6 +7,22 @@ closes (Ctrl-C, SIGTERM through :mod:`.spin`) or when a limit is reached, which
 also completes ``done`` so the process exits. A timer flushes the open chunk
 while topics are idle, so a SIGKILL loses at most about ``flush_period_s``.
 
+Log times (``log_time``). ``receive`` is rosbag2's: the node clock when the
+message arrives. ``stamp`` is sim time for a lock-step graph, where the node
+clock means nothing (a lock-step experiment of 130 s of samples runs in a few
+seconds of wall clock): a stamped message (``joint_states``, ``/clock``) is
+logged at the time it carries, and an unstamped one (``position``, ``force``)
+at the newest sim time seen so far (one that arrives before any is held until
+the first). So a lock-step bag's log times equal its header stamps and its
+``duration`` is the sampled span. ``auto`` (default) decides at the first
+stamped message: ``stamp`` when ``use_sim_time`` is set or the stamp is a day
+or more from the wall clock (lock-step stamps count from 0), else ``receive``;
+a recording of unstamped topics only is ``receive``. (Not "a /clock publisher
+exists": any lock-step node anywhere in the domain publishes one.)
+
+Each topic's ``offered_qos_profiles`` are the profiles its publishers offer in
+the graph when its first message is written, as ``ros2 bag record`` stores them.
+
 A write error (full or read-only storage) stops the recording: the bag is
 closed with what reached the disk whole (:class:`~msd_bench.io.bag_writer.BagWriteError`
 says how much), one error line is logged, and the process exits with
@@ -20,13 +36,17 @@ import time
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from rclpy._rclpy_pybind11 import InvalidHandle, RCLError
+from rclpy.duration import Duration
 from rclpy.node import Node
+from rclpy.qos import QoSProfile
 from rclpy.subscription import Subscription
 from rclpy.task import Future
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from std_msgs.msg import String
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.io.bag_writer import BagRecorder
+from msd_bench.io.bag_writer import STAMPED_TYPES, BagRecorder, leading_stamp
 from msd_bench.io.errors import BagError
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import (
@@ -42,6 +62,12 @@ from msd_msgs_py.contract import (
 from msd_msgs_py.ros import msg_class, qos
 
 _SPECS = {spec.name: spec for spec in ALL_TOPICS}
+
+LOG_TIMES = ("auto", "receive", "stamp")
+"""Values of ``log_time`` (module docstring)."""
+
+SIM_TIME_GAP_NS = 86_400 * 1_000_000_000
+"""A stamp a day or more away from the wall clock was not taken on it: the graph runs on sim time."""
 
 EXIT_WRITE_ERROR = 1
 """Exit status of a recorder whose storage refused a write (the bag is closed, shorter)."""
@@ -67,6 +93,9 @@ class RecorderConfig:
     """Stop after this many messages over all topics; 0 = no limit."""
     flush_period_s: float = 1.0
     """Longest time recorded data stays in memory only (what a SIGKILL can lose)."""
+    log_time: str = "auto"
+    """Log times: ``receive`` (node clock on arrival), ``stamp`` (sim time from the stamps) or
+    ``auto`` (``stamp`` when use_sim_time is set or a /clock publisher exists, else ``receive``)."""
 
     RANGES: ClassVar[dict[str, tuple[float, float]]] = {
         "max_duration_s": (0.0, 1e6),
@@ -81,6 +110,10 @@ class RecorderConfig:
         unknown = [t for t in self.topics if t not in _SPECS]
         if not self.topics or unknown:
             raise ConfigError(f"topics must be among {sorted(_SPECS)}, got {list(self.topics)}")
+        if self.log_time not in LOG_TIMES:
+            raise ConfigError(f"log_time must be one of {', '.join(LOG_TIMES)}, got {self.log_time!r}")
+        if self.log_time == "stamp" and not any(s.ros_type in STAMPED_TYPES for s in self.specs()):
+            raise ConfigError("log_time stamp needs a stamped topic among the topics (joint_states, /clock)")
         self.params()
 
     def params(self) -> dict[str, Any]:
@@ -103,6 +136,8 @@ class RecorderNode(Node):
 
     def __init__(self, **node_kwargs: Any) -> None:
         self._recorder: BagRecorder | None = None  # set first: destroy_node() may run on a failed init
+        self._held: list[tuple[str, str, bytes, int]] = []
+        """(topic, type, data, arrival ns) of unstamped messages waiting for a sim time or a decision."""
         super().__init__("recorder", **node_kwargs)
         self.config = declare_from_dataclass(self, RecorderConfig)
         self.done: Future[int] = Future()
@@ -113,6 +148,11 @@ class RecorderNode(Node):
         ).open()
         self._started: float | None = None
         self._written = 0
+        self._log_time: str | None = None if self.config.log_time == "auto" else self.config.log_time
+        self._sim_ns: int | None = None
+        """Newest sim time seen in a stamp (``stamp`` log times)."""
+        self._expects_stamps = any(spec.ros_type in STAMPED_TYPES for spec in self.config.specs())
+        self._offered: dict[str, list[Qos]] = {}
         self._unmatched: dict[str, Subscription[Any]] = {}
         for spec in self.config.specs():
             self._subscribe(spec)
@@ -145,6 +185,7 @@ class RecorderNode(Node):
         for topic, sub in list(self._unmatched.items()):
             if sub.get_publisher_count() > 0:
                 del self._unmatched[topic]
+                self._offered_qos(topic)
                 self.get_logger().info(f"matched {topic}")
         if self._unmatched:
             return
@@ -161,18 +202,77 @@ class RecorderNode(Node):
         """Messages written so far."""
         return self._written
 
+    def _decide_log_time(self, stamp: int | None) -> str | None:
+        """Resolve ``auto`` once, at the first stamped message (None: not yet).
+
+        Sim time when use_sim_time is on or the stamp is :data:`SIM_TIME_GAP_NS`
+        or more from the wall clock (a lock-step plant stamps k·dt from 0).
+        Without a stamped topic among those recorded there is no sim time to
+        read: arrival times, as rosbag2 (sim time already if use_sim_time is on).
+        """
+        if not self._expects_stamps:
+            sim = False
+        elif stamp is None:
+            return None
+        else:
+            sim = (bool(self.get_parameter("use_sim_time").value)
+                   or abs(stamp - time.time_ns()) >= SIM_TIME_GAP_NS)
+        self._log_time = "stamp" if sim else "receive"
+        self.get_logger().info(
+            "log times: sim time from the stamps" if sim else "log times: node clock on arrival")
+        return self._log_time
+
     def _record(self, topic: str, ros_type: str, data: bytes) -> None:
         if self._recorder is None:
             return
         if self._started is None:
             self._started = time.monotonic()
+        now = self.get_clock().now().nanoseconds
+        stamp = leading_stamp(ros_type, data)
+        mode = self._log_time or self._decide_log_time(stamp)
+        if mode == "receive":
+            self._release_held(None)
+            self._write(topic, ros_type, now, data)
+        elif stamp is not None:
+            self._sim_ns = stamp if self._sim_ns is None else max(self._sim_ns, stamp)
+            self._release_held(self._sim_ns)
+            self._write(topic, ros_type, stamp, data)
+        elif mode is None or self._sim_ns is None:
+            self._held.append((topic, ros_type, data, now))
+        else:
+            self._write(topic, ros_type, self._sim_ns, data)
+
+    def _release_held(self, t_ns: int | None) -> None:
+        """Write the messages that waited for a time: at ``t_ns``, or at their arrival if None."""
+        held, self._held = self._held, []
+        for topic, ros_type, data, arrival in held:
+            self._write(topic, ros_type, arrival if t_ns is None else t_ns, data)
+
+    def _write(self, topic: str, ros_type: str, t_ns: int, data: bytes) -> None:
+        if self._recorder is None:
+            return
         try:
-            self._recorder.write(topic, ros_type, self.get_clock().now().nanoseconds, data)
+            self._recorder.write(topic, ros_type, t_ns, data, self._offered_qos(topic))
         except BagError as exc:
             self._fail(exc)
             return
         self._written += 1
         self._check_limits()
+
+    def _offered_qos(self, topic: str) -> list[Qos]:
+        """The profiles the topic's publishers offer, read from the graph once per topic.
+
+        Read when the topic matches (:meth:`_on_match_poll`), or here at its first
+        message; a message written while closing after a signal (the context is
+        gone, the graph cannot be asked) gets none rather than losing the bag.
+        """
+        if topic not in self._offered:
+            try:
+                infos = self.get_publishers_info_by_topic(topic)
+            except (RCLError, InvalidHandle):
+                return []
+            self._offered[topic] = [bag_qos(i.qos_profile) for i in infos]
+        return self._offered[topic]
 
     def _on_timer(self) -> None:
         if self._recorder is not None:
@@ -203,6 +303,8 @@ class RecorderNode(Node):
 
     def close(self) -> None:
         """Finish the bag (summary + metadata.yaml) and complete ``done``; idempotent."""
+        if self._held and self._recorder is not None:  # no time ever came: keep them, at arrival
+            self._release_held(None)
         recorder, self._recorder = self._recorder, None
         if recorder is None:
             return
@@ -223,3 +325,21 @@ class RecorderNode(Node):
         """Never leave an open bag behind."""
         self.close()
         super().destroy_node()
+
+
+def bag_qos(profile: QoSProfile) -> Qos:
+    """An rclpy profile in rosbags' terms (the enums share rmw's numbering; others become UNKNOWN)."""
+
+    def enum(cls: Any, value: Any) -> Any:
+        try:
+            return cls(int(value))
+        except ValueError:
+            return cls.UNKNOWN
+
+    def span(d: Duration) -> QosTime:
+        return QosTime(d.nanoseconds // 1_000_000_000, d.nanoseconds % 1_000_000_000)
+
+    return Qos(enum(QosHistory, profile.history), int(profile.depth),
+               enum(QosReliability, profile.reliability), enum(QosDurability, profile.durability),
+               span(profile.deadline), span(profile.lifespan), enum(QosLiveliness, profile.liveliness),
+               span(profile.liveliness_lease_duration), bool(profile.avoid_ros_namespace_conventions))

@@ -12,7 +12,7 @@ from msd_bench.core import excitation as exc
 from msd_bench.core.plant import preset, simulate
 from msd_bench.graph import launch
 from msd_bench.graph.record import ExperimentSpec, RecordError, paper_plan, record_experiments
-from msd_bench.io.bags import read_experiment, read_topic
+from msd_bench.io.bags import bag_info, read_experiment, read_topic
 
 pytestmark = pytest.mark.e2e
 
@@ -64,6 +64,9 @@ def test_two_experiments_record_exactly_what_the_plant_simulates(tmp_path):
         x, v, u = simulate(spec.force(), preset("default"))
         rows = _rows(bag)
         assert np.array_equal(rows[:, 0], np.arange(u.size) * 10_000_000)  # reset: sample 0 at t = 0
+        # Lock-step bags are timed in sim time: log times are the stamps, the duration their span.
+        assert np.array_equal(read_topic(bag, "/msd/joint_states")[0], rows[:, 0].astype(np.int64))
+        assert bag_info(bag).duration_s == pytest.approx((u.size - 1) * 0.01, abs=1e-9)
         assert np.array_equal(rows[:, 1], x) and np.array_equal(rows[:, 2], v)
         assert np.array_equal(rows[:, 3], u)
         experiment, params = read_experiment(bag)

@@ -170,17 +170,24 @@ def _remove_orphan_shm(before: set[Path]) -> None:
             leftover.unlink(missing_ok=True)
 
 
-def test_launch_script_sigterm_leaves_a_complete_bag(ctx: Context, tmp_path: Path) -> None:
+@pytest.mark.parametrize("extra", [
+    [],
+    # sim-time logging: the positions wait for a stamp that never comes and are written while closing
+    ["-p", "topics:=[joint_states,position]", "-p", "log_time:=stamp"],
+], ids=["arrival", "held-until-close"])
+def test_launch_script_sigterm_leaves_a_complete_bag(ctx: Context, tmp_path: Path, extra: list[str]) -> None:
     """The real process: publish to it, SIGTERM it, the bag is complete without recovery."""
     bag = tmp_path / "proc"
     before = _shm_files()
     proc = subprocess.Popen(
         [sys.executable, "launch_scripts/recorder.py", "--ros-args", "-p", f"bag_path:={bag}",
-         "-p", "topics:=[position]", "-p", "params_json:='{\"run\": 1}'"],
+         "-p", "topics:=[position]", "-p", "params_json:='{\"run\": 1}'", *extra],
         cwd=REPO, env={**os.environ}, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )
     node = Node("fake_plant_proc", context=ctx)
     pub = node.create_publisher(msg_class(POSITION), POSITION.resolve("/msd"), qos(POSITION))
+    # A silent joint_states publisher: the recorder announces ready once every reader matched.
+    node.create_publisher(JointState, JOINT_STATES.resolve("/msd"), qos(JOINT_STATES))
     ready: list[str] = []
     node.create_subscription(msg_class(RECORDER_READY), RECORDER_READY.resolve("/msd"),
                              lambda m: ready.append(m.data), qos(RECORDER_READY))
@@ -206,3 +213,153 @@ def test_launch_script_sigterm_leaves_a_complete_bag(ctx: Context, tmp_path: Pat
     info = bag_info(bag)
     assert info.topics == {"/msd/position": ("std_msgs/msg/Float64", 50)}
     assert info.params == {"run": 1}
+
+
+def _lockstep_recording(ctx: Context, bag: Path, topics: list[str], steps: int) -> str:
+    """Record ``steps`` lock-step samples of the plant; return the JointState type hash rclpy reports."""
+    from std_msgs.msg import Float64
+
+    from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
+
+    plant = PlantNode(true_plant_spec(), config=PlantNodeConfig(lockstep=True, duplicate_check=0.0),
+                      context=ctx)
+    rec = _recorder(ctx, bag, topics=topics)
+    client = Node("stepper", context=ctx)
+    force = client.create_publisher(Float64, FORCE.resolve(PLANT_NAMESPACE), qos(FORCE))
+    answers: list[float] = []
+    client.create_subscription(Float64, POSITION.resolve(PLANT_NAMESPACE), lambda m: answers.append(m.data),
+                               qos(POSITION))
+    executor = SingleThreadedExecutor(context=ctx)
+    for node in (plant, rec, client):
+        executor.add_node(node)
+    try:
+        wanted = 2 if FORCE.name in topics else 1  # the plant, and the recorder if it records force
+        _spin_until(executor, lambda: force.get_subscription_count() >= wanted and not rec._unmatched)
+        deadline = time.monotonic() + 0.5  # let the plant's side match the recorder too
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.02)
+        for k in range(steps):
+            force.publish(float64(5.0 * np.sin(0.05 * k)))
+            _spin_until(executor, lambda k=k: len(answers) > k)
+        _spin_until(executor, lambda: rec.message_count >= steps * len(topics))
+        type_hash = str(client.get_publishers_info_by_topic(JOINT_STATES.resolve(PLANT_NAMESPACE))[0]
+                        .topic_type_hash)
+        rec.close()
+    finally:
+        executor.shutdown()
+        for node in (rec, client, plant):
+            node.destroy_node()
+    return type_hash
+
+
+@pytest.mark.parametrize(("topics", "span_samples"), [
+    (["joint_states"], N - 1),  # rows 0..N-1: the span between the first and the last stamp
+    (["joint_states", "position", "force", "/clock"], N),  # /clock runs on to N·dt: samples × 10 ms
+])
+def test_lockstep_bag_is_timed_in_sim_time_with_rosbag2_metadata(
+    ctx: Context, tmp_path: Path, topics: list[str], span_samples: int
+) -> None:
+    import yaml
+    from mcap.reader import make_reader
+
+    from msd_bench.io.bag_writer import ros_distro
+
+    bag = tmp_path / "lockstep"
+    type_hash = _lockstep_recording(ctx, bag, topics, N)
+    topic = JOINT_STATES.resolve(PLANT_NAMESPACE)
+    log_times, msgs = read_topic(bag, topic)
+    stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs]
+    assert stamps == [10_000_000 * k for k in range(N)]
+    assert log_times.tolist() == stamps  # logged at the sample's own (sim) time
+    info = bag_info(bag)
+    assert info.duration_s == pytest.approx(span_samples * 0.01, abs=1e-9)
+    for name in topics:
+        t, _ = read_topic(bag, name if name.startswith("/") else f"{PLANT_NAMESPACE}/{name}")
+        assert t.size == N and t.min() >= 0 and t.max() <= N * 10_000_000  # all inside the sim span
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["ros_distro"] == ros_distro() != "rosbags"
+    assert meta["duration"]["nanoseconds"] == span_samples * 10_000_000
+    by_topic = {t["topic_metadata"]["name"]: t["topic_metadata"] for t in meta["topics_with_message_count"]}
+    offered = by_topic[topic]["offered_qos_profiles"]
+    assert len(offered) == 1  # the plant is the one publisher
+    assert (offered[0]["reliability"], offered[0]["durability"]) == ("reliable", "volatile")
+    assert offered[0]["deadline"] == {"sec": 9223372036, "nsec": 854775807}  # infinite, as rmw says
+    assert by_topic[topic]["type_description_hash"] == type_hash
+    with (bag / "lockstep.mcap").open("rb") as fh:
+        channels = make_reader(fh).get_summary().channels.values()
+        channel = next(c for c in channels if c.topic == topic)
+    assert channel.metadata["topic_type_hash"] == type_hash  # what the running rclpy reports
+    assert yaml.safe_load(channel.metadata["offered_qos_profiles"]) == offered
+
+
+@pytest.mark.parametrize(("log_time", "t0", "resolved"), [
+    ("receive", 0, "receive"),  # forced: arrival times even for sim-time stamps
+    ("stamp", 1_700_000_000 * 10**9, "stamp"),  # forced: the stamps even for wall-clock ones
+    ("auto", 0, "stamp"),  # stamps from 0, no /clock discovered: a lock-step graph all the same
+    ("auto", None, "receive"),  # stamps on the wall clock: a real-time node, rosbag2's arrival times
+])
+def test_log_time_modes(ctx: Context, tmp_path: Path, log_time: str, t0: int | None, resolved: str) -> None:
+    bag = tmp_path / log_time
+    rec = _recorder(ctx, bag, log_time=log_time, topics=[JOINT_STATES.name, POSITION.name])
+    pub_node = Node("fake_plant_rt", context=ctx)
+    js = pub_node.create_publisher(JointState, JOINT_STATES.resolve(PLANT_NAMESPACE), qos(JOINT_STATES))
+    pos = pub_node.create_publisher(msg_class(POSITION), POSITION.resolve(PLANT_NAMESPACE), qos(POSITION))
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(rec)
+    executor.add_node(pub_node)
+    t0 = time.time_ns() if t0 is None else t0
+    try:
+        _spin_until(executor, lambda: js.get_subscription_count() >= 1 and pos.get_subscription_count() >= 1)
+        pos.publish(float64(-1.0))  # before any stamp: held until the first one in stamp mode
+        _spin_until(executor, lambda: len(rec._held) == 1 or rec.message_count == 1)
+        assert len(rec._held) == (0 if log_time == "receive" else 1)  # auto waits for a stamp to decide
+        for k in range(20):
+            js.publish(joint_state(t0 + 10_000_000 * k, 0.0, 0.0, 0.0))
+            pos.publish(float64(k))
+        _spin_until(executor, lambda: rec.message_count >= 41)
+        rec.close()
+    finally:
+        executor.shutdown()
+        rec.destroy_node()
+        pub_node.destroy_node()
+    log_js, _ = read_topic(bag, JOINT_STATES.resolve(PLANT_NAMESPACE))
+    log_pos, _ = read_topic(bag, POSITION.resolve(PLANT_NAMESPACE))
+    stamps = [t0 + 10_000_000 * k for k in range(20)]
+    assert rec._log_time == resolved
+    if resolved == "stamp":
+        assert log_js.tolist() == stamps
+        assert set(log_pos.tolist()) <= set(stamps)  # each at the newest stamp seen
+    else:
+        assert log_js.tolist() != stamps and log_js.min() > time.time_ns() - 120 * 10**9  # arrival times
+
+
+def test_bad_log_time_is_a_one_line_error(ctx: Context, tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="log_time must be one of auto, receive, stamp"):
+        _recorder(ctx, tmp_path / "b", log_time="wall")
+    with pytest.raises(ConfigError, match="needs a stamped topic"):
+        _recorder(ctx, tmp_path / "c", log_time="stamp", topics=[POSITION.name])
+
+
+def test_messages_waiting_for_a_stamp_are_kept_on_close(ctx: Context, tmp_path: Path) -> None:
+    """Sim-time logging holds unstamped messages until a stamp comes; if none ever does, none is lost."""
+    bag = tmp_path / "held"
+    rec = _recorder(ctx, bag, log_time="stamp", topics=[JOINT_STATES.name, POSITION.name])
+    pub_node = Node("fake_agent_held", context=ctx)
+    pos = pub_node.create_publisher(msg_class(POSITION), POSITION.resolve(PLANT_NAMESPACE), qos(POSITION))
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(rec)
+    executor.add_node(pub_node)
+    try:
+        _spin_until(executor, lambda: pos.get_subscription_count() >= 1)
+        for k in range(5):
+            pos.publish(float64(k))
+            _spin_until(executor, lambda k=k: len(rec._held) == k + 1)
+        assert rec.message_count == 0
+        rec.close()
+    finally:
+        executor.shutdown()
+        rec.destroy_node()
+        pub_node.destroy_node()
+    log_times, msgs = read_topic(bag, POSITION.resolve(PLANT_NAMESPACE))
+    assert [m.data for m in msgs] == [0.0, 1.0, 2.0, 3.0, 4.0]
+    assert np.all(np.diff(log_times) > 0)  # their own arrival times

@@ -1,0 +1,173 @@
+"""The ROS 2 backend: step a plant-like node, one force per ``env.step``.
+
+Lock-step (default) follows the lock-step contract of
+:mod:`msd_bench.nodes.plant_node`: ``reset`` is acknowledged by one
+``position`` (x_0), and each ``force`` command is answered by exactly one
+``position`` (x_{k+1}). One command is in flight at a time, so an episode is
+as deterministic as the node.
+
+Real time (``lockstep=False``): the node runs its own 100 Hz clock and holds
+the latest command. A step publishes the force and returns the next position
+sample that arrives after it (which may still have been computed with the
+previous force: a real rig's one-sample latency; the agent must be quicker
+than the node's watchdog between steps). An episode starts from rest: with
+``reset`` the node is sent 0 N and reset; without one (real hardware cannot
+teleport) the backend holds 0 N until the mass is still — every position
+difference below ``still_tol`` for ``still_samples`` samples — and the episode
+starts wherever it came to rest (x_0 is read, never assumed 0).
+
+The backend owns a private rclpy context and executor and spins them only
+while it waits for an answer, so it lives happily in a training loop that
+knows nothing of ROS, beside other nodes of the same process. It uses the
+caller's ``ROS_DOMAIN_ID`` and discovery range. One environment per
+namespace: two clients stepping the same lock-step node would interleave.
+
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable
+
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from std_msgs.msg import Empty, Float64
+
+from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.plant import DT, PlantParams
+from msd_msgs_py.contract import FORCE, POSITION, RESET
+from msd_msgs_py.ros import float64, qos
+
+MATCH_SETTLE_S = 0.3
+"""After our side sees the match, wait this long so the node's side sees it too (as the episode client)."""
+
+
+class RosBackendError(MsdBenchError):
+    """The plant-like node did not answer as the lock-step contract requires."""
+
+
+class RosBackend:
+    """A lock-step plant-like node under ``namespace``, driven over its topics."""
+
+    def __init__(self, namespace: str = "/msd", timeout_s: float = 5.0, match_timeout_s: float = 15.0,
+                 dt: float = DT, x_max: float = 0.5 * PlantParams().L, *, lockstep: bool = True,
+                 still_tol: float = 1e-4, still_samples: int = 50, rest_timeout_s: float = 60.0) -> None:
+        """``dt`` and ``x_max`` are the node's sample time and half stroke (the topics do not carry them).
+
+        ``still_tol`` (m per sample), ``still_samples`` and ``rest_timeout_s``
+        say when a real-time node without ``reset`` counts as at rest.
+        """
+        if not namespace.startswith("/"):
+            raise RosBackendError(f"ROS namespace must be absolute (start with '/'), got {namespace!r}")
+        self.namespace = namespace
+        self.dt = float(dt)
+        self.x_max = float(x_max)
+        self.timeout_s = float(timeout_s)
+        self.lockstep = lockstep
+        self.still_tol, self.still_samples, self.rest_timeout_s = still_tol, still_samples, rest_timeout_s
+        self._positions: deque[float] = deque()
+        self._ctx = Context()
+        rclpy.init(args=[], context=self._ctx)
+        self._node = rclpy.create_node("msd_gym", context=self._ctx, start_parameter_services=False)
+        self._force = self._node.create_publisher(Float64, FORCE.resolve(namespace), qos(FORCE))
+        self._reset = self._node.create_publisher(Empty, RESET.resolve(namespace), qos(RESET))
+        self._pos = self._node.create_subscription(
+            Float64, POSITION.resolve(namespace), lambda m: self._positions.append(m.data), qos(POSITION))
+        self._executor = SingleThreadedExecutor(context=self._ctx)
+        self._executor.add_node(self._node)
+        self._closed = False
+        self._wait_for_match(match_timeout_s)
+
+    @property
+    def has_reset(self) -> bool:
+        """Whether the node subscribes to ``reset`` (a real rig may not)."""
+        return self._reset.get_subscription_count() > 0
+
+    def _matched(self) -> bool:
+        return (self._force.get_subscription_count() > 0 and self._pos.get_publisher_count() > 0
+                and (self.has_reset or not self.lockstep))
+
+    def _wait_for_match(self, timeout_s: float) -> None:
+        if not self._spin_until(self._matched, timeout_s):
+            self.close()
+            needs = "force, reset and position" if self.lockstep else "force and position"
+            raise RosBackendError(
+                f"no plant-like node with {needs} under {self.namespace} (waited {timeout_s:g} s)")
+        self._spin_for(MATCH_SETTLE_S)
+
+    def _spin_until(self, done: Callable[[], bool], timeout_s: float) -> bool:
+        deadline = time.monotonic() + timeout_s
+        while not done() and time.monotonic() < deadline:
+            self._executor.spin_once(timeout_sec=0.005)
+        return done()
+
+    def _spin_for(self, seconds: float) -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            self._executor.spin_once(timeout_sec=0.005)
+
+    def _answer(self, what: str) -> float:
+        if not self._spin_until(lambda: bool(self._positions), self.timeout_s):
+            raise RosBackendError(
+                f"{self.namespace}: no position answered the {what} within {self.timeout_s:g} s "
+                "(the ROS backend needs a lock-step plant-like node)")
+        return self._positions.popleft()
+
+    def reset(self) -> float:
+        """Bring the node to rest and return the position there (see the module docstring)."""
+        self._check_open()
+        if self.lockstep:
+            self._positions.clear()
+            self._reset.publish(Empty())
+            return self._answer("reset")
+        self._force.publish(float64(0.0))
+        if not self.has_reset:
+            return self._come_to_rest()
+        self._positions.clear()
+        for _ in range(2):  # two samples later the 0 N command has overtaken nothing: it is applied
+            self._answer("zero force")
+        self._reset.publish(Empty())
+        self._positions.clear()
+        self._answer("reset")  # a sample from before the reset may still be in flight:
+        self._positions.clear()  # the next one is from after it
+        return self._answer("reset")
+
+    def _come_to_rest(self) -> float:
+        """Hold 0 N until the position stops changing; the rest position (read, not assumed)."""
+        deadline = time.monotonic() + self.rest_timeout_s
+        self._positions.clear()
+        last = self._answer("zero force")
+        still = 0
+        while still < self.still_samples:
+            if time.monotonic() > deadline:
+                raise RosBackendError(
+                    f"{self.namespace}: not at rest after {self.rest_timeout_s:g} s of 0 N "
+                    f"(position still changes by more than {self.still_tol:g} m per sample)")
+            self._force.publish(float64(0.0))  # keeps the node's watchdog fed with a safe command
+            x = self._answer("zero force")
+            still = still + 1 if abs(x - last) < self.still_tol else 0
+            last = x
+        return last
+
+    def step(self, u: float) -> float:
+        """Send one force and wait for the position that follows it."""
+        self._check_open()
+        if not self.lockstep:
+            self._positions.clear()  # real time: only a sample arriving after the command counts
+        self._force.publish(float64(u))
+        return self._answer("force command")
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise RosBackendError(f"the ROS backend on {self.namespace} is closed")
+
+    def close(self) -> None:
+        """Destroy the node and shut the private context down (idempotent)."""
+        if self._closed:
+            return
+        self._closed = True
+        self._executor.shutdown()
+        self._node.destroy_node()
+        rclpy.try_shutdown(context=self._ctx)

@@ -1,0 +1,62 @@
+"""Gym test fixtures: a lock-step plant node served from a background thread of this process."""
+
+from __future__ import annotations
+
+import itertools
+import os
+import threading
+import warnings
+from collections.abc import Iterator
+
+import pytest
+
+with warnings.catch_warnings():  # rclpy pulls in lark, which imports the deprecated sre_* modules
+    warnings.filterwarnings("ignore", "module 'sre_.*' is deprecated", DeprecationWarning)
+    import lark  # noqa: F401
+
+_names = itertools.count()
+
+
+@pytest.fixture
+def lockstep_plant() -> Iterator[str]:
+    """A lock-step PlantNode of the default preset under a fresh namespace; yields the namespace.
+
+    It runs on its own context and executor in a thread, as a separate node
+    would, so the environment's ROS backend talks to it over DDS for real.
+    """
+    yield from _served_plant(lockstep=True, with_reset=True)
+
+
+@pytest.fixture(params=[True, False], ids=["with-reset", "no-reset"])
+def realtime_plant(request: pytest.FixtureRequest) -> Iterator[str]:
+    """A real-time PlantNode (100 Hz), with or without its ``reset`` subscription (a rig has none)."""
+    yield from _served_plant(lockstep=False, with_reset=bool(request.param))
+
+
+def _served_plant(lockstep: bool, with_reset: bool) -> Iterator[str]:
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+
+    from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
+
+    ns = f"/gym{os.getpid()}_{next(_names)}"
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    node = PlantNode(true_plant_spec(), config=PlantNodeConfig(lockstep=lockstep, duplicate_check=0.0),
+                     namespace=ns, context=ctx)
+    if not with_reset:
+        for sub in list(node.subscriptions):
+            if sub.topic_name.endswith("/reset"):
+                node.destroy_subscription(sub)
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(node)
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    thread.start()
+    try:
+        yield ns
+    finally:
+        executor.shutdown()
+        thread.join(timeout=5.0)
+        node.destroy_node()
+        rclpy.try_shutdown(context=ctx)
