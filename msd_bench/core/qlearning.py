@@ -254,8 +254,11 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
     innovation = y - pred
     ost[0] = pred + lr.obs_gain * innovation
     if obs.kind == kernels.KIND_PLANT:
+        # Moving x by L·r moves an ARX model's implied displacement (x_k - x_{k-1}) by L·r too; the
+        # plant-kind state holds the velocity apart, so it gets that correction explicitly (plus
+        # any extra velocity gain), or an unmodelled force would bias the estimate for good.
         dt = obs.params[7]
-        ost[1] += lr.obs_velocity_gain * innovation / dt
+        ost[1] += (lr.obs_gain + lr.obs_velocity_gain) * innovation / dt
         return ost[0], ost[1] * dt
     return ost[0], ost[0] - ost[1]
 
