@@ -49,7 +49,8 @@ def _source(doc: dict[str, Any], name: str) -> str:
 
 def view_table1(doc: dict[str, Any], name: str) -> str:
     """Table 1 over seeds: fit, identification samples, success with its interval, median SSE."""
-    lines = ["| Agent | Fit sim (%) | Id. samples | Real plant steps in training (all seeds) | Success | SSE median (%) |",
+    lines = ["| Agent | Fit sim (%) | Id. samples | Real plant steps in training (all seeds) | Success "
+             "| SSE median (%) |",
              "|---|---|---|---|---|---|"]
     for a in doc["table1"]["agents"]:
         lines.append(
