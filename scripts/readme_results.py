@@ -44,7 +44,7 @@ def _source(doc: dict[str, Any], name: str) -> str:
     m = doc.get("machine", {})
     return (f"_Generated from `docs/results/{name}.json`: `{doc['command']}` at commit "
             f"`{str(doc['commit'])[:10]}` on {m.get('cpu', '?')} ({m.get('cores', '?')} cores), "
-            f"{doc.get('seconds', '?')} s. Cells: successes/n (rate; Wilson 95 % interval)._")
+            f"{doc.get('seconds', '?')} s._")
 
 
 def view_table1(doc: dict[str, Any], name: str) -> str:
@@ -57,7 +57,8 @@ def view_table1(doc: dict[str, Any], name: str) -> str:
             f"| {a['label']} | {_pct(a['fit_sim_percent'])} | {a['identification_samples'] or '—'} | "
             f"{a['real_interactions'] or 0:,} | {_rate(a['n_success'], a['n'])} | "
             f"{_pct(a['summary']['sse']['median'])} |")
-    return "\n".join([*lines, "", _source(doc, name)]) + "\n"
+    note = "Success cells: successes/n (rate; Wilson 95 % interval)."
+    return "\n".join([*lines, "", note, "", _source(doc, name)]) + "\n"
 
 
 def view_robustness(doc: dict[str, Any], name: str) -> str:
