@@ -25,6 +25,7 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from msd_bench.app.efficiency import reaches  # noqa: E402
 from msd_bench.core.stats import wilson  # noqa: E402
 
 BLOCK = re.compile(r"(<!-- results:(?P<name>[\w.-]+):(?P<view>[\w-]+) -->\n)(?P<body>.*?)(<!-- /results -->)",
@@ -96,8 +97,7 @@ def view_efficiency(doc: dict[str, Any], name: str) -> str:
         rate = final["n_success"] / final["n"]
         reached = []
         for m in methods:
-            at = next((p["real_samples"] for p in sorted(m["points"], key=lambda p: p["real_samples"])
-                       if p["n_success"] / p["n"] >= rate), None)
+            at = reaches(m["points"], rate)
             where = f"{at:,}" if at is not None else "not in the sweep"
             reached.append(f"{m['label']}: {where}")
         notes.append(f"- {ref['label']} reaches {100 * rate:.0f} % after {final['real_samples']:,} real "

@@ -101,7 +101,8 @@ def surrogate_points(cfg: EfficiencyConfig, tell: Progress) -> dict[str, list[di
                     failed[name] = str(err)
                     continue
                 for kind in (k for k in cfg.surrogate_agents if agent_kind(k).surrogate == name):
-                    trained = train_and_validate(kind, models[name], run, run.learning_seeds(j))
+                    seeds = run.learning_seeds(j)
+                    trained = train_and_validate(kind, models[name], run, seeds, scenarios=False)
                     wins[kind] += sum(m["sse"] < SUCCESS_SSE for m in trained.metrics)
             for kind in cfg.surrogate_agents:
                 reals[kind] = real_samples(plan, model_kind(agent_kind(kind).surrogate).records)
@@ -122,7 +123,7 @@ def plant_points(cfg: EfficiencyConfig, tell: Progress) -> dict[str, list[dict[s
         tell(f"on-plant route, {episodes} episodes", i, len(cfg.episodes))
         run = replace(cfg.run, episodes=episodes, dyna_episodes=episodes)
         for kind in cfg.plant_agents:
-            trained = train_and_validate(kind, plant, run, seeds)
+            trained = train_and_validate(kind, plant, run, seeds, scenarios=False)
             wins = sum(m["sse"] < SUCCESS_SSE for m in trained.metrics)
             out[kind].append(_point(wins, len(seeds), trained.real_interactions // len(seeds)))
     return out

@@ -113,8 +113,13 @@ class Trained:
     """Per scenario id: the same tables under that scenario (:func:`robustness.evaluate`)."""
 
 
-def train_and_validate(kind: str, surrogate: StepModel, cfg: RunConfig, seeds: Sequence[int]) -> Trained:
-    """Train ``seeds`` on ``surrogate`` (or Dyna-Q on the plant), then run greedily on the plant."""
+def train_and_validate(kind: str, surrogate: StepModel, cfg: RunConfig, seeds: Sequence[int],
+                       scenarios: bool = True) -> Trained:
+    """Train ``seeds`` on ``surrogate`` (or Dyna-Q on the plant), then run greedily on the plant.
+
+    With ``scenarios`` the fixed tables are also run under the scenario suite
+    (the robustness table); sweeps that only count nominal successes skip it.
+    """
     k, qc = agent_kind(kind), cfg.qconfig(kind)
     plant = plant_model(cfg.plant)
     if k.dyna:
@@ -127,7 +132,7 @@ def train_and_validate(kind: str, surrogate: StepModel, cfg: RunConfig, seeds: S
     x, _ = greedy_rollouts(plant, q, qc, cfg.target, cfg.validation_steps, observer=surrogate)
     rows = [metric_row(xi, cfg.target, cfg.plant.dt, cfg.window) for xi in x]
     rob = robustness.evaluate(q, qc, cfg.plant, seeds, cfg.scenario_suite(), steps=cfg.validation_steps,
-                              window=cfg.window, observer=surrogate)
+                              window=cfg.window, observer=surrogate) if scenarios else {}
     return Trained(q, snaps[:, 0], snaps[:, -1], x, rows, real, rob)
 
 
