@@ -30,7 +30,7 @@ from std_msgs.msg import Empty, Float64, String
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError
 from msd_bench.nodes.params import declare_from_dataclass
-from msd_msgs_py.contract import FORCE, JOINT_STATES, PLANT_NAMESPACE, RECORDER_READY, RESET
+from msd_msgs_py.contract import FORCE, JOINT_STATES, PLANT_NAMESPACE, POSITION, RECORDER_READY, RESET
 from msd_msgs_py.ros import float64, msg_class, qos
 
 SIGNALS = ("prbs", "multilevel", "steps")
@@ -120,6 +120,12 @@ class ExcitationNode(Node):
             self._sub = self.create_subscription(
                 msg_class(JOINT_STATES), JOINT_STATES.name, self._on_sample, qos(JOINT_STATES)
             )
+        # Lock-step: the plant acknowledges a reset with one `position`; until it has, a command could
+        # reach it before the reset does (another topic, no ordering) and sample 0 would repeat.
+        self._reset_acked = self._reset is None or not self.config.lockstep
+        self._t_reset = 0.0
+        if not self._reset_acked:
+            self.create_subscription(Float64, POSITION.name, self._on_reset_ack, qos(POSITION))
         self._recorders_ready: set[str] = set()
         if self.config.wait_recorder:
             self.create_subscription(String, RECORDER_READY.name, lambda m: self._recorders_ready.add(m.data),
@@ -159,11 +165,17 @@ class ExcitationNode(Node):
         if self._t_match is None:
             if self._matched():
                 self._t_match = now
-                if self._reset is not None:
-                    self._reset.publish(Empty())
+                self._send_reset(now)
             elif now - self._t0 > self.config.start_timeout:
                 self._finish(1, f"no plant matched on {self._pub.topic_name} "
                                 f"within {self.config.start_timeout} s")
+            return
+        if not self._reset_acked:
+            if now - self._t0 > self.config.start_timeout:
+                self._finish(1, f"the plant did not acknowledge {RESET.resolve(self.get_namespace())} "
+                                f"within {self.config.start_timeout} s")
+            elif now - self._t_reset > 1.0:
+                self._send_reset(now)  # a reset lost on the way: ask again (still before any command)
             return
         if now - self._t_match < self.config.settle:
             return
@@ -172,6 +184,15 @@ class ExcitationNode(Node):
             self._send()
         else:
             self._timer = self.create_timer(self.config.dt, self._on_tick, clock=self._steady)
+
+    def _send_reset(self, now: float) -> None:
+        if self._reset is not None:
+            self._t_reset = now
+            self._reset.publish(Empty())
+
+    def _on_reset_ack(self, _msg: Float64) -> None:
+        if self._t_match is not None and self.sent == 0:  # only a position after our reset counts
+            self._reset_acked = True
 
     def _watch_sample(self, now: float) -> None:
         if now - self._t_sent <= self.config.sample_timeout:
