@@ -45,6 +45,12 @@ COMMANDS: dict[str, list[str]] = {
 }
 """Named results: the exact ``msd-bench paper`` arguments behind each README table (``--out`` added)."""
 
+BENCHMARKS: dict[str, list[list[str]]] = {
+    "performance": [["benchmarks/bench_training.py"], ["benchmarks/bench_lockstep.py"],
+                    ["benchmarks/bench_plant_rate.py"], ["benchmarks/bench_bench.py"]],
+}
+"""Named benchmark suites: each script prints one JSON object, stored under its file's stem."""
+
 
 def machine() -> dict[str, str | int | None]:
     """What the numbers were measured on (seeds reproduce bit for bit only on the same CPU)."""
@@ -107,22 +113,49 @@ def run(name: str) -> Path:
     return path
 
 
+def run_benchmarks(name: str) -> Path:
+    """Run a named benchmark suite one script at a time and store every script's JSON."""
+    results: dict[str, Any] = {}
+    load_before = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    for script, *args in BENCHMARKS[name]:
+        proc = subprocess.run([sys.executable, script, *args], cwd=REPO, capture_output=True, text=True)
+        if proc.returncode != 0:
+            sys.exit(f"{name}: {script} failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
+        results[Path(script).stem] = json.loads(proc.stdout)
+    doc = {
+        "name": name,
+        "commands": [" ".join(["python", *cmd]) for cmd in BENCHMARKS[name]],
+        "commit": commit(),
+        "machine": machine(),
+        "loadavg_1min_before": round(load_before, 2),
+        "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "seconds": round(time.perf_counter() - t0, 1),
+        "benchmarks": results,
+    }
+    path = RESULTS / f"{name}.json"
+    path.write_text(json.dumps(doc, indent=1) + "\n")
+    return path
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("names", nargs="*", help=f"results to make: {', '.join(COMMANDS)}")
+    p.add_argument("names", nargs="*", help=f"results to make: {', '.join([*COMMANDS, *BENCHMARKS])}")
     p.add_argument("--list", action="store_true", help="print the named commands and exit")
     args = p.parse_args()
     if args.list or not args.names:
         for name, argv in COMMANDS.items():
             print(f"{name}: msd-bench {' '.join(argv[3:])}")
+        for name, cmds in BENCHMARKS.items():
+            print(f"{name}: " + "; ".join(" ".join(c) for c in cmds))
         return 0
-    unknown = [n for n in args.names if n not in COMMANDS]
+    unknown = [n for n in args.names if n not in COMMANDS and n not in BENCHMARKS]
     if unknown:
-        print(f"make_results: error: unknown result {unknown[0]!r}; choose from {', '.join(COMMANDS)}",
-              file=sys.stderr)
+        known = ", ".join([*COMMANDS, *BENCHMARKS])
+        print(f"make_results: error: unknown result {unknown[0]!r}; choose from {known}", file=sys.stderr)
         return 2
     for name in args.names:
-        print(run(name))
+        print(run_benchmarks(name) if name in BENCHMARKS else run(name))
     return 0
 
 

@@ -171,6 +171,49 @@ def view_peers(doc: dict[str, Any], name: str) -> str:
     return "\n".join([*lines, "", note, "", src]) + "\n"
 
 
+PERFORMANCE_FLOORS: tuple[tuple[str, str, str, float | None, str], ...] = (
+    ("bench_bench", "seconds", "<=", 90.0, "`bench.py` default run, seconds"),
+    ("bench_bench", "bench_over_inprocess", "<=", 4.0, "`bench.py` over the same kinds in-process"),
+    ("bench_lockstep", "lockstep_over_pingpong", ">=", 0.8, "lock-step steps over bare rclpy ping-pong"),
+    ("bench_lockstep", "via_ros_over_pingpong", ">=", 0.7, "`--via-ros` training steps over ping-pong"),
+    ("bench_training", "over_minimal_loop", "<=", 1.5, "paper-sized Q-learning over a minimal compiled loop"),
+    ("bench_training", "speedup_vs_python", None, None, "paper-sized Q-learning, speed-up over plain Python"),
+    ("bench_training", "batch64_agent_steps_per_s", ">=", 1e7, "batched training, agent-steps/s"),
+    ("bench_plant_rate", "plant_rate_error_percent_worst", "<=", 0.1, "real-time plant mean-rate error, %"),
+    ("bench_plant_rate", "p99_over_bare_timer_quiet", "<=", 1.1,
+     "plant p99 inter-arrival over a bare timer, quiet"),
+    ("bench_plant_rate", "p99_over_bare_timer_loaded", "<=", 1.1,
+     "plant p99 inter-arrival over a bare timer, loaded"),
+)
+"""Issue-10 floors: (benchmark, JSON key, comparison, floor, what it is); ``None`` = reported only."""
+
+
+def _holds(value: float, op: str | None, floor: float | None) -> str:
+    if op is None or floor is None:
+        return "—"
+    ok = value <= floor if op == "<=" else value >= floor
+    return "yes" if ok else "**no**"
+
+
+def view_performance(doc: dict[str, Any], name: str) -> str:
+    """Every speed floor beside the figure its benchmark measured (ratios to same-run baselines)."""
+    lines = ["| figure | measured | floor | holds |", "|---|---|---|---|"]
+    for bench, key, op, floor, what in PERFORMANCE_FLOORS:
+        value = doc["benchmarks"].get(bench, {}).get(key)
+        if value is None:
+            lines.append(f"| {what} | not measured | {op or ''} {_cell(floor)} | **no** |")
+            continue
+        shown = f"{value:,.0f}" if abs(value) >= 1000 else _cell(float(value))
+        limit = "—" if floor is None else (f"{op} {floor:,.0f}" if floor >= 1000 else f"{op} {floor:g}")
+        lines.append(f"| {what} | {shown} | {limit} | {_holds(float(value), op, floor)} |")
+    m = doc.get("machine", {})
+    commands = "; ".join(f"`{c}`" for c in doc["commands"])
+    src = (f"_Generated from `docs/results/{name}.json`: {commands} at commit "
+           f"`{str(doc.get('commit', '?'))[:10]}` on {m.get('cpu', '?')} ({m.get('cores', '?')} cores), "
+           f"1-minute load average {doc.get('loadavg_1min_before', '?')} at the start._")
+    return "\n".join([*lines, "", src]) + "\n"
+
+
 def _cell(v: Any) -> str:
     if isinstance(v, float):
         return f"{v:.2f}"
@@ -179,7 +222,7 @@ def _cell(v: Any) -> str:
 
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency,
-    "peers": view_peers, "fits": view_fits, "stoploop": view_stoploop}
+    "peers": view_peers, "fits": view_fits, "stoploop": view_stoploop, "performance": view_performance}
 
 
 def render(readme: str, results_dir: Path) -> str:

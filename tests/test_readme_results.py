@@ -31,3 +31,16 @@ def test_a_drifted_number_is_caught(tmp_path):
     assert readme_results.main(args) == 0
     assert "| 1 | 2.50 |" in readme.read_text()
     assert readme_results.main([*args, "--check"]) == 0
+
+
+def test_performance_view_marks_each_floor_and_what_was_not_measured():
+    doc = {"commands": ["python benchmarks/bench_lockstep.py"], "commit": "abc",
+           "machine": {"cpu": "c", "cores": 2}, "loadavg_1min_before": 0.3,
+           "benchmarks": {"bench_lockstep": {"lockstep_over_pingpong": 0.85},
+                          "bench_bench": {"seconds": 120.0, "bench_over_inprocess": 3.0}}}
+    rows = {ln.split(" | ")[0].lstrip("| "): ln for ln in
+            readme_results.view_performance(doc, "performance").splitlines() if ln.startswith("| ")}
+    assert rows["lock-step steps over bare rclpy ping-pong"].endswith("| 0.85 | >= 0.8 | yes |")
+    assert rows["`bench.py` default run, seconds"].endswith("| 120.00 | <= 90 | **no** |")
+    assert rows["`bench.py` over the same kinds in-process"].endswith("| yes |")
+    assert "not measured" in rows["batched training, agent-steps/s"]
