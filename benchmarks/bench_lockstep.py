@@ -8,7 +8,9 @@ middleware round trip:
   the value on ``/bench_pingpong/position``) — the floor rclpy allows;
 * ``lockstep``: ``launch_scripts/plant.py -p lockstep:=true``; each force
   command yields joint_states, position and /clock, and the driver waits for
-  ``position`` (x_{k+1}).
+  ``position`` (x_{k+1});
+* ``via_ros``: the agent node training over a lock-step surrogate node's
+  topics (``-p via_ros:=true``), timed between its own log stamps.
 
     .venv/bin/python benchmarks/bench_lockstep.py [--steps 5000]
 
@@ -22,8 +24,10 @@ import argparse
 import json
 import os
 import random
+import re
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -43,6 +47,9 @@ PINGPONG_NS = "/bench_pingpong"
 FLOOR = 1500.0
 RATIO_FLOOR = 0.8
 """Lock-step must reach this share of the bare round trip (median of interleaved rounds)."""
+VIA_ROS_FLOOR = 0.7
+"""``--via-ros`` training must reach this share of the bare round trip."""
+REPO = Path(__file__).resolve().parents[1]
 
 
 class Echo(Node):
@@ -105,12 +112,47 @@ def measure(proc: launch.NodeProcess, ns: str, steps: int) -> float:
             launch.stop(proc)
 
 
-def one_round(procs: launch.ProcessSet, steps: int) -> tuple[float, float]:
-    """One ping-pong measurement then one lock-step measurement, each against a fresh process."""
+LOG_TIME = re.compile(r"\[(\d+\.\d+)\]")
+MODEL = REPO / "tests" / "data" / "pinned" / "plm.json"
+"""A stored PLM artifact: the surrogate node that ``--via-ros`` training steps."""
+
+
+def _log_time(line: str) -> float:
+    match = LOG_TIME.search(line)
+    if match is None:
+        raise launch.LaunchError(f"no timestamp in log line {line!r}")
+    return float(match.group(1))
+
+
+def via_ros(procs: launch.ProcessSet, steps: int, tmp: Path) -> float:
+    """Training steps per second of the agent node's ``via_ros`` path against a lock-step surrogate.
+
+    The agent process logs when it starts training over the surrogate's topics
+    and when training ends (before validation); the steps between the two log
+    stamps are the figure, so start-up, discovery and validation are excluded.
+    """
+    episodes = max(1, steps // 1000)
+    plant = procs.start("plant.py", ["-p", "lockstep:=true", "-p", "duplicate_check:=0.0"])
+    surrogate = procs.start("surrogate.py", ["-p", f"model_path:={MODEL}", "-p", "lockstep:=true",
+                                             "-r", "__ns:=/surrogate/plm"])
+    agent = procs.start("agent.py", [
+        "-p", "kind:=plm+improved", "-p", f"model_path:={MODEL}", "-p", "seeds:=[0]",
+        "-p", f"episodes:={episodes}", "-p", "steps:=1000", "-p", "via_ros:=true",
+        "-p", "surrogate_ns:=/surrogate/plm", "-p", "validation_steps:=500", "-p", "window:=100",
+        "-p", f"out_dir:={tmp / f'agent_{time.monotonic_ns()}'}"])
+    start = _log_time(agent.wait_for_line(r"training 1 seed", timeout=60.0))
+    end = _log_time(agent.wait_for_line(r"trained; validating", timeout=600.0))
+    for proc in (agent, surrogate, plant):
+        launch.stop(proc)
+    return episodes * 1000 / (end - start)
+
+
+def one_round(procs: launch.ProcessSet, steps: int, tmp: Path) -> tuple[float, float, float]:
+    """Ping-pong, lock-step and ``--via-ros`` training, each against fresh processes."""
     echo = procs.start(Path(__file__).resolve(), name="echo", script_args=["--echo"])
     ping = measure(echo, PINGPONG_NS, steps)
     plant_proc = procs.start("plant.py", ["-p", "lockstep:=true", "-p", "duplicate_check:=0.0"])
-    return ping, measure(plant_proc, "/msd", steps)
+    return ping, measure(plant_proc, "/msd", steps), via_ros(procs, steps, tmp)
 
 
 def main() -> None:
@@ -124,23 +166,28 @@ def main() -> None:
         sys.exit(spin_main(Echo, args=[]))
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(101, 200)))
-    with launch.process_group() as procs:
-        rounds = [one_round(procs, args.steps) for _ in range(args.rounds)]
-    ratios = [plant / ping for ping, plant in rounds]
+    with launch.process_group() as procs, tempfile.TemporaryDirectory() as tmp:
+        rounds = [one_round(procs, args.steps, Path(tmp)) for _ in range(args.rounds)]
+    ratios = [plant / ping for ping, plant, _ in rounds]
+    via_ratios = [via / ping for ping, _, via in rounds]
     ratio = float(statistics.median(ratios))
-    plant = float(statistics.median(p for _, p in rounds))
+    plant = float(statistics.median(p for _, p, _ in rounds))
     print(json.dumps({
         "benchmark": "lockstep",
         "steps": args.steps,
         "rounds": args.rounds,
         "loadavg_1min": os.getloadavg()[0],
-        "pingpong_roundtrips_per_s": [round(p, 1) for p, _ in rounds],
-        "lockstep_steps_per_s": [round(p, 1) for _, p in rounds],
+        "pingpong_roundtrips_per_s": [round(p, 1) for p, _, _ in rounds],
+        "lockstep_steps_per_s": [round(p, 1) for _, p, _ in rounds],
+        "via_ros_training_steps_per_s": [round(v, 1) for _, _, v in rounds],
         "lockstep_over_pingpong_each": [round(r, 3) for r in ratios],
         "lockstep_over_pingpong": round(ratio, 3),
+        "via_ros_over_pingpong": round(float(statistics.median(via_ratios)), 3),
         "ratio_floor": RATIO_FLOOR,
+        "via_ros_ratio_floor": VIA_ROS_FLOOR,
         "floor_steps_per_s": FLOOR,
-        "meets_floor": plant >= FLOOR and ratio >= RATIO_FLOOR,
+        "meets_floor": plant >= FLOOR and ratio >= RATIO_FLOOR
+        and statistics.median(via_ratios) >= VIA_ROS_FLOOR,
     }, indent=2))
 
 
