@@ -6,11 +6,12 @@ every identified surrogate: it only steps ``model`` and translates messages.
 Sample alignment (both modes). Each step k the node
 
 1. takes the force ``u_k`` (saturated to ±F),
-2. publishes ``joint_states`` row k: stamp ``t_k``, position ``x_k``, velocity
+2. advances the model and publishes ``position`` = ``x_{k+1}`` (the newest
+   state) — first, because a lock-step client is waiting for it;
+3. publishes ``joint_states`` row k: stamp ``t_k``, position ``x_k``, velocity
    ``v_k`` and effort ``u_k`` — the force actually applied over [t_k, t_k+1),
-   so a bag row is exactly ``plant.simulate``'s ``(x[k], v[k], u_applied[k])``;
-3. advances the model and publishes ``position`` = ``x_{k+1}`` (the newest
-   state) and, in lock-step only, ``/clock`` = ``(k+1)·dt``.
+   so a bag row is exactly ``plant.simulate``'s ``(x[k], v[k], u_applied[k])``
+   — and, in lock-step only, ``/clock`` = ``(k+1)·dt``.
 
 Real-time: a 100 Hz steady-clock timer runs the step with the latest command
 (zero-order hold) against absolute deadlines (:class:`DeadlinePacer`: a stall
@@ -384,23 +385,28 @@ class PlantNode(Node):
         return float(s[1]) if self._is_plant else float(s[0] - s[1]) / self.spec.dt
 
     def _step(self, u: float, stamp: int) -> None:
-        """Publish row k (x_k, v_k, u_k) stamped ``stamp``, advance, publish x_{k+1}.
+        """Advance, publish x_{k+1} on ``position``, then row k (x_k, v_k, u_k) stamped ``stamp``.
+
+        ``position`` goes out first because a lock-step client waits for it
+        before it sends the next command: the rows and the clock follow while
+        the client is already computing, which shortens every round trip. The
+        order of each topic's own messages is unchanged (row k still precedes
+        row k+1, which is published on the next command).
 
         With a sensor, row k carries the measured y_k and the velocity estimated
         from measured positions, the truth row goes to ``truth/joint_states``, and
         ``position`` is the measured y_{k+1} (which row k+1 then repeats).
         """
-        if self._pub_truth is None:
-            self._pub_js.publish(joint_state(stamp, self._y, self._velocity(), u))
-        else:
-            v_est = self._velocity_estimate.update(self._y)
-            self._pub_js.publish(joint_state(stamp, self._y, v_est, u))
-            self._pub_truth.publish(joint_state(stamp, float(self._state[0]), self._velocity(), u))
+        y, x, v = self._y, float(self._state[0]), self._velocity()
+        v_row = v if self._pub_truth is None else self._velocity_estimate.update(y)
         x_next = self.spec.model.step(self._state, u)
         self._y = self._measure(x_next)
         self._k += 1
         self.counters["steps"] += 1
         self._pub_x.publish(float64(self._y))
+        self._pub_js.publish(joint_state(stamp, y, v_row, u))
+        if self._pub_truth is not None:
+            self._pub_truth.publish(joint_state(stamp, x, v, u))
         if self._pub_clock is not None:
             self._pub_clock.publish(clock(self._k * self._dt_ns))
 
