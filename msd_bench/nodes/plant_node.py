@@ -150,20 +150,37 @@ PLANT_RANGES: dict[str, tuple[float, float]] = {
 and sample time (s): wide enough for any rig, narrow enough to catch a unit slip."""
 
 
-def declare_true_plant(node: Node) -> ModelSpec:
+def declare_true_plant(node: Node, default_preset: str = "default") -> ModelSpec:
     """Read ``preset`` and the :class:`PlantParams` fields (defaults from the preset) as parameters."""
+    return plant_model_spec(declare_plant_params(node, default_preset))
+
+
+def plant_model_spec(params: PlantParams) -> ModelSpec:
+    """The :class:`ModelSpec` of the NL-MSD with ``params``."""
+    return ModelSpec(plant_model(params), params.dt, params.F)
+
+
+def declare_plant_params(node: Node, default_preset: str = "default") -> PlantParams:
+    """``preset`` (default ``default_preset``) and the :class:`PlantParams` fields as parameters."""
     desc = ParameterDescriptor(
         name="preset", type=ParameterType.PARAMETER_STRING, read_only=True,
         description=f"Named plant parameter set the fields default to, read once at start-up: "
                     f"{', '.join(sorted(PRESETS))}.",
     )
-    name: str = node.declare_parameter("preset", "default", desc).value
-    params = declare_from_dataclass(node, PlantParams, defaults=preset(str(name)), ranges=PLANT_RANGES)
-    return ModelSpec(plant_model(params), params.dt, params.F)
+    name: str = node.declare_parameter("preset", default_preset, desc).value
+    return declare_from_dataclass(node, PlantParams, defaults=preset(str(name)), ranges=PLANT_RANGES)
 
 
 class PlantNode(Node):
-    """Serve a :class:`StepModel` on ``position``/``joint_states``/``force``/``reset``."""
+    """Serve a :class:`StepModel` on ``position``/``joint_states``/``force``/``reset``.
+
+    Subclasses (the rig emulator, :mod:`.rig_node`) change what one sample does
+    through three hooks: :meth:`_declare_config`, :meth:`_tick` and
+    ``SERVES_RESET``.
+    """
+
+    SERVES_RESET = True
+    """Subscribe to ``reset``: False for a node that cannot teleport (a rig)."""
 
     def __init__(
         self,
@@ -176,7 +193,7 @@ class PlantNode(Node):
     ) -> None:
         """``spec`` is a :class:`ModelSpec` or a callable ``(node) -> ModelSpec`` reading parameters."""
         super().__init__(node_name, namespace=namespace, **node_kwargs)
-        self.config = config or declare_from_dataclass(self, PlantNodeConfig)
+        self.config = config or self._declare_config()
         self.spec: ModelSpec = spec if isinstance(spec, ModelSpec) else spec(self)
         self._is_plant = self.spec.model.kind == kernels.KIND_PLANT
         self._dt_ns = round(self.spec.dt * 1e9)
@@ -196,7 +213,8 @@ class PlantNode(Node):
         )
         self._init_sensor()
         self.create_subscription(Float64, FORCE.name, self._on_force, qos(FORCE))
-        self.create_subscription(Empty, RESET.name, self._on_reset_msg, qos(RESET))
+        if self.SERVES_RESET:
+            self.create_subscription(Empty, RESET.name, self._on_reset_msg, qos(RESET))
         self._on_reset(None)
         self._pacer = DeadlinePacer(self.spec.dt)
         self._ros0 = self.get_clock().now().nanoseconds
@@ -213,6 +231,10 @@ class PlantNode(Node):
         mode = "lock-step" if self.config.lockstep else f"real-time {1 / self.spec.dt:g} Hz"
         self.get_logger().info(f"plant-like node {self.spec.model.name or 'model'} ready ({mode}"
                                f"{', ' + self._sensor_text() if self._sensor else ''})")
+
+    def _declare_config(self) -> PlantNodeConfig:
+        """Declare the node's own parameters and return how it runs."""
+        return declare_from_dataclass(self, PlantNodeConfig)
 
     def _init_sensor(self) -> None:
         """The sensor, its generator and velocity estimator, and the truth topic (only with a sensor)."""
@@ -349,8 +371,16 @@ class PlantNode(Node):
             else:
                 self.get_logger().warning(text, throttle_duration_sec=1.0)
         for t_sched in due:
-            self._check_watchdog(t_sched)
-            self._step(self._u, self._ros0 + round((t_sched - self._mono0) * 1e9))
+            self._tick(t_sched)
+
+    def _tick(self, t_sched: float) -> None:
+        """One real-time sample, scheduled at monotonic time ``t_sched`` (s)."""
+        self._check_watchdog(t_sched)
+        self._step(self._u, self._stamp(t_sched))
+
+    def _stamp(self, t_sched: float) -> int:
+        """ROS time (ns) of the sample scheduled at monotonic ``t_sched``: start + k·dt, no drift."""
+        return self._ros0 + round((t_sched - self._mono0) * 1e9)
 
     def _on_diagnostics(self) -> None:
         """Publish the node's health on /diagnostics (1 Hz)."""

@@ -1,0 +1,142 @@
+"""The rig emulator node: :class:`PlantNode` serving :class:`msd_bench.core.rig.Rig` (docs/rig.md).
+
+It speaks the plant's topic contract under ``/rig`` — ``force`` in,
+``joint_states`` (joint ``msd_slider``, stamped), ``position`` and
+``/diagnostics`` out, the ``plant_claim`` duplicate check — and behaves like
+hardware: real time only (no lock-step, never ``/clock``) and **no** ``reset``
+subscription (a rig cannot teleport; bringing it to rest is the bench's job).
+
+What it inherits unchanged from the plant node: the 100 Hz steady timer paced
+by absolute deadlines (:class:`~msd_bench.nodes.spin.DeadlinePacer`, so the mean
+rate is exactly 1/dt), zero-order hold of the latest command, saturation to ±F
+(counted), rejection of non-finite commands (counted, throttled warning, the
+last safe force kept), the watchdog, the counters and diagnostics.
+
+What it changes, per sample (:meth:`RigNode._tick`): the command goes through
+the rig's actuator (delay, lag) and friction; ``joint_states`` carries the
+measured position, the velocity estimated from measured positions and, as
+``effort``, the force the actuator actually applies over the sample (after
+saturation, delay and lag; friction is not part of it). The message is
+published after a random jitter delay, stamped with the acquisition time. A
+watchdog trip disables the drive at once (delay line and lag emptied), as a
+drive's own watchdog does. ``truth/joint_states`` (true position and velocity)
+exists only with ``publish_truth`` (tests and scoring; a real rig has none).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from rclpy.publisher import Publisher
+
+from msd_bench.core.plant import PlantParams
+from msd_bench.core.rig import Rig, RigImperfections
+from msd_bench.nodes.params import declare_from_dataclass
+from msd_bench.nodes.plant_node import (
+    ModelSpec,
+    PlantNode,
+    PlantNodeConfig,
+    declare_plant_params,
+    plant_model_spec,
+)
+from msd_bench.nodes.spin import stops_deferred
+from msd_msgs_py.contract import TRUTH_JOINT_STATES
+from msd_msgs_py.ros import float64, joint_state, msg_class, qos
+
+RIG_NAMESPACE = "/rig"
+"""Default namespace of the rig emulator."""
+RIG_PRESET = "rig"
+"""Default plant preset of the rig emulator (core/plant.py PRESETS)."""
+
+
+@dataclass(frozen=True)
+class RigNodeConfig:
+    """How the rig emulator runs (its imperfections are :class:`RigImperfections`)."""
+
+    watchdog_timeout: float = field(default=0.5, metadata={"range": (0.001, 60.0)})
+    """Seconds without a valid command after which the drive is disabled (0 N at once, nothing
+    left in flight)."""
+    duplicate_check: float = field(default=4.0, metadata={"range": (0.0, 30.0)})
+    """Seconds to listen for an earlier plant-like node's claim on the namespace before serving
+    (claims are also re-checked every second afterwards); 0 serves at once."""
+    seed: int = field(default=0, metadata={"range": (0, 2**31 - 1)})
+    """Seed of the sensor-noise and publish-jitter generators (two independent streams)."""
+    publish_truth: bool = False
+    """Also publish the true position and velocity on truth/joint_states (tests and scoring only:
+    a real rig has no truth)."""
+
+
+class RigNode(PlantNode):
+    """The emulated rig: real time, imperfect, no reset."""
+
+    SERVES_RESET = False
+
+    def __init__(self, *, node_name: str = "rig", namespace: str = RIG_NAMESPACE, **node_kwargs: Any) -> None:
+        self._params: PlantParams | None = None
+        super().__init__(self._declare_plant, node_name=node_name, namespace=namespace, **node_kwargs)
+
+    def _declare_config(self) -> PlantNodeConfig:
+        self.rig_config = declare_from_dataclass(self, RigNodeConfig)
+        self.imperfections = declare_from_dataclass(self, RigImperfections)
+        return PlantNodeConfig(
+            lockstep=False, watchdog_timeout=self.rig_config.watchdog_timeout,
+            duplicate_check=self.rig_config.duplicate_check, sensor_noise=self.imperfections.sensor_noise,
+            sensor_quant=self.imperfections.sensor_quant, sensor_seed=self.rig_config.seed)
+
+    def _declare_plant(self, _node: Any) -> ModelSpec:
+        self._params = declare_plant_params(self, RIG_PRESET)
+        self.imperfections.check_against(self._params)
+        return plant_model_spec(self._params)
+
+    def _init_sensor(self) -> None:
+        """The core rig (sensor, actuator, friction, jitter) and, if asked, the truth topic."""
+        assert self._params is not None  # set by _declare_plant, which the base runs first
+        self.rig = Rig(self._params, self.imperfections, self.rig_config.seed)
+        with stops_deferred():  # compile the friction step before the first tick
+            Rig(self._params, self.imperfections).step(0.0)
+        self._sensor = self.imperfections.sensor
+        self._pub_truth: Publisher[Any] | None = None
+        if self.rig_config.publish_truth:
+            self._pub_truth = self.create_publisher(
+                msg_class(TRUTH_JOINT_STATES), TRUTH_JOINT_STATES.name, qos(TRUTH_JOINT_STATES))
+
+    def _sensor_text(self) -> str:
+        i = self.imperfections
+        return (f"rig: noise {i.sensor_noise:g} m, quantisation {i.sensor_quant:g} m, delay "
+                f"{i.delay_samples} samples, lag {i.actuator_tau:g} s, friction {i.friction:g} N, "
+                f"jitter {i.jitter:g} s, seed {self.rig_config.seed}")
+
+    def _on_reset(self, _msg: Any) -> None:
+        """Start-up only (no reset topic): at rest at the origin, drive off."""
+        self.rig.reset()
+        self._k = 0
+        self._u = 0.0
+        self._t_cmd: float | None = None
+
+    def _check_watchdog(self, t: float) -> None:
+        trips = self.counters["watchdog"]
+        super()._check_watchdog(t)
+        if self.counters["watchdog"] != trips:
+            self.rig.cut()
+
+    def _tick(self, t_sched: float) -> None:
+        """Acquire sample k at ``t_sched``, step the rig, publish after the jitter delay."""
+        self._check_watchdog(t_sched)
+        row = self.rig.step(self._u)
+        stamp = self._stamp(t_sched)
+        wait = t_sched + self.rig.publish_delay() - time.monotonic()
+        if wait > 0:
+            time.sleep(wait)
+        self._pub_js.publish(joint_state(stamp, row.measured, row.velocity, row.effort))
+        if self._pub_truth is not None:
+            self._pub_truth.publish(joint_state(stamp, row.x, row.v, row.effort))
+        self._k += 1
+        self.counters["steps"] += 1
+        self._pub_x.publish(float64(row.measured_next))
+
+
+def build_rig() -> RigNode:
+    """The node ``launch_scripts/rig.py`` runs."""
+    return RigNode()
