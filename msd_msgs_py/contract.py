@@ -58,7 +58,8 @@ TRUTH_JOINT_STATES = TopicSpec(
     "sensor_msgs/msg/JointState",
     RECORD_DEPTH,
     "scoring only: the emulator's noise-free row k (true position and velocity, effort as in "
-    "joint_states, same stamp), published only while a sensor model measures joint_states",
+    "joint_states, same stamp), published only while a sensor model measures joint_states "
+    "(by the rig emulator only with publish_truth)",
 )
 FORCE = TopicSpec(
     "force", "std_msgs/msg/Float64", 1, "force command in N; non-finite rejected, saturated at ±F"

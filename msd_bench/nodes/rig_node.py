@@ -26,7 +26,7 @@ exists only with ``publish_truth`` (tests and scoring; a real rig has none).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from rclpy.publisher import Publisher
@@ -88,7 +88,8 @@ class RigNode(PlantNode):
     def _declare_plant(self, _node: Any) -> ModelSpec:
         self._params = declare_plant_params(self, RIG_PRESET)
         self.imperfections.check_against(self._params)
-        return plant_model_spec(self._params)
+        spec = plant_model_spec(self._params)
+        return replace(spec, model=replace(spec.model, name="rig emulator"))  # logs, diagnostics
 
     def _init_sensor(self) -> None:
         """The core rig (sensor, actuator, friction, jitter) and, if asked, the truth topic."""

@@ -23,6 +23,7 @@ from msd_bench.nodes.excitation_node import ExcitationNode
 from msd_bench.nodes.identifier_node import IdentifierNode
 from msd_bench.nodes.plant_node import PlantNode, declare_true_plant
 from msd_bench.nodes.recorder_node import RecorderNode
+from msd_bench.nodes.rig_node import build_rig
 from msd_bench.nodes.surrogate_node import build_surrogate
 
 pytestmark = pytest.mark.ros
@@ -35,9 +36,11 @@ BUILDERS: dict[str, Callable[[], Node]] = {
     "identifier": IdentifierNode,
     "agent": AgentNode,
     "surrogate": build_surrogate,
+    "rig": build_rig,
 }
 BASE = {  # valid arguments, so each case fails for its own reason
     "plant": ["-p", "duplicate_check:=0.0"],
+    "rig": ["-p", "duplicate_check:=0.0"],
     "excitation": [],
     "recorder": ["-p", "bag_path:=/nonexistent-dir/never-created"],
     "identifier": ["-p", "bags_dir:=/nonexistent", "-p", "out_dir:=/tmp/msd-never"],
@@ -50,6 +53,8 @@ DECLARED = {
                    "reset_first", "min_subscribers", "wait_recorder", "prbs.bias", "prbs.n_samples",
                    "multilevel.levels", "steps.dwell"],
     "identifier": ["bags_dir", "settle_samples", "models", "seed", "stroke", "nlarx_scale", "out_dir"],
+    "rig": ["sensor_noise", "sensor_quant", "delay_samples", "actuator_tau", "friction", "jitter", "seed",
+            "publish_truth", "watchdog_timeout", "preset"],
 }
 OUT_OF_RANGE = [
     ("plant", "m:=1e6", "m"), ("plant", "m:=0.0", "m"), ("plant", "k:=-1.0", "k"), ("plant", "k:=1e9", "k"),
@@ -75,6 +80,13 @@ OUT_OF_RANGE = [
     ("agent", "seeds:=[]", "seeds"), ("agent", "episodes:=0", "episodes"), ("agent", "dt:=2.0", "dt"),
     ("agent", "window:=0", "window"),
     ("surrogate", "dt:=0.0", "dt"), ("surrogate", "force_limit:=0.0", "force_limit"),
+    ("rig", "sensor_noise:=1.0", "sensor_noise"), ("rig", "sensor_quant:=-0.1", "sensor_quant"),
+    ("rig", "delay_samples:=-1", "delay_samples"), ("rig", "delay_samples:=100", "delay_samples"),
+    ("rig", "delay_samples:=1.5", "delay_samples"), ("rig", "actuator_tau:=2.0", "actuator_tau"),
+    ("rig", "friction:=.nan", "friction"), ("rig", "jitter:=0.02", "jitter"),
+    ("rig", "jitter:=0.01", "jitter"), ("rig", "seed:=-1", "seed"),
+    ("rig", "publish_truth:=maybe", "publish_truth"), ("rig", "lockstep:=true", "lockstep"),
+    ("rig", "reset:=true", "reset"), ("rig", "preset:=ideal", "preset"), ("rig", "m:=0.0", "m"),
 ]
 
 
