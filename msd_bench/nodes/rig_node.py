@@ -130,12 +130,12 @@ class RigNode(PlantNode):
         wait = t_sched + self.rig.publish_delay() - time.monotonic()
         if wait > 0:
             time.sleep(wait)
+        self._k += 1
+        self.counters["steps"] += 1
+        self._pub_x.publish(float64(row.measured_next))  # the plant node's order: position, then row
         self._pub_js.publish(joint_state(stamp, row.measured, row.velocity, row.effort))
         if self._pub_truth is not None:
             self._pub_truth.publish(joint_state(stamp, row.x, row.v, row.effort))
-        self._k += 1
-        self.counters["steps"] += 1
-        self._pub_x.publish(float64(row.measured_next))
 
 
 def build_rig() -> RigNode:
