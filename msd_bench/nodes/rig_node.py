@@ -31,6 +31,7 @@ from typing import Any
 
 from rclpy.publisher import Publisher
 
+from msd_bench.core.errors import ConfigError
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.rig import Rig, RigImperfections
 from msd_bench.nodes.params import declare_from_dataclass
@@ -78,6 +79,9 @@ class RigNode(PlantNode):
         super().__init__(self._declare_plant, node_name=node_name, namespace=namespace, **node_kwargs)
 
     def _declare_config(self) -> PlantNodeConfig:
+        if "lockstep" in getattr(self, "_parameter_overrides", {}):
+            raise ConfigError("the rig emulator runs in real time only (no lock-step, no /clock): "
+                              "drop -p lockstep")
         self.rig_config = declare_from_dataclass(self, RigNodeConfig)
         self.imperfections = declare_from_dataclass(self, RigImperfections)
         return PlantNodeConfig(

@@ -147,7 +147,7 @@ def test_second_node_on_the_namespace_refuses_to_start(ctx, executor):
     (["-p", "friction:=-1.0"], "friction"),
     (["-p", "jitter:=0.02"], "below the sample time"),
     (["-p", "delay_sample:=2"], "did you mean delay_samples"),
-    (["-p", "lockstep:=true"], "lockstep"),
+    (["-p", "lockstep:=true"], "real time only"),
 ])
 def test_bad_parameters_are_one_line_errors_in_a_real_process(args, needle):
     proc = subprocess.run([sys.executable, "launch_scripts/rig.py", "--ros-args", *args], cwd=REPO,
