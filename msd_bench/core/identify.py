@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
@@ -49,7 +49,14 @@ from msd_bench.core.fit import fit_percent
 from msd_bench.core.greybox import GreyboxConfig
 from msd_bench.core.linear import LinearFit, oe_fit
 from msd_bench.core.model import StepModel
-from msd_bench.core.plm import PLM_BIASES, blend, fit_local
+from msd_bench.core.plm import (
+    PLM_BIASES,
+    blend,
+    fit_local,
+    local_from_params,
+    operating_centres,
+    refine_global,
+)
 from msd_bench.core.sensor import SensorModel, sensor_rng
 
 if TYPE_CHECKING:  # the NLARX trains with torch: imported only when one is fitted
@@ -102,7 +109,21 @@ class GlmConfig(LinearFitConfig):
 
 @dataclass(frozen=True)
 class PlmConfig(LinearFitConfig):
-    """Piecewise linear model (paper §3.2): five local models blended by f1..f5."""
+    """Piecewise linear model (paper §3.2): five local models, blended (docs/decisions.md §PLM)."""
+
+    scheduling: Literal["operating-points", "paper"] = "operating-points"
+    """``operating-points`` (ours): interpolate between the two local models whose identified
+    operating positions bracket the position; ``paper``: the printed memberships f1..f5."""
+    refine: bool = True
+    """Refine all local models together on the blend's free-run error over the five records
+    (:func:`msd_bench.core.plm.refine_global`); False keeps the separate local fits."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.scheduling not in ("operating-points", "paper"):
+            raise ConfigError(
+                f"PLM scheduling must be 'operating-points' or 'paper', got {self.scheduling!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -223,7 +244,21 @@ def identify_plm(
         raise InvalidInputError(f"PLM records have different sample times: {sorted(dts)}")
     t0 = time.perf_counter()
     local = [fit_local(b, r, max_nfev=cfg.max_nfev) for b, r in pairs]
-    model = blend(local, cfg.stroke)
+    centres = operating_centres(local) if cfg.scheduling == "operating-points" else None
+    model = blend(local, cfg.stroke, centres=centres)
+    if cfg.refine:
+        model, ref = refine_global(model, [r for _, r in pairs], max_nfev=cfg.max_nfev)
+        final = local_from_params(model.params, local[0].dt)
+        model.info.update(blend(final, cfg.stroke, centres=centres).info)
+        for entry in model.info["local_models"] if ref.kept else []:
+            entry["method"] = "oe, refined on the blend"
+        model.info["local_fits"] = [  # the separate local fits the refinement started from
+            {"u0": f.u0, "y0": f.y0, "coefficients": list(f.coefficients), "method": f.method} for f in local
+        ]
+        model.info["refinement"] = {
+            "method": "global simulation-error least squares of the blend over the five records",
+            **asdict(ref),
+        }
     model.info.update(
         biases=biases,
         n_samples=sum(r.n_samples for _, r in pairs),

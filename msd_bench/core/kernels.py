@@ -33,7 +33,11 @@ Parameter layouts (``Kernel.params``):
   ``(y-y0)[k+1] = n1 (u-u0)[k] + n2 (u-u0)[k-1] - d1 (y-y0)[k] - d2 (y-y0)[k-1]``
 * PLM: ``[L, 5 x (n1, n2, d1, d2, u0, y0)]`` — five local linear models in
   deviation form around their operating points, all fed the shared blended
-  history, blended by the paper's memberships f1..f5 of the current position
+  history, blended by the paper's memberships f1..f5 of the current position;
+  or ``[L, 5 x (n1, n2, d1, d2, u0, y0), c1..c5]`` (``PLM_SCHEDULED_SIZE``) —
+  the same five models interpolated linearly between the two whose centres
+  ``c1 < ... < c5`` (their identified operating positions) bracket the
+  current position, the outer models alone beyond ``c1`` and ``c5``
 * NLARX: ``[L, S, x_scale, u_scale, c0, w1, w2, w3, w4, S x (alpha, b1..b4, b0)]``
   with ``phi = [x_k/xs, x_{k-1}/xs, u_k/us, u_{k-1}/us]`` and
   ``x_{k+1} = xs (c0 + w.phi + sum_j alpha_j sigmoid(b_j.phi + b0_j))``.
@@ -67,6 +71,7 @@ PLANT_SIZE = 8
 LINEAR_SIZE = 7
 PLM_LOCAL_SIZE = 6
 PLM_SIZE = 1 + 5 * PLM_LOCAL_SIZE
+PLM_SCHEDULED_SIZE = PLM_SIZE + 5
 NLARX_HEAD = 9
 NLARX_UNIT = 6
 
@@ -244,8 +249,34 @@ def _local(p: FloatArray, o: int, s: FloatArray, u: float) -> float:
 
 
 @numba.njit(cache=True)
+def _plm_scheduled(p: FloatArray, s: FloatArray, u: float) -> float:
+    """Linear interpolation between the two local models whose centres bracket the position.
+
+    The centres ``p[PLM_SIZE:PLM_SIZE + 5]`` (increasing) are where each local
+    model was identified; the weights are hat functions on them (a partition of
+    unity), constant beyond the outer centres.
+    """
+    xi = s[0]
+    o = PLM_SIZE
+    if xi <= p[o]:
+        return _local(p, 1, s, u)
+    if xi >= p[o + 4]:
+        return _local(p, 1 + PLM_LOCAL_SIZE * 4, s, u)
+    j = 0
+    while j < 3 and xi >= p[o + j + 1]:
+        j += 1
+    t = (xi - p[o + j]) / (p[o + j + 1] - p[o + j])
+    lo = _local(p, 1 + PLM_LOCAL_SIZE * j, s, u)
+    hi = _local(p, 1 + PLM_LOCAL_SIZE * (j + 1), s, u)
+    y: float = (1.0 - t) * lo + t * hi
+    return y
+
+
+@numba.njit(cache=True)
 def _plm(p: FloatArray, s: FloatArray, u: float) -> float:
     """Membership-weighted blend of the five local models at the current position."""
+    if p.shape[0] == PLM_SCHEDULED_SIZE:
+        return _plm_scheduled(p, s, u)
     xi = s[0]
     num = 0.0
     den = 0.0

@@ -1,4 +1,5 @@
-"""The PLM blend (msd_bench.core.plm): exact where a membership is 1, known-truth recovery."""
+"""The PLM blend (msd_bench.core.plm): exact where a membership is 1, known-truth recovery,
+scheduling on the local operating points and the global refinement on the real plant."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from scipy.signal import lfilter
 
 from msd_bench.core import kernels, plant
 from msd_bench.core.data import IOData
-from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.excitation import MultilevelConfig, PrbsConfig, prbs
 from msd_bench.core.fit import fit_percent
 from msd_bench.core.identify import PlmConfig, bias_record, broad_record, evaluate, free_run, identify_plm
@@ -57,6 +58,36 @@ def test_blend_between_models_four_and_five_is_their_average_at_1_25():
     assert _step(plm, 1.25, 1.24, 4.0, 4.5) == pytest.approx(0.5 * (a + b), abs=1e-14)
 
 
+CENTRES = [-2.3, -1.0, 0.0, 1.0, 2.0]
+
+
+@pytest.mark.parametrize(
+    ("x", "index"), [(-2.3, 0), (-3.0, 0), (-1.0, 1), (0.0, 2), (1.0, 3), (2.0, 4), (2.4, 4)]
+)
+def test_scheduled_blend_is_the_local_model_at_its_centre_and_beyond_the_outer_ones(x, index):
+    plm = blend(TRUTH, 5.0, centres=CENTRES)
+    for u in (-3.0, 0.5, 7.0):
+        expected = _step(_linear(TRUTH[index]), x, x - 0.004, u + 0.2, u)
+        assert _step(plm, x, x - 0.004, u + 0.2, u) == pytest.approx(expected, abs=1e-14)
+
+
+def test_scheduled_blend_interpolates_linearly_between_neighbouring_centres():
+    plm = blend(TRUTH, 5.0, centres=CENTRES)
+    x = 0.25  # a quarter of the way from centre 0 (model 3) to centre 1 (model 4)
+    a = _step(_linear(TRUTH[2]), x, x - 0.01, 4.0, 4.5)
+    b = _step(_linear(TRUTH[3]), x, x - 0.01, 4.0, 4.5)
+    assert _step(plm, x, x - 0.01, 4.0, 4.5) == pytest.approx(0.75 * a + 0.25 * b, abs=1e-14)
+    assert plm.params.size == kernels.PLM_SCHEDULED_SIZE
+    assert [f.coefficients for f in local_from_params(plm.params, DT)] == [f.coefficients for f in TRUTH]
+
+
+def test_scheduling_centres_must_increase():
+    with pytest.raises(InvalidInputError, match="strictly increasing"):
+        blend(TRUTH, 5.0, centres=[-2.0, -1.0, 0.0, 0.0, 2.0])
+    with pytest.raises(ConfigError, match="scheduling"):
+        PlmConfig(scheduling="nearest")  # type: ignore[arg-type]
+
+
 def test_blend_round_trips_through_packed_params():
     plm = blend(TRUTH, 5.0)
     assert plm.kind == kernels.KIND_PLM and plm.params.size == kernels.PLM_SIZE
@@ -75,8 +106,10 @@ def _records_from_truth() -> dict[float, IOData]:
 
 
 def test_plm_from_five_known_linear_systems_recovers_them():
+    # The paper's construction (printed memberships, separate local fits): each local fit is
+    # exactly its system. The refinement would trade that for agreement on the blend.
     records = _records_from_truth()
-    plm = identify_plm(records, PlmConfig())
+    plm = identify_plm(records, PlmConfig(scheduling="paper", refine=False))
     for got, want in zip(local_from_params(plm.params, DT), TRUTH, strict=True):
         np.testing.assert_allclose(got.coefficients, want.coefficients, rtol=1e-6, atol=1e-12)
         assert got.u0 == want.u0
@@ -116,22 +149,49 @@ def test_mixed_sample_times_are_rejected():
         identify_plm(records)
 
 
-def test_two_mm_of_sensor_noise_costs_the_plm_almost_nothing():
-    """Records of identification seed 0 (the pipeline's excitation seeds), clean and with 2 mm noise,
-    scored against the noise-free truth from estimated initial states.
-
-    Measured over identification seeds 0, 1, 2: clean 94.43, 92.94, 93.13 %; 2 mm 94.43, 92.96,
-    93.14 %. Before the output-error fit estimated its initial conditions and ranked a prefiltered
-    ARX start, 2 mm gave 94.59, 79.79, 93.31 % (the ±10 N local fits fell into wrong optima).
-    """
+def _default_plant_records(sigma: float) -> tuple[dict[float, IOData], IOData]:
     default = plant.preset("default")
+    sensor = SensorModel(noise_std=sigma)
+    records = {b: bias_record(default, b, 1000 + i, sensor=sensor) for i, b in enumerate(PLM_BIASES)}
+    return records, broad_record(default, 5007, MultilevelConfig(n_samples=4000), sensor=sensor)
+
+
+def test_scheduling_on_operating_points_and_refining_the_blend_beat_the_paper_construction():
+    """On the default plant the bias forces hold the mass at ±1.38 m and ±1.98 m, not at the printed
+    memberships' centres ±1 and ±2: at 1.38 m f5 weighs 0.75 and the 5 N model only 0.25. Scheduling on
+    the identified operating points and refining all local models on the blend's free-run error fixes
+    the region between the centres. Broad-range record of identification seed 0, against the truth:
+    paper construction 94.43 %, operating-point scheduling alone 92.84 %, refinement alone 94.40 %,
+    both 97.19 % (neither half helps alone here; see docs/decisions.md §PLM).
+    """
+    records, valid = _default_plant_records(0.0)
+    paper = evaluate(identify_plm(records, PlmConfig(scheduling="paper", refine=False)), valid).sim_fit_truth
+    model = identify_plm(records)
+    ours = evaluate(model, valid).sim_fit_truth
+    assert paper is not None and ours is not None
+    assert ours >= 96.5
+    assert ours >= paper + 2.0
+    ref = model.info["refinement"]
+    assert ref["kept"] and ref["cost_after"] < 0.1 * ref["cost_before"]
+    # The centres are where the plant rests under each bias, whatever the refinement did.
+    for b, c in zip(PLM_BIASES, model.info["centres"], strict=True):
+        assert c == pytest.approx(plant.equilibrium(b, plant.preset("default")), abs=0.02)
+
+
+def test_two_mm_of_sensor_noise_costs_the_plm_almost_nothing():
+    """Records of the default plant, clean and with 2 mm noise, scored against the noise-free
+    truth from estimated initial states.
+
+    Pipeline identification seeds 0, 1, 2 (``msd-bench paper``), before scheduling on the operating
+    points and refining the blend: clean 94.43, 92.94, 93.13 %; 2 mm 94.43, 92.96, 93.14 %; after:
+    clean 97.19, 96.55, 97.18 %; 2 mm 97.19, 96.53, 97.17 %. Before the output-error fit estimated
+    its initial conditions and ranked a prefiltered ARX start, 2 mm gave 94.59, 79.79, 93.31 %.
+    """
     fits = {}
     for sigma in (0.0, 0.002):
-        sensor = SensorModel(noise_std=sigma)
-        records = {b: bias_record(default, b, 1000 + i, sensor=sensor) for i, b in enumerate(PLM_BIASES)}
-        valid = broad_record(default, 5007, MultilevelConfig(n_samples=4000), sensor=sensor)
+        records, valid = _default_plant_records(sigma)
         report = evaluate(identify_plm(records), valid)
         assert report.sim_fit_truth is not None
         fits[sigma] = report.sim_fit_truth
-    assert fits[0.002] >= 93.0
+    assert fits[0.002] >= 95.0
     assert abs(fits[0.002] - fits[0.0]) < 0.5
