@@ -26,8 +26,7 @@ from msd_bench.core import rng
 from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import QConfig, packed
-from msd_bench.core.qlearning import train_batch
-from msd_bench.core.qtrain import LearnedTables, budget
+from msd_bench.core.qtrain import LearnedTables, budget, run_batch
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -60,12 +59,12 @@ class DynaResult(LearnedTables):
 
 
 def train_dyna(plant: StepModel, cfg: DynaConfig, seeds: Sequence[int]) -> DynaResult:
-    """Run one Dyna-Q agent per seed on ``plant`` in one compiled call."""
+    """Run one Dyna-Q agent per seed on ``plant`` (compiled; the batch spread over the cores)."""
     if len(seeds) == 0:
         raise InvalidInputError("need at least one seed")
     stream = rng.seed_states(seeds)
     qc = cfg.learner
-    q, snaps, returns, counts = train_batch(plant.kernel, packed(qc),
-                                            budget(qc, cfg.planning_steps), stream)
+    q, snaps, returns, counts = run_batch(plant.kernel, packed(qc), budget(qc, cfg.planning_steps),
+                                         stream)
     return DynaResult(q, snaps, qc.snapshots(), returns, tuple(int(s) for s in seeds),
                       counts[:, 0].copy(), counts[:, 1].copy(), cfg)

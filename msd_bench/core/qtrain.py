@@ -1,15 +1,18 @@
 """Train Q-learning agents on a plant-like model and run them greedily (paper §4, §5).
 
 The Python face of :mod:`msd_bench.core.qlearning`: it checks inputs, packs
-the config (:func:`qconfig.packed`) and calls one compiled kernel for the
-whole batch of seeds. Agents
-in a batch never share randomness, so the batch result for seed k equals a
-single run of seed k bit for bit.
+the config (:func:`qconfig.packed`) and calls one compiled kernel per slice
+of the batch of seeds, one slice per core (:func:`run_batch`). Agents in a
+batch never share randomness, so the batch result for seed k equals a single
+run of seed k bit for bit, however the batch is sliced.
 """
 
 from __future__ import annotations
 
+import itertools
+import os
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,10 +20,12 @@ from numpy.typing import NDArray
 
 from msd_bench.core import qlearning, rng
 from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.kernels import Kernel
 from msd_bench.core.model import StepModel
-from msd_bench.core.qconfig import N_ACTIONS, QConfig, packed
+from msd_bench.core.qconfig import N_ACTIONS, Learner, QConfig, packed
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 
 @dataclass(frozen=True)
@@ -50,11 +55,38 @@ class TrainResult(LearnedTables):
 
 
 def train(model: StepModel, cfg: QConfig, seeds: Sequence[int]) -> TrainResult:
-    """Train one agent per seed on ``model`` in a single compiled call."""
+    """Train one agent per seed on ``model`` (compiled; the batch spread over the cores)."""
     seeds = tuple(int(s) for s in _check_seeds(seeds))
-    q, snaps, returns, _ = qlearning.train_batch(model.kernel, packed(cfg), budget(cfg, 0),
-                                                 rng.seed_states(seeds))
+    q, snaps, returns, _ = run_batch(model.kernel, packed(cfg), budget(cfg, 0), rng.seed_states(seeds))
     return TrainResult(q, snaps, cfg.snapshots(), returns, seeds, cfg, model.name)
+
+
+def run_batch(model: Kernel, lr: Learner, plan: qlearning.Budget, stream: rng.U64Array,
+              workers: int | None = None) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
+    """:func:`qlearning.train_batch` with the agents split over ``workers`` threads (default: one per core).
+
+    Why threads and not ``numba.prange``: agents share nothing (each has its
+    own stream word, table and model state), so contiguous slices trained in
+    separate calls give exactly the tables of one call; the compiled kernel
+    releases the GIL, and threads avoid numba's threading layers, whose
+    default (workqueue) aborts when two Python threads launch parallel code at
+    once (a ROS node may). Results are reassembled in seed order.
+    """
+    n = stream.size
+    workers = min(n, workers if workers is not None else _cores())
+    if workers < 2:
+        return qlearning.train_batch(model, lr, plan, stream)
+    bounds = np.linspace(0, n, workers + 1).astype(np.int64)
+    slices = [stream[a:b].copy() for a, b in itertools.pairwise(bounds)]
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        parts = list(pool.map(lambda words: qlearning.train_batch(model, lr, plan, words), slices))
+    q, snaps, returns, counts = (np.concatenate([part[k] for part in parts]) for k in range(4))
+    return q, snaps, returns, counts
+
+
+def _cores() -> int:
+    """CPUs this process may run on (the affinity mask, not the machine's count)."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
 def greedy_rollouts(model: StepModel, q_tables: FloatArray, cfg: QConfig, target: float = 1.0,

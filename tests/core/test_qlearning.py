@@ -12,7 +12,7 @@ from msd_bench.core.errors import ConfigError, InvalidInputError, MsdBenchError
 from msd_bench.core.model import StepModel, plant_model
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.qconfig import QConfig, encoding, improved_config, packed
-from msd_bench.core.qtrain import greedy_rollout, greedy_rollouts, train
+from msd_bench.core.qtrain import budget, greedy_rollout, greedy_rollouts, run_batch, train
 
 GAIN = 0.01  # x_{k+1} = GAIN * u_k: a model whose next state is known by hand
 
@@ -162,3 +162,40 @@ def test_bad_inputs_raise() -> None:
         greedy_rollout(m, np.zeros((10, 5)), QConfig())
     with pytest.raises(MsdBenchError):
         greedy_rollout(m, np.full((100, 5), np.nan), QConfig())
+
+
+@pytest.mark.parametrize("cfg", [QConfig(), improved_config()], ids=["paper", "improved"])
+@pytest.mark.parametrize("on_plant", [True, False], ids=["plant", "linear"])
+def test_fast_episode_equals_transition_step_by_step(cfg: QConfig, on_plant: bool) -> None:
+    # q_episode is the hot loop: it must take exactly transition's steps (draws, updates, bits).
+    model = (plant_model(PlantParams()) if on_plant else _linear_model()).kernel
+    lr, target, steps = packed(cfg), 0.7, 400
+    s0 = qlearning.encode(lr.enc, -target, 0.0, target)
+    q_fast, q_ref = np.zeros((lr.enc.n_states, 5)), np.zeros((lr.enc.n_states, 5))
+    st_fast, st_ref = rng.seed_states([5]), rng.seed_states([5])
+    pl_fast, pl_ref = np.zeros(4), np.zeros(4)
+    total = qlearning.q_episode(model, lr, q_fast, pl_fast, s0, 0.0, target, steps, st_fast, 0)
+    s, x, err, ref_total = s0, 0.0, target, 0.0
+    for _ in range(steps):
+        _, x, err, s, r = qlearning.transition(model, lr, q_ref, pl_ref, s, x, err, target, st_ref, 0)
+        ref_total += r
+    assert np.count_nonzero(q_ref) > 3  # the episode did learn something
+    assert np.array_equal(q_fast, q_ref)
+    assert total == ref_total
+    assert np.array_equal(st_fast, st_ref) and np.array_equal(pl_fast, pl_ref)
+
+
+def test_batch_sliced_over_threads_equals_one_call() -> None:
+    m = plant_model(PlantParams())
+    cases = [(packed(QConfig(episodes=2, steps=300)), 0),
+             (packed(improved_config(episodes=2, steps=300, observer="alpha-beta", obs_gain=0.5,
+                                     train_noise=0.01, train_delay=2)), 0),
+             (packed(QConfig(episodes=2, steps=100)), 5)]  # Dyna-Q
+    seeds = [4, 9, 1, 16, 25]
+    for lr, n_plan in cases:
+        plan = budget(QConfig(episodes=2, steps=300), n_plan)
+        one = run_batch(m.kernel, lr, plan, rng.seed_states(seeds), workers=1)
+        for workers in (2, 3, 8):
+            sliced = run_batch(m.kernel, lr, plan, rng.seed_states(seeds), workers=workers)
+            for a, b in zip(one, sliced, strict=True):
+                assert a.shape == b.shape and np.array_equal(a, b)
