@@ -196,10 +196,21 @@ def remember(mem: Memory, j: int, r: float, s2: int) -> None:
 @numba.njit(cache=True)
 def plan(q: FloatArray, n_plan: int, mem: Memory, lr: Learner, state: rng.U64Array,
          i: int) -> None:
-    """Dyna-Q: replay ``n_plan`` remembered transitions of uniformly drawn visited pairs."""
+    """Dyna-Q: replay ``n_plan`` remembered transitions of uniformly drawn visited pairs.
+
+    The arrays are taken out of their tuples and the stream word kept in a
+    local once per call, not once per update (see :func:`q_episode` for why).
+    """
+    visited, rewards, next_state, phi = mem.visited, mem.reward, mem.next_state, lr.phi
+    n_visited = mem.n_visited[0]
+    z = state[i]
     for _ in range(n_plan):
-        j = mem.visited[rng.below(state, i, mem.n_visited[0])]
-        td_update(q, j // N_ACTIONS, j % N_ACTIONS, mem.reward[j], mem.next_state[j], lr)
+        z, bits = rng.split(z)
+        j = visited[rng.below_of(rng.uniform_of(bits), n_visited)]
+        s, a = j // N_ACTIONS, j % N_ACTIONS
+        q_update(q, s, a, rewards[j], next_state[j], lr.alpha, lr.gamma, lr.reward_gain,
+                 lr.eta * phi[s, a])
+    state[i] = z
 
 
 class Budget(NamedTuple):
