@@ -72,20 +72,20 @@ def choose(q: FloatArray, s: int, eps: float, state: rng.U64Array, i: int) -> in
     return a
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def pick(q: FloatArray, s: int, eps: float, z: np.uint64) -> tuple[int, np.uint64]:
     """:func:`choose` on a stream word held in a local: (action, the advanced word).
 
     One uniform decides explore or exploit; exploring draws the action, and
     exploiting draws only when several actions tie for the maximum.
     """
+    # The row is read into a tuple first, so q is not live across any branch: numba can then drop
+    # its reference count pair, in this function and where it is inlined (N_ACTIONS is 5).
+    row = (q[s, 0], q[s, 1], q[s, 2], q[s, 3], q[s, 4])
     z, bits = rng.split(z)
     if rng.uniform_of(bits) < eps:
         z, bits = rng.split(z)
         return rng.below_of(rng.uniform_of(bits), N_ACTIONS), z
-    # The row is read into a tuple first, so q is not live across the loops below: numba can then
-    # drop its reference count pair and LLVM inline this function (N_ACTIONS is 5).
-    row = (q[s, 0], q[s, 1], q[s, 2], q[s, 3], q[s, 4])
     best = row[0]
     count = 1
     for a in range(1, N_ACTIONS):
