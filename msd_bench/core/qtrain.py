@@ -76,7 +76,9 @@ def run_batch(model: Kernel, lr: Learner, plan: qlearning.Budget, stream: rng.U6
     workers = min(n, workers if workers is not None else _cores())
     if workers < 2:
         return qlearning.train_batch(model, lr, plan, stream)
-    bounds = np.linspace(0, n, workers + 1).astype(np.int64)
+    # A few slices per worker, handed out as workers free up: on a shared machine one thread
+    # may lose its core for a while, and the batch should not wait for it with half the work.
+    bounds = np.linspace(0, n, min(n, 4 * workers) + 1).astype(np.int64)
     slices = [stream[a:b].copy() for a, b in itertools.pairwise(bounds)]
     with ThreadPoolExecutor(max_workers=workers) as pool:
         parts = list(pool.map(lambda words: qlearning.train_batch(model, lr, plan, words), slices))

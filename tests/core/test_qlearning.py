@@ -191,7 +191,7 @@ def test_batch_sliced_over_threads_equals_one_call() -> None:
              (packed(improved_config(episodes=2, steps=300, observer="alpha-beta", obs_gain=0.5,
                                      train_noise=0.01, train_delay=2)), 0),
              (packed(QConfig(episodes=2, steps=100)), 5)]  # Dyna-Q
-    seeds = [4, 9, 1, 16, 25]
+    seeds = [4, 9, 1, 16, 25, 36, 49, 64, 81, 100, 121]  # slices of one and of several agents
     for lr, n_plan in cases:
         plan = budget(QConfig(episodes=2, steps=300), n_plan)
         one = run_batch(m.kernel, lr, plan, rng.seed_states(seeds), workers=1)
