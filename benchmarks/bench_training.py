@@ -7,11 +7,11 @@ compiled loop of the same algorithm (``over_minimal_loop``), and a batch of 64
 agents at >= 10 M agent-steps/s on the machine's cores
 (``batch64_agent_steps_per_s``). The minimal loop is checked to learn the very
 same Q-table as ``train`` (``minimal_loop_equals_train``), so the ratio
-compares equal work. With ``--out`` the JSON is also written with the command,
-commit and machine; with ``--success N`` it also trains N seeds of the paper
-and the improved agent on the true plant and reports their success rates.
+compares equal work. ``scripts/make_results.py performance`` stores this JSON
+with the commit and machine. With ``--success N`` it also trains N seeds of the
+paper and the improved agent on the true plant and reports their success rates.
 
-    .venv/bin/python benchmarks/bench_training.py [--repeat 3] [--out docs/results/training_speed.json]
+    .venv/bin/python benchmarks/bench_training.py [--repeat 3]
     .venv/bin/python benchmarks/bench_training.py --success 64 --first-seed 1000
 """
 
@@ -21,13 +21,9 @@ import argparse
 import json
 import math
 import os
-import platform
 import random
 import statistics
-import subprocess
-import sys
 import time
-from pathlib import Path
 from typing import Any
 
 import numba
@@ -255,20 +251,6 @@ def medians(rounds: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def provenance() -> dict[str, Any]:
-    """Command, commit and machine the numbers come from (the machine is shared: its load too)."""
-    def git(*args: str) -> str:
-        return subprocess.run(["git", *args], capture_output=True, text=True, check=False).stdout.strip()
-
-    return {"command": " ".join(["python", "benchmarks/bench_training.py", *sys.argv[1:]]),
-            "git_commit": git("rev-parse", "HEAD"),
-            "git_dirty": bool(git("status", "--porcelain", "--untracked-files=no")),
-            "machine": {"platform": platform.platform(),
-                        "processor": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
-                        "python": platform.python_version(), "numba": numba.__version__},
-            "load_average_1_5_15_before": [round(v, 2) for v in os.getloadavg()]}
-
-
 def success(n: int, first: int) -> list[dict[str, Any]]:
     """Success rate (SSE < 5 %) of both agents trained and validated on the true plant."""
     rows = []
@@ -294,9 +276,8 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3, help="rounds; the JSON gives medians")
     parser.add_argument("--success", type=int, default=0, help="seeds per agent (0 = skip)")
     parser.add_argument("--first-seed", type=int, default=0)
-    parser.add_argument("--out", type=Path, help="also write the JSON here, with provenance")
     args = parser.parse_args()
-    prov = provenance()
+    load_before = [round(v, 2) for v in os.getloadavg()]
     rounds = [speed() for _ in range(max(1, args.repeat))]
     out = medians(rounds)
     out["rounds"] = len(rounds)
@@ -306,14 +287,11 @@ def main() -> None:
                          "batch64_cpu_share_of_all_cores")}
     out["floor_over_minimal_loop_1_5"] = out["over_minimal_loop"] <= 1.5
     out["floor_batch64_10M_agent_steps_per_s"] = out["batch64_agent_steps_per_s"] >= 10e6
+    out["load_average_1_5_15_before"] = load_before
     out["load_average_1_5_15_after"] = [round(v, 2) for v in os.getloadavg()]
     if args.success > 0:
         out["success_on_true_plant"] = success(args.success, args.first_seed)
-    text = json.dumps(out, indent=2)
-    print(text)
-    if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps({"provenance": prov, **out}, indent=2) + "\n")
+    print(json.dumps(out, indent=2))
 
 
 if __name__ == "__main__":
