@@ -12,6 +12,12 @@ the run directory, so a run can be resumed or re-reported):
              Dyna-Q against the plant node) and validates every seed on the
              plant topics, writing ``agents/<kind>/`` (Q-tables, bags, result);
 ``report``   Table 1 (Markdown, CSV, JSON) and the figures under ``report/``.
+
+With ``plant_ns`` (``--plant-ns NS``) no emulator is started: every stage runs
+against whatever node serves NS, in real time, without ``reset`` (zero force
+until still before each experiment and episode), and only with the kinds and
+scenarios that make sense on a node whose model is unknown
+(:mod:`msd_bench.app.plant_ns`; docs/plant-ns.md).
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ from typing import Any
 
 from msd_bench.app.agents import PLANT, agent_kind
 from msd_bench.app.config import RunConfig
+from msd_bench.app.plant_ns import hardware_scenario
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.registry import needs_bias_records
 from msd_bench.graph.launch import NodeProcess, ProcessSet
@@ -54,6 +61,14 @@ class BenchConfig:
     """Identify from these existing experiment bags instead of recording."""
     stages: tuple[str, ...] = STAGES
     """Stages to run."""
+    plant_ns: str | None = None
+    """Run against the node serving this namespace (no emulator started, real time, no reset)."""
+    node_scenarios: tuple[str, ...] = ()
+    """With ``plant_ns``: set-point / disturbance scenarios validated on the node."""
+    scenario_kinds: tuple[str, ...] = ()
+    """With ``plant_ns``: the agent kinds validated under ``node_scenarios`` too."""
+    left_out: tuple[str, ...] = ()
+    """With ``plant_ns``: requested kinds left out because they need the emulator's own model."""
     timings: dict[str, float] = field(default_factory=dict, compare=False)
     """Seconds per stage, filled in as the run goes."""
 
@@ -63,6 +78,27 @@ class BenchConfig:
             raise ConfigError(f"unknown stage {unknown[0]!r}; choose from {', '.join(STAGES)}")
         if self.run.id_seeds != 1:
             raise ConfigError("bench.py records one identification seed; use msd-bench paper for --id-seeds")
+        if self.plant_ns is None:
+            if self.node_scenarios or self.scenario_kinds:
+                raise ConfigError("--node-scenarios and --scenario-kinds need --plant-ns")
+            return
+        if not self.plant_ns.startswith("/") or self.plant_ns == "/":
+            raise ConfigError(f"--plant-ns must be an absolute namespace like /rig, got {self.plant_ns!r}")
+        if self.via_ros:
+            raise ConfigError("--via-ros trains over surrogate nodes of the emulator; it does not go with "
+                              "--plant-ns")
+        if not self.realtime:
+            raise ConfigError("--plant-ns runs in real time")
+        for text in self.node_scenarios:
+            hardware_scenario(text)
+        stray = [k for k in self.scenario_kinds if k not in self.run.agents]
+        if stray:
+            raise ConfigError(f"--scenario-kinds {stray[0]!r} is not among the run's agent kinds")
+
+    @property
+    def namespace(self) -> str:
+        """The plant-like node's namespace: ``plant_ns`` or the emulator's ``/msd``."""
+        return self.plant_ns or PLANT_NAMESPACE
 
     @property
     def seeds(self) -> list[int]:
@@ -120,9 +156,9 @@ def record_plan(cfg: BenchConfig) -> list[ExperimentSpec]:
 
 def stage_record(cfg: BenchConfig, procs: ProcessSet, bar: Callable[[int, int, str], None]) -> list[Path]:
     """Record the run's experiments through the recorder and excitation processes (and its sensor)."""
-    return record_experiments(record_plan(cfg), cfg.excitation_dir, procs, PLANT_NAMESPACE, not cfg.realtime,
+    return record_experiments(record_plan(cfg), cfg.excitation_dir, procs, cfg.namespace, not cfg.realtime,
                               bar, force_limit=cfg.run.plant.F, dt=cfg.run.plant.dt,
-                              truth=cfg.run.sensor is not None)
+                              truth=cfg.run.sensor is not None, rest=cfg.plant_ns is not None)
 
 
 def stage_identify(cfg: BenchConfig, procs: ProcessSet) -> dict[str, Any]:
@@ -131,7 +167,8 @@ def stage_identify(cfg: BenchConfig, procs: ProcessSet) -> dict[str, Any]:
     p = cfg.run.plant
     args = ["-p", f"bags_dir:={cfg.excitation_dir}", "-p", f"out_dir:={cfg.run_dir / 'models'}",
             "-p", f"models:={models}", "-p", f"nlarx_scale:={float(cfg.run.nlarx_scale)!r}",
-            "-p", f"seed:={cfg.id_seed}", "-p", f"stroke:={p.L!r}", "-p", f"force:={p.F!r}"]
+            "-p", f"seed:={cfg.id_seed}", "-p", f"stroke:={p.L!r}", "-p", f"force:={p.F!r}",
+            "-p", f"dt:={p.dt!r}", "-p", f"namespace:={cfg.namespace}"]
     _run_to_end(procs.start("identifier.py", args, name="identifier"), timeout=600.0)
     return json.loads((cfg.run_dir / "models" / "fits.json").read_text())  # type: ignore[no-any-return]
 
@@ -145,7 +182,12 @@ def agent_args(cfg: BenchConfig, kind: str) -> list[str]:
             "-p", f"lockstep:={str(not cfg.realtime).lower()}", "-p", f"steps:={run.steps}",
             "-p", f"validation_steps:={run.validation_steps}", "-p", f"window:={run.window}",
             "-p", f"target:={float(run.target)!r}", "-p", f"dt:={run.plant.dt!r}",
-            "-p", f"force:={run.plant.F!r}", "-p", f"shaping:={run.shaping}"]
+            "-p", f"force:={run.plant.F!r}", "-p", f"shaping:={run.shaping}",
+            "-p", f"plant_ns:={cfg.namespace}"]
+    if cfg.plant_ns is not None:
+        args += ["-p", "reset:=false"]
+        if kind in cfg.scenario_kinds and cfg.node_scenarios:
+            args += ["-p", f"scenarios:={';'.join(cfg.node_scenarios)}"]
     if k.dyna:
         return [*args, "-p", f"episodes:={run.dyna_episodes}", "-p", f"planning_steps:={run.planning_steps}"]
     model = "plant" if k.surrogate == PLANT else k.surrogate  # on-plant Q-learning: the plant's own model
@@ -168,7 +210,7 @@ def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[i
     for i, kind in enumerate(agents):
         bar(i, len(agents), kind)
         proc = procs.start("agent.py", agent_args(cfg, kind), name=f"agent-{kind}")
-        _run_to_end(proc, timeout=3600.0)
+        _run_to_end(proc, timeout=3600.0 if cfg.plant_ns is None else 4 * 3600.0)
         say(_last_line(proc, "agent done") or f"agent {kind} done")
     bar(len(agents), len(agents), "done")
 

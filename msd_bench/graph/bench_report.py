@@ -70,11 +70,12 @@ def figure_data(cfg: BenchConfig, results: list[AgentResult],
               for name in cfg.run.surrogates_needed() if (models_dir / f"{name}.json").is_file()}
     responses = {r.kind: np.stack([
         read_experiment(cfg.run_dir / "agents" / r.kind / "validation" / f"seed_{s['seed']}",
-                        timing=UNCHECKED)[0].y
+                        cfg.namespace, timing=UNCHECKED)[0].y
         for s in r.per_seed]) for r in results}
     return FigureData(
         target=cfg.run.target, dt=cfg.run.plant.dt, models=models, fits=_fits(cfg),
-        records=load_records(roles_from_dir(cfg.excitation_dir), needs_bias_records(models)),
+        records=load_records(roles_from_dir(cfg.excitation_dir, cfg.namespace, cfg.run.plant.dt),
+                             needs_bias_records(models), cfg.namespace, cfg.run.plant.dt),
         qtables={k: a for k, (a, _, _) in qtables.items()}, responses=responses)
 
 
@@ -85,6 +86,32 @@ def _trained_on(cfg: BenchConfig, kind: str) -> StepModel:
     return artifacts.load_model(cfg.run_dir / "models" / f"{name}.json")
 
 
+def on_node_robustness(cfg: BenchConfig, results: list[AgentResult]) -> dict[str, dict[str, Any]]:
+    """Per kind: the nominal validation and every scenario validated *on the node* (a --plant-ns run).
+
+    Never the emulator's model: a foreign node's scenarios are the ones its
+    agent processes ran on it (``on_node_scenarios`` in each ``result.json``).
+    """
+    rob: dict[str, dict[str, Any]] = {}
+    for r in results:
+        doc = json.loads((cfg.run_dir / "agents" / r.kind / "result.json").read_text())
+        cells = {"nominal": robustness.cell([s["sse"] for s in r.per_seed], [s["mae"] for s in r.per_seed])}
+        cells.update(doc.get("on_node_scenarios", {}))
+        rob[r.kind] = cells
+    return rob
+
+
+def _plant_ns_lines(facts: dict[str, Any]) -> str:
+    """What a reader of Table 1 must know about a run on a foreign node."""
+    lines = [f"Run against `{facts['plant_ns']}` (no emulator; real time; no reset: zero force until "
+             f"still before every experiment and episode; docs/plant-ns.md)."]
+    lines += [f"{facts[k][0].upper()}{facts[k][1:]}." for k in ("left_out", "dyna_budget") if facts[k]]
+    scenarios = ", ".join(facts["node_scenarios"]) or "no scenario"
+    lines.append(f"Robustness: measured on the node for {scenarios} "
+                 f"({', '.join(facts['scenario_kinds']) or 'no kind'}); nothing on the emulator's model.")
+    return "\n".join(f"- {line}" for line in lines) + "\n"
+
+
 def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any]:
     """Table 1 (md/csv/json), robustness and figures under ``report/``."""
     results = load_results(cfg)
@@ -92,9 +119,14 @@ def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any
     paths: dict[str, Any] = {"table": write_report(out, results, facts)}
     qtables = _qtables(cfg, results)
     paths["figures"] = write_figures(out / "figures", figure_data(cfg, results, qtables))
-    rob = {kind: robustness.evaluate(arrays["q"], learner, cfg.run.plant, seeds, cfg.run.scenario_suite(),
-                                     steps=cfg.run.validation_steps, window=cfg.run.window,
-                                     observer=_trained_on(cfg, kind))
-           for kind, (arrays, learner, seeds) in qtables.items()}
+    if cfg.plant_ns is not None:
+        md = paths["table"]["md"]
+        md.write_text(md.read_text().rstrip("\n") + "\n\n" + _plant_ns_lines(facts))
+        rob = on_node_robustness(cfg, results)
+    else:
+        rob = {kind: robustness.evaluate(arrays["q"], learner, cfg.run.plant, seeds,
+                                         cfg.run.scenario_suite(), steps=cfg.run.validation_steps,
+                                         window=cfg.run.window, observer=_trained_on(cfg, kind))
+               for kind, (arrays, learner, seeds) in qtables.items()}
     paths["robustness"] = write_robustness(out, rob, {r.kind: r.label for r in results})
     return paths

@@ -221,10 +221,19 @@ def remove_orphan_shm(segments: set[str]) -> list[str]:
     return removed
 
 
+def caller_env() -> dict[str, str]:
+    """The inherited environment as is: the caller's domain and discovery range (a --plant-ns run
+    must see the rig the caller sees, which may be on another host)."""
+    env = dict(os.environ)
+    env.setdefault("PYTHONUNBUFFERED", "1")
+    env.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "0")
+    return env
+
+
 @contextmanager
-def process_group(domain_id: int | None = None) -> Iterator[ProcessSet]:
+def process_group(domain_id: int | None = None, env: dict[str, str] | None = None) -> Iterator[ProcessSet]:
     """A :class:`ProcessSet` whose processes are all stopped on exit, whatever happens."""
-    procs = ProcessSet(domain_id)
+    procs = ProcessSet(domain_id, env)
     try:
         yield procs
     finally:
@@ -234,13 +243,17 @@ def process_group(domain_id: int | None = None) -> Iterator[ProcessSet]:
 class ProcessSet:
     """The processes one experiment started, stopped newest first."""
 
-    def __init__(self, domain_id: int | None = None) -> None:
-        """Children run in ``domain_id`` (the inherited ROS_DOMAIN_ID if None)."""
+    def __init__(self, domain_id: int | None = None, env: dict[str, str] | None = None) -> None:
+        """Children run in ``domain_id`` (the inherited ROS_DOMAIN_ID if None) on loopback, or with
+        exactly ``env`` if given (:func:`caller_env`)."""
         self.domain_id = domain_id
+        self.env = env
         self.procs: list[NodeProcess] = []
 
     def start(self, script: str | Path, ros_args: Sequence[str] = (), **kw: object) -> NodeProcess:
         """Start a launch script in this set (see :func:`start`)."""
+        if self.env is not None and "env" not in kw:
+            kw["env"] = self.env
         proc = start(script, ros_args, domain_id=self.domain_id, **kw)  # type: ignore[arg-type]
         self.procs.append(proc)
         return proc

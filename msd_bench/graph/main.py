@@ -10,11 +10,15 @@ import argparse
 import datetime as dt
 import os
 import sys
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
+from msd_bench.app import plant_ns
+from msd_bench.app.agents import agent_kind
+from msd_bench.app.config import RunConfig
 from msd_bench.app.options import add_run_arguments, run_config_from_args
-from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.graph.bench import (
     STAGES,
     BenchConfig,
@@ -27,7 +31,7 @@ from msd_bench.graph.bench import (
     write_run_facts,
 )
 from msd_bench.graph.domains import claim_domain
-from msd_bench.graph.launch import process_group, stop
+from msd_bench.graph.launch import caller_env, process_group, stop
 from msd_bench.io.bag_records import roles_from_dir
 from msd_bench.io.paths import writable_dir
 from msd_bench.progress import StageProgress
@@ -37,19 +41,49 @@ BENCH_DEFAULTS: dict[str, Any] = {"seeds": 3, "dyna_episodes": 5, "val_samples":
 """bench.py's defaults where they differ from the paper's budgets (every stage is a process)."""
 
 
+def _wants_plant_ns(argv: list[str]) -> bool:
+    """Whether ``--plant-ns`` is given: its runs have other defaults (docs/plant-ns.md)."""
+    pre = argparse.ArgumentParser(add_help=False)
+    pre.add_argument("--plant-ns")
+    known, _ = pre.parse_known_args(argv)
+    return known.plant_ns is not None
+
+
 def parse(argv: list[str]) -> argparse.Namespace:
-    """Command-line options."""
+    """Command-line options (under ``--plant-ns`` the defaults of :data:`plant_ns.DEFAULTS`)."""
     p = argparse.ArgumentParser(prog="bench.py", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_run_arguments(p, **BENCH_DEFAULTS)
+    add_run_arguments(p, **(plant_ns.DEFAULTS if _wants_plant_ns(argv) else BENCH_DEFAULTS))
     p.add_argument("--out", type=Path, help="run directory (default bags/<run-id>)")
     p.add_argument("--bags", type=Path, help="identify from these experiment bags instead of recording")
     p.add_argument("--stages", default=",".join(STAGES), help=f"subset of {','.join(STAGES)}")
     p.add_argument("--realtime", action="store_true", help="run the plant at true 100 Hz (slow)")
     p.add_argument("--via-ros", action="store_true",
                    help="train over surrogate nodes in lock-step instead of in-process (slow)")
-    p.add_argument("--domain-id", type=int, help="ROS_DOMAIN_ID of the run (default: a random one)")
+    p.add_argument("--domain-id", type=int,
+                   help="ROS_DOMAIN_ID of the run (default: a random one; with --plant-ns the caller's)")
+    p.add_argument("--plant-ns", metavar="NS",
+                   help="run against the node serving NS (e.g. /rig): no emulator, real time, no reset")
+    p.add_argument("--node-scenarios", metavar="IDS",
+                   help="with --plant-ns: set-point/disturbance scenarios validated on the node, separated "
+                        f"by ';' (default {';'.join(plant_ns.DEFAULT_SCENARIOS)}; '' for none)")
+    p.add_argument("--scenario-kinds", metavar="KINDS",
+                   help="with --plant-ns: agent kinds validated under --node-scenarios "
+                        f"(default those of {','.join(plant_ns.DEFAULT_SCENARIO_KINDS)} that run)")
     return p.parse_args(argv)
+
+
+def _plant_ns_fields(args: argparse.Namespace, run: RunConfig) -> tuple[RunConfig, dict[str, Any]]:
+    """The run without the kinds a foreign node cannot serve, and BenchConfig's --plant-ns fields."""
+    kept, dropped = plant_ns.split_kinds(run.agents)
+    text = ";".join(plant_ns.DEFAULT_SCENARIOS) if args.node_scenarios is None else args.node_scenarios
+    scenarios = tuple(s.strip() for s in text.split(";") if s.strip())
+    if args.scenario_kinds is None:
+        kinds = tuple(k for k in plant_ns.DEFAULT_SCENARIO_KINDS if k in kept)
+    else:
+        kinds = tuple(k.strip() for k in args.scenario_kinds.split(",") if k.strip())
+    return replace(run, agents=kept), {"plant_ns": args.plant_ns, "node_scenarios": scenarios,
+                                       "scenario_kinds": kinds, "left_out": dropped}
 
 
 def config(args: argparse.Namespace) -> BenchConfig:
@@ -57,10 +91,16 @@ def config(args: argparse.Namespace) -> BenchConfig:
     # relative paths mean the caller's directory (children run in the repository)
     run_dir = (args.out or REPO / "bags" / dt.datetime.now().strftime("%Y%m%d-%H%M%S")).absolute()
     stages = stage_names([s.strip() for s in args.stages.split(",")])
+    run = run_config_from_args(args)
+    extra: dict[str, Any] = {}
+    if args.plant_ns is not None:
+        run, extra = _plant_ns_fields(args, run)
+    elif args.node_scenarios is not None or args.scenario_kinds is not None:
+        raise ConfigError("--node-scenarios and --scenario-kinds need --plant-ns")
     return BenchConfig(
-        run_dir=Path(run_dir), run=run_config_from_args(args), realtime=args.realtime,
+        run_dir=Path(run_dir), run=run, realtime=args.realtime or args.plant_ns is not None,
         via_ros=args.via_ros, bags=args.bags.absolute() if args.bags else None,
-        stages=stages or tuple(args.stages.split(",")))
+        stages=stages or tuple(args.stages.split(",")), **extra)
 
 
 def say(line: str) -> None:
@@ -88,9 +128,9 @@ def run_graph_stages(cfg: BenchConfig) -> None:
     """
     recording = "record" in cfg.stages and cfg.bags is None
     sensor = recording and cfg.run.sensor is not None
-    with process_group() as procs:
+    with process_group(env=caller_env() if cfg.plant_ns is not None else None) as procs:
         plant = None
-        if "record" in cfg.stages or "agents" in cfg.stages:
+        if ("record" in cfg.stages or "agents" in cfg.stages) and cfg.plant_ns is None:
             plant = timed(cfg, "plant_start", lambda: start_plant(procs, cfg, sensor))
         if recording:
             with StageProgress("record") as bar:
@@ -102,7 +142,8 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                 truth = "" if f.get("sim_fit_truth") is None else f" ({f['sim_fit_truth']:.1f} % vs truth)"
                 say(f"  {name}: fit {f['sim_fit']:.1f} % simulation{truth}, "
                     f"{f['one_step_fit']:.2f} % one-step")
-            write_plant_model(cfg)
+            if cfg.plant_ns is None:
+                write_plant_model(cfg)
         if "agents" in cfg.stages:
             if sensor and plant is not None:
                 stop(plant)
@@ -114,17 +155,60 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                 timed(cfg, "agents", lambda: stage_agents(cfg, procs, say, agents_bar))
 
 
+def expected_duration(cfg: BenchConfig) -> plant_ns.Duration:
+    """The real-time part of a --plant-ns run, from its sample counts."""
+    r = cfg.run
+    return plant_ns.expected_seconds(
+        samples=r.samples, val_samples=r.val_samples, agents=r.agents if "agents" in cfg.stages else (),
+        seeds=len(cfg.seeds), validation_steps=r.validation_steps, dyna_episodes=r.dyna_episodes,
+        steps=r.steps, scenarios=cfg.node_scenarios, scenario_kinds=cfg.scenario_kinds, dt=r.plant.dt,
+        record="record" in cfg.stages and cfg.bags is None)
+
+
+def dyna_budget(cfg: BenchConfig) -> str:
+    """Dyna-Q's budget on the node, stated in the report ('' without Dyna-Q)."""
+    if not any(agent_kind(a).dyna for a in cfg.run.agents):
+        return ""
+    r = cfg.run
+    real = len(cfg.seeds) * r.dyna_episodes * r.steps
+    return (f"Dyna-Q trained on {cfg.plant_ns} in real time: {len(cfg.seeds)} seed(s) x {r.dyna_episodes} "
+            f"episode(s) x {r.steps} steps = {real} real interactions ({real * r.plant.dt / 60:.1f} min; "
+            f"paper: 300 episodes), {r.planning_steps} planning updates per real step")
+
+
+def plant_ns_facts(cfg: BenchConfig) -> dict[str, Any]:
+    """What the report must say about a run on a foreign node."""
+    return {"plant_ns": cfg.plant_ns, "realtime": True, "reset": False,
+            "left_out": plant_ns.left_out_note(cfg.left_out), "dyna_budget": dyna_budget(cfg),
+            "node_scenarios": list(cfg.node_scenarios), "scenario_kinds": list(cfg.scenario_kinds),
+            "expected_seconds": round(expected_duration(cfg).total, 1)}
+
+
+def announce_plant_ns(cfg: BenchConfig) -> None:
+    """Print what a --plant-ns run will do and how long its real-time part takes."""
+    say(f"plant-like node {cfg.plant_ns}: no emulator started; real time, no reset "
+        f"(zero force until still before each experiment and episode)")
+    for line in (plant_ns.left_out_note(cfg.left_out), dyna_budget(cfg), expected_duration(cfg).line()):
+        if line:
+            say(line)
+
+
 def run(cfg: BenchConfig) -> int:
     """All requested stages; prints Table 1 and where the report is."""
     writable_dir(cfg.run_dir, "--out")
     if cfg.bags is not None and "identify" in cfg.stages:
-        roles_from_dir(cfg.bags)  # a killed or badly timed bag is one line now, not after the stage starts
+        # a killed or badly timed bag is one line now, not after the stage starts
+        roles_from_dir(cfg.bags, cfg.namespace, cfg.run.plant.dt)
     say(f"run directory {cfg.run_dir}  (ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']})")
+    if cfg.plant_ns is not None:
+        announce_plant_ns(cfg)
     if any(s in cfg.stages for s in ("record", "identify", "agents")):
         run_graph_stages(cfg)
     facts = {"preset": cfg.run.preset, "seeds": len(cfg.seeds), "window": cfg.run.window,
              "mode": "ros-graph", "lockstep": not cfg.realtime, "stage_seconds": cfg.timings,
              "agents": list(cfg.run.agents)}
+    if cfg.plant_ns is not None:
+        facts.update(plant_ns_facts(cfg))
     if "report" in cfg.stages:
         from msd_bench.graph.bench_report import write_bench_report
 
@@ -137,14 +221,33 @@ def run(cfg: BenchConfig) -> int:
     return 0
 
 
+def use_domain(args: argparse.Namespace) -> IO[str] | None:
+    """Set the run's ROS domain; returns the lock to hold (None: the caller's domain, not locked).
+
+    The emulator's runs claim a free domain of their own on localhost. A
+    --plant-ns run must see the node the caller sees: it keeps the caller's
+    ``ROS_DOMAIN_ID`` and discovery range, unless ``--domain-id`` is given.
+    """
+    if args.plant_ns is not None and args.domain_id is None:
+        os.environ.setdefault("ROS_DOMAIN_ID", "0")
+        return None
+    if args.plant_ns is None:
+        os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    domain, lock = claim_domain(args.domain_id)
+    os.environ["ROS_DOMAIN_ID"] = str(domain)
+    return lock
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point: one-line errors, exit 2 on a user mistake, 130 on Ctrl-C."""
-    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     try:
         args = parse(sys.argv[1:] if argv is None else argv)
-        domain, _lock = claim_domain(args.domain_id)  # held until the process ends
-        os.environ["ROS_DOMAIN_ID"] = str(domain)
-        return run(config(args))
+        lock = use_domain(args)  # held for the whole run
+        try:
+            return run(config(args))
+        finally:
+            if lock is not None:
+                lock.close()
     except MsdBenchError as exc:
         print(f"bench: error: {exc}", file=sys.stderr)
         return 2

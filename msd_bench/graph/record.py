@@ -53,6 +53,8 @@ Progress = Callable[[int, int, str], None]
 _KINDS: dict[str, type] = {
     "prbs": exc.PrbsConfig, "multilevel": exc.MultilevelConfig, "steps": exc.StepsConfig,
 }
+REST_TIMEOUT = 30.0
+"""Seconds of zero force a node without reset gets to come to rest before an experiment plays anyway."""
 _TOPICS = (JOINT_STATES,)
 """Recorded for identification: each joint_states row holds x_k, v_k and the force applied."""
 _TRUTH_TOPICS = (JOINT_STATES, TRUTH_JOINT_STATES)
@@ -160,10 +162,13 @@ def record_experiments(
     force_limit: float = 10.0,
     dt: float = 0.01,
     truth: bool = False,
+    rest: bool = False,
 ) -> list[Path]:
     """Record every spec into ``out_dir/<name>`` from the running plant under ``namespace``.
 
     ``truth``: the plant measures through a sensor and publishes ``truth/joint_states`` (recorded too).
+    ``rest``: the node has no ``reset`` (a rig, real time): each experiment starts by zero force
+    until the position is still, from wherever the mass rests.
     """
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
@@ -173,11 +178,11 @@ def record_experiments(
     bags = []
     for i, spec in enumerate(specs):
         try:
-            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth)
+            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth, rest)
         except SampleLossError as err:
             print(f"warning: {err}; recording it again", file=sys.stderr, flush=True)
             shutil.rmtree(out / spec.name)
-            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth)
+            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth, rest)
         bags.append(bag)
         if progress is not None:
             progress(i + 1, len(specs), spec.name)
@@ -186,7 +191,7 @@ def record_experiments(
 
 def record_one(
     spec: ExperimentSpec, bag: Path, procs: ProcessSet, namespace: str, lockstep: bool,
-    force_limit: float, dt: float, truth: bool = False,
+    force_limit: float, dt: float, truth: bool = False, rest: bool = False,
 ) -> Path:
     """Record one experiment through a recorder and an excitation process; verify the bag."""
     if bag.exists():
@@ -199,10 +204,10 @@ def record_one(
     rec = procs.start("recorder.py",
                       _recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
                       name=f"recorder[{spec.name}]")
-    ex = procs.start("excitation.py", _excitation_args(spec, bag, namespace, lockstep, dt),
+    ex = procs.start("excitation.py", _excitation_args(spec, bag, namespace, lockstep, dt, rest),
                      name=f"excitation[{spec.name}]")
     try:
-        _wait_playing(spec, ex, rec, 40.0)
+        _wait_playing(spec, ex, rec, 40.0 + (REST_TIMEOUT if rest else 0.0))
         startup = time.monotonic() - t0
         budget = 30.0 + u.size * (0.01 if lockstep else 1.5 * dt)
         status = _expect(spec, ex.wait, budget)
@@ -225,9 +230,12 @@ def _recorder_args(spec: ExperimentSpec, bag: Path, namespace: str, max_messages
             "-p", f"params_json:='{params}'", "-p", f"max_messages:={max_messages}"]
 
 
-def _excitation_args(spec: ExperimentSpec, bag: Path, namespace: str, lockstep: bool, dt: float) -> list[str]:
+def _excitation_args(spec: ExperimentSpec, bag: Path, namespace: str, lockstep: bool, dt: float,
+                     rest: bool = False) -> list[str]:
+    start = ["-p", "rest_first:=true", "-p", f"rest_timeout:={REST_TIMEOUT!r}"] if rest else [
+        "-p", "reset_first:=true"]
     return [*spec.ros_args(), "-p", f"lockstep:={str(lockstep).lower()}", "-p", f"dt:={dt!r}",
-            "-p", "reset_first:=true", "-p", f"wait_recorder:={bag}", "-p", "settle:=0.3",
+            *start, "-p", f"wait_recorder:={bag}", "-p", "settle:=0.3",
             "-r", f"__ns:={namespace}"]
 
 

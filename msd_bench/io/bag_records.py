@@ -9,7 +9,7 @@ none of that: the caller names each bag's role and bias and the settle length.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +20,7 @@ from msd_bench.core.excitation import signal_from_params
 from msd_bench.core.plm import PLM_BIASES
 from msd_bench.core.records import Records
 from msd_bench.io.bag_recover import RECOVERED_SUFFIX
-from msd_bench.io.bag_timing import IDENTIFY
+from msd_bench.io.bag_timing import DEFAULT_DT, IDENTIFY, READ
 from msd_bench.io.bags import missing_metadata, read_experiment
 from msd_bench.io.errors import BagError
 
@@ -62,14 +62,14 @@ class BagRole:
     """The experiment parameters stored in the bag (None for a rig's bag)."""
 
 
-def roles_from_dir(bags_dir: Path, namespace: str = "/msd") -> list[BagRole]:
-    """Roles of every bag under ``bags_dir`` that carries our experiment parameters."""
+def roles_from_dir(bags_dir: Path, namespace: str = "/msd", dt: float = DEFAULT_DT) -> list[BagRole]:
+    """Roles of every bag under ``bags_dir`` that carries our experiment parameters (stamps every ``dt``)."""
     bags_dir = Path(bags_dir)
     if not bags_dir.is_dir():
         raise BagError(f"{bags_dir}: no such bag directory")
     roles = []
     for bag in bag_dirs(bags_dir):
-        _, params = read_experiment(bag, namespace)
+        _, params = read_experiment(bag, namespace, timing=replace(READ, dt=dt))
         if "role" in params:
             roles.append(_role_of(bag, params))
     if not roles:
@@ -122,17 +122,26 @@ def explicit_roles(bias_bags: Sequence[str], broad_bag: str, val_bag: str, settl
     return roles
 
 
-def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/msd") -> Records:
-    """Read every bag once and assemble the paper's records (one-line BagError if incomplete)."""
+def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/msd",
+                 dt: float = DEFAULT_DT) -> Records:
+    """Read every bag once and assemble the paper's records (one-line BagError if incomplete).
+
+    The sample period comes from each bag's header stamps and must be the run's
+    ``dt``: a bag at another rate is an error naming both periods, and bunched or
+    missing samples are an error too (:func:`msd_bench.io.bag_timing.check_timing`)
+    — never resampled silently. A real-time bag is cut to the played samples by
+    :func:`align_to_played`; its first sample need not be at rest at 0 (the fits
+    estimate each record's initial state).
+    """
     data: dict[tuple[str, float | None], IOData] = {}
     for r in roles:
-        exp, _ = read_experiment(r.path, namespace, timing=IDENTIFY)
+        exp, _ = read_experiment(r.path, namespace, timing=replace(IDENTIFY, dt=dt))
         if r.params is not None:
             exp = align_to_played(exp, r.params)
         if r.settle >= len(exp) - 3:
             raise BagError(f"{r.path}: {len(exp)} samples, fewer than the {r.settle} settle samples to drop")
         trimmed = exp.segment(r.settle)  # keeps the truth of an emulator's sensor bag, if any
-        data[(r.role, r.bias)] = IOData((trimmed,), 0.01, {"bag": str(r.path)})
+        data[(r.role, r.bias)] = IOData((trimmed,), dt, {"bag": str(r.path)})
     for role in ("train", "validation"):
         if (role, None) not in data:
             raise BagError(f"no broad-range {role} bag given (the multilevel record)")

@@ -54,8 +54,9 @@ def check_timing(path: str | Path, stamps_ns: np.ndarray, policy: TimingPolicy |
     """Raise one :class:`BagError` line at the first timing fault of ``stamps_ns`` (bag order).
 
     Order of checks: length, then order (backwards, repeated), then rate
-    (median step vs ``dt``), then gaps — so a 1 kHz bag is reported as a rate
-    mismatch, not as a thousand irregular steps.
+    (median step vs ``dt``), then irregular steps (shorter than
+    ``(2 - gap_factor) * dt``: samples bunched by a jittery clock), then gaps
+    — so a 1 kHz bag is reported as a rate mismatch, not as a thousand irregular steps.
     """
     p = policy or READ
     stamps = np.asarray(stamps_ns, dtype=np.int64)
@@ -81,6 +82,15 @@ def check_timing(path: str | Path, stamps_ns: np.ndarray, policy: TimingPolicy |
         raise BagError(
             f"bag {path}: samples are {_ms(period)} apart (median, from the stamps) "
             f"but the run's dt is {_ms(p.dt)}: recorded at {1 / period:.4g} Hz, expected {1 / p.dt:.4g} Hz"
+        )
+    short = np.flatnonzero(steps < (2.0 - p.gap_factor) * p.dt * 1e9)
+    if short.size:
+        k = int(short[0]) + 1
+        raise BagError(
+            f"bag {path}: irregular stamps: sample {k} is only {_ms(steps[k - 1] / 1e9)} "
+            f"after sample {k - 1} "
+            f"(dt {_ms(p.dt)}; {short.size} such step{'s' if short.size > 1 else ''}); identification needs "
+            f"one sample every dt"
         )
     gaps = np.flatnonzero(steps > p.gap_factor * p.dt * 1e9)
     if gaps.size:

@@ -13,6 +13,13 @@ Then every seed's greedy table runs once on the plant topics (unit step,
 3,000 steps): the set-point goes out on ``<plant_ns>/reference`` as each run
 starts, each run is written as a bag (with that reference), scored (paper §5),
 and the node writes ``qtables.npz`` and ``result.json`` under ``out_dir`` and exits.
+
+Against a node without ``reset`` (``reset:=false``, a rig) every episode
+starts by zero force until the position is still and from the rest position
+measured then (:mod:`msd_bench.core.rest`). ``scenarios`` (set-points and added
+force disturbances only, the ones a rig can be given from outside) are then
+validated on the node too, each seed once per scenario; the disturbance is
+added to the command the agent sends (so the node's saturation clips the sum).
 """
 
 from __future__ import annotations
@@ -30,13 +37,17 @@ from rclpy.task import Future
 from std_msgs.msg import Float64
 
 from msd_bench.app.agents import SHAPINGS, agent_kind, learner_config
+from msd_bench.app.plant_ns import hardware_scenario
 from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.learner import GreedyPolicy, StepwiseLearner
 from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import QConfig
 from msd_bench.core.qtrain import train
+from msd_bench.core.rest import RestConfig
 from msd_bench.core.results import per_seed_row
+from msd_bench.core.robustness import cell
+from msd_bench.core.scenarios import Scenario
 from msd_bench.io import artifacts
 from msd_bench.io.bag_writer import write_experiment
 from msd_bench.io.run_output import qtable_meta
@@ -84,6 +95,15 @@ class AgentNodeConfig:
     """Reading of the paper's shaping penalty for the paper agent: ``away`` or ``toward``."""
     out_dir: str = ""
     """Where qtables.npz, result.json and the validation bags go (required)."""
+    reset: bool = True
+    """The node has ``reset``; false (a rig): zero force until still before every episode."""
+    rest_threshold: float = field(default=0.005, metadata={"range": (1e-6, 1.0)})
+    """Largest position standard deviation at rest, m (:class:`msd_bench.core.rest.RestConfig`)."""
+    rest_timeout: float = field(default=30.0, metadata={"range": (0.1, 3600.0)})
+    """Seconds of zero force after which an episode starts even if the mass never looked still."""
+    scenarios: str = ""
+    """Scenarios validated on the node besides the nominal run, separated by ``;`` (a scenario has
+    commas): ``setpoint=`` / ``disturbance=`` items only."""
 
     def __post_init__(self) -> None:
         agent_kind(self.kind)  # one-line ConfigError naming the kinds
@@ -97,6 +117,15 @@ class AgentNodeConfig:
             raise ConfigError("model_path is required unless the kind is dyna-q")
         if self.window > self.validation_steps:
             raise ConfigError("window must not exceed validation_steps")
+        if self.lockstep and not self.reset:
+            raise ConfigError("lock-step needs the node's reset; set lockstep:=false for a node without one")
+        for text in self.scenario_ids:
+            hardware_scenario(text)
+
+    @property
+    def scenario_ids(self) -> list[str]:
+        """The ``scenarios`` one by one."""
+        return [t.strip() for t in self.scenarios.split(";") if t.strip()]
 
     @property
     def dyna(self) -> bool:
@@ -125,22 +154,32 @@ class _Learn:
 
 
 class _Greedy:
-    """Episode controller adapter for a fixed greedy table; announces its set-point at the start."""
+    """Episode controller adapter for a fixed greedy table; announces its set-point at the start.
 
-    def __init__(self, policy: GreedyPolicy, announce: Callable[[float], None]) -> None:
+    ``disturbance`` N are added to every command from step ``disturbance_step`` on: on a rig the
+    load can only come through the command (the node's saturation then clips the sum).
+    """
+
+    def __init__(self, policy: GreedyPolicy, announce: Callable[[float], None],
+                 disturbance: float = 0.0, disturbance_step: int = 0) -> None:
         self.policy = policy
         self.announce = announce
         self.x = 0.0
+        self.k = 0
+        self.disturbance = disturbance
+        self.disturbance_step = disturbance_step
 
     def start(self, x0: float) -> None:
         self.x = x0
         self.announce(self.policy.target)
 
     def act(self) -> float:
-        return self.policy.force(self.x)
+        u = self.policy.force(self.x)
+        return u + self.disturbance if self.k >= self.disturbance_step else u
 
     def observe(self, x: float) -> None:
         self.x = x
+        self.k += 1
 
 
 class AgentNode(Node):
@@ -155,11 +194,19 @@ class AgentNode(Node):
         self.per_seed: list[dict[str, Any]] = []
         self.real_steps = 0
         self._learners: list[StepwiseLearner] = []
-        self._client = EpisodeClient(self, lockstep=self.config.lockstep)
+        self.robust: dict[str, dict[str, list[float]]] = {}
+        self.x0: dict[str, dict[int, float]] = {}
+        self._client = EpisodeClient(
+            self, lockstep=self.config.lockstep, reset=self.config.reset,
+            rest=RestConfig(threshold=self.config.rest_threshold, timeout=self.config.rest_timeout))
+        self._client.log = self._warn
         self._reference = self.create_publisher(
             Float64, REFERENCE.resolve(self.config.plant_ns), qos(REFERENCE))
         self._source = self._check_inputs()
         self._start_timer = self.create_timer(0.01, self._start)
+
+    def _warn(self, line: str) -> None:
+        self.get_logger().warning(line)
 
     def _check_inputs(self) -> dict[str, str] | None:
         """Load the model up front so a bad path fails before any ROS traffic."""
@@ -209,6 +256,13 @@ class AgentNode(Node):
             ep = Episode(_Greedy(policy, self._announce), cfg.plant_ns, cfg.validation_steps, record=True,
                          on_done=functools.partial(self._validated, seed))
             self._client.submit(ep)
+        for text in cfg.scenario_ids:
+            sc = hardware_scenario(text)
+            for i, seed in enumerate(cfg.seeds):
+                policy = GreedyPolicy(cfg.qconfig(), q[i], sc.setpoint, self._observer())
+                ctl = _Greedy(policy, self._announce, sc.disturbance, round(sc.disturbance_time / cfg.dt))
+                self._client.submit(Episode(ctl, cfg.plant_ns, cfg.validation_steps, record=True,
+                                            on_done=functools.partial(self._scenario_done, sc, seed)))
         self._client.on_idle = self._finish
 
     def _announce(self, target: float) -> None:
@@ -224,13 +278,33 @@ class AgentNode(Node):
                          namespace=cfg.plant_ns, reference=cfg.target)
         metrics = metric_row(x, cfg.target, cfg.dt, cfg.window)
         self.per_seed.append(per_seed_row(seed, 0, metrics))
+        self.x0.setdefault("nominal", {})[seed] = float(ep.x0 or 0.0)
         self.get_logger().info(f"seed {seed}: SSE {metrics['sse']:.2f} %  MAE {metrics['mae']:.3f} m")
+
+    def _scenario_done(self, sc: Scenario, seed: int, ep: Episode) -> None:
+        """One seed under one on-node scenario: a bag under ``scenarios/<id>/`` and its SSE and MAE."""
+        cfg = self.config
+        rows = np.array(sorted(ep.rows)[: cfg.validation_steps])
+        t, x, v, u = rows[:, 0].astype(np.int64), rows[:, 1], rows[:, 2], rows[:, 3]
+        params = {"role": "scenario", "kind": cfg.kind, "seed": seed, "scenario": sc.id,
+                  "target": sc.setpoint}
+        safe = "".join(c if c.isalnum() or c in "._-" else "_" for c in sc.id)
+        write_experiment(self.out / "scenarios" / safe / f"seed_{seed}", t, u, x, v, params=params,
+                         namespace=cfg.plant_ns, reference=sc.setpoint)
+        metrics = metric_row(x, sc.setpoint, cfg.dt, cfg.window)
+        got = self.robust.setdefault(sc.id, {"sse": [], "mae": []})
+        got["sse"].append(metrics["sse"])
+        got["mae"].append(metrics["mae"])
+        self.x0.setdefault(sc.id, {})[seed] = float(ep.x0 or 0.0)
+        self.get_logger().info(f"seed {seed} under {sc.id}: SSE {metrics['sse']:.2f} %")
 
     def _finish(self) -> None:
         cfg = self.config
         doc = {"kind": cfg.kind, "agent": agent_kind(cfg.kind).agent, "config": _jsonable_config(cfg),
                "training": "dyna-q over the plant" if cfg.dyna else ("ros" if cfg.via_ros else "in-process"),
-               "real_interactions": self.real_steps, "per_seed": self.per_seed}
+               "real_interactions": self.real_steps, "per_seed": self.per_seed,
+               "on_node_scenarios": {sid: cell(c["sse"], c["mae"]) for sid, c in self.robust.items()},
+               "x0": {sid: {str(k): v for k, v in d.items()} for sid, d in self.x0.items()}}
         (self.out / "result.json").write_text(json.dumps(artifacts.jsonable(doc), indent=1) + "\n")
         self.get_logger().info(f"agent done: {self.out / 'result.json'}")
         self.done.set_result(0)

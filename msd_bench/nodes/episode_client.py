@@ -10,7 +10,12 @@ and ``observe(x)``) with the namespace of a plant-like node and a length. The
   and as fast as the middleware allows.
 * real-time: publish ``reset``, let the node settle at rest for
   ``settle_s``, then answer every ``position`` sample with a force (the plant
-  holds the latest command; its watchdog covers a silent client).
+  holds the latest command; its watchdog covers a silent client). The episode
+  starts from the last position measured, not from an assumed 0.
+* real-time without ``reset`` (``reset=False``, a rig): answer every
+  ``position`` with zero force until the position is still
+  (:class:`msd_bench.core.rest.RestDetector`, or its timeout), then start the
+  episode from the rest position it measured (the window's mean).
 
 When ``record`` is set the episode also collects the node's ``joint_states``
 rows (x_k, v_k, applied u_k) so the run can be written as a bag; the episode
@@ -29,6 +34,7 @@ from rclpy.node import Node
 from std_msgs.msg import Empty, Float64
 
 from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.rest import RestConfig, RestDetector
 from msd_msgs_py.contract import FORCE, JOINT_STATES, POSITION, RESET
 from msd_msgs_py.ros import float64, msg_class, qos
 
@@ -62,6 +68,8 @@ class Episode:
     rows: list[tuple[int, float, float, float]] = field(default_factory=list)
     """(stamp ns, x, v, applied force) per sample when ``record`` is set."""
     taken: int = 0
+    x0: float | None = None
+    """The position the episode started from (measured, not assumed)."""
 
 
 class _Endpoint:
@@ -69,6 +77,7 @@ class _Endpoint:
 
     def __init__(self, node: Node, ns: str, client: EpisodeClient) -> None:
         self.ns = ns
+        self.needs_reset = client.reset
         self.force = node.create_publisher(Float64, FORCE.resolve(ns), qos(FORCE))
         self.reset = node.create_publisher(Empty, RESET.resolve(ns), qos(RESET))
         self.pos = node.create_subscription(
@@ -78,7 +87,8 @@ class _Endpoint:
             qos(JOINT_STATES))
 
     def matched(self) -> bool:
-        return (self.force.get_subscription_count() > 0 and self.reset.get_subscription_count() > 0
+        return (self.force.get_subscription_count() > 0
+                and (self.reset.get_subscription_count() > 0 or not self.needs_reset)
                 and self.pos.get_publisher_count() > 0 and self.js.get_publisher_count() > 0)
 
 
@@ -86,9 +96,17 @@ class EpisodeClient:
     """Plays queued episodes on plant-like nodes; calls ``on_idle`` when the queue empties."""
 
     def __init__(self, node: Node, lockstep: bool = True, settle_s: float = 0.5,
-                 match_timeout_s: float = 30.0) -> None:
+                 match_timeout_s: float = 30.0, reset: bool = True, rest: RestConfig | None = None) -> None:
+        if lockstep and not reset:
+            raise EpisodeError("lock-step episodes need the node's reset (its acknowledgement paces them)")
         self.node = node
         self.lockstep = lockstep
+        self.reset = reset
+        self.rest = rest or RestConfig()
+        self._detector: RestDetector | None = None
+        self._last_x: float | None = None
+        self.log: Callable[[str], None] | None = None
+        """Where a rest that timed out is reported (the node's logger)."""
         self.settle_s = settle_s
         self.match_timeout_s = match_timeout_s
         self.on_idle: Callable[[], None] | None = None
@@ -125,7 +143,9 @@ class EpisodeClient:
         if self._phase == "match":
             self._check_match(now)
         elif self._phase == "settle" and now - self._since >= self.settle_s:
-            self._start_steps(0.0)
+            self._start_steps(0.0 if self._last_x is None else self._last_x)
+        elif self._phase == "rest" and now - self._since > self.rest.timeout:
+            self._rest_timed_out()
 
     def _begin(self, ep: Episode, now: float) -> None:
         self._ep, self._phase, self._since = ep, "match", now
@@ -143,8 +163,31 @@ class EpisodeClient:
 
     def _send_reset(self, now: float) -> None:
         assert self._ep is not None
+        self._last_x = None
+        if not self.reset:
+            self._phase, self._since = "rest", now
+            self._detector = RestDetector(self.rest)
+            return
         self._phase, self._since = ("reset" if self.lockstep else "settle"), now
         self._endpoints[self._ep.namespace].reset.publish(Empty())
+
+    def _rest_step(self, x: float) -> None:
+        """Zero force for every sample until the detector calls the mass still."""
+        assert self._ep is not None and self._detector is not None
+        self._endpoints[self._ep.namespace].force.publish(float64(0.0))
+        if self._detector.push(x):
+            self._start_steps(self._detector.x0)
+
+    def _rest_timed_out(self) -> None:
+        assert self._ep is not None and self._detector is not None
+        if self._detector.samples == 0:
+            raise EpisodeError(f"no position from {self._ep.namespace} "
+                               f"in {self.rest.timeout:.0f} s of zero force")
+        if self.log is not None:
+            self.log(f"not still after {self.rest.timeout:.0f} s of zero force (spread "
+                     f"{self._detector.spread() * 1e3:.1f} mm); "
+                     f"starting from x0 = {self._detector.x0:+.4f} m")
+        self._start_steps(self._detector.x0)
 
     def on_position(self, ns: str, x: float) -> None:
         """Position callback: the reset acknowledgement or the answer to the last force."""
@@ -153,6 +196,10 @@ class EpisodeClient:
             return
         if self._phase == "reset":
             self._start_steps(x)
+        elif self._phase == "rest":
+            self._rest_step(x)
+        elif self._phase == "settle":
+            self._last_x = x
         elif self._phase == "step":
             ep.controller.observe(x)
             ep.taken += 1
@@ -174,6 +221,7 @@ class EpisodeClient:
     def _start_steps(self, x0: float) -> None:
         assert self._ep is not None
         self._phase = "step"
+        self._ep.x0 = float(x0)
         self._ep.controller.start(x0)
         self._send(self._ep)
 

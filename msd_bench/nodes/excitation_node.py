@@ -4,7 +4,10 @@ It does not start until its force publisher is matched by a subscriber (the
 plant) — a reliable publisher with no reader silently drops the first
 samples. In lock-step it also waits for the plant's ``joint_states`` and
 paces itself by them: command k+1 goes out only after sample k arrived. In
-real-time it publishes at 1/dt Hz on a steady-clock timer.
+real-time it publishes at 1/dt Hz on a steady-clock timer. A node without
+``reset`` (``rest_first``, a rig) is first brought to rest by zero force until
+its position is still (:mod:`msd_bench.core.rest`); the signal then plays from
+wherever the mass rests (``x0`` is logged, never assumed).
 
 Done signal: when the whole signal is played the node logs
 ``excitation done: N commands`` and its ``done`` future completes with 0,
@@ -29,6 +32,7 @@ from std_msgs.msg import Empty, Float64, String
 
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError
+from msd_bench.core.rest import RestConfig, RestDetector
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import FORCE, JOINT_STATES, PLANT_NAMESPACE, POSITION, RECORDER_READY, RESET
 from msd_msgs_py.ros import float64, msg_class, qos
@@ -73,10 +77,24 @@ class ExcitationNodeConfig:
     """Force subscribers to wait for: the plant, plus e.g. a recorder that must see every command."""
     wait_recorder: str = ""
     """Bag path of a recorder to wait for (its latched ``recorder/ready``); empty = none."""
+    rest_first: bool = False
+    """A node without ``reset`` (a rig): command zero force until the position is still, then play."""
+    rest_window: int = field(default=300, metadata={"range": (4, 100_000)})
+    """Samples the stillness is judged over (:class:`msd_bench.core.rest.RestConfig`)."""
+    rest_threshold: float = field(default=0.005, metadata={"range": (1e-6, 1.0)})
+    """Largest position standard deviation at rest, m (above the sensor's noise)."""
+    rest_timeout: float = field(default=30.0, metadata={"range": (0.1, 3600.0)})
+    """Seconds of zero force after which the signal plays even if the mass never looked still."""
 
     def __post_init__(self) -> None:
         if self.signal not in SIGNALS:
             raise ConfigError(f"signal must be one of {', '.join(SIGNALS)}, got {self.signal!r}")
+        if self.reset_first and self.rest_first:
+            raise ConfigError("reset_first and rest_first exclude each other (a node has reset or not)")
+
+    def rest(self) -> RestConfig:
+        """The stillness test of ``rest_first``."""
+        return RestConfig(self.rest_window, self.rest_threshold, self.rest_timeout)
 
 
 def build_signal(
@@ -126,6 +144,12 @@ class ExcitationNode(Node):
         self._t_reset = 0.0
         if not self._reset_acked:
             self.create_subscription(Float64, POSITION.name, self._on_reset_ack, qos(POSITION))
+        # No reset (a rig): zero force until still; x0 is then wherever the mass rests.
+        self._rest = RestDetector(self.config.rest()) if self.config.rest_first else None
+        self._t_rest: float | None = None
+        self.x0: float | None = None
+        if self._rest is not None:
+            self.create_subscription(Float64, POSITION.name, self._on_rest_position, qos(POSITION))
         self._recorders_ready: set[str] = set()
         if self.config.wait_recorder:
             self.create_subscription(String, RECORDER_READY.name, lambda m: self._recorders_ready.add(m.data),
@@ -177,6 +201,9 @@ class ExcitationNode(Node):
             elif now - self._t_reset > 1.0:
                 self._send_reset(now)  # a reset lost on the way: ask again (still before any command)
             return
+        if self._rest is not None and self.x0 is None:
+            self._rest_step(now)
+            return
         if now - self._t_match < self.config.settle:
             return
         self.get_logger().info(f"plant matched: playing {self.signal.size} commands")
@@ -184,6 +211,32 @@ class ExcitationNode(Node):
             self._send()
         else:
             self._timer = self.create_timer(self.config.dt, self._on_tick, clock=self._steady)
+
+    def _rest_step(self, now: float) -> None:
+        """Zero force (also keeps a watchdog fed) until the position is still or the timeout passes."""
+        assert self._rest is not None
+        self._pub.publish(float64(0.0))
+        if self._t_rest is None:
+            self._t_rest = now
+        timed_out = now - self._t_rest > self.config.rest_timeout
+        if timed_out and self._rest.samples == 0:
+            self._finish(1, f"no {POSITION.resolve(self.get_namespace())} sample within "
+                            f"{self.config.rest_timeout} s of zero force: the initial position is unknown")
+            return
+        if not (self._rest.still or timed_out):
+            return
+        self.x0 = self._rest.x0
+        if self._rest.still:
+            self.get_logger().info(f"at rest after {now - self._t_rest:.1f} s: x0 = {self.x0:+.4f} m")
+        else:
+            self.get_logger().warning(
+                f"not still after {self.config.rest_timeout:.0f} s of zero force (position spread "
+                f"{self._rest.spread() * 1e3:.1f} mm); playing from x0 = {self.x0:+.4f} m")
+        self._t_match = now  # the settle counts from here
+
+    def _on_rest_position(self, msg: Float64) -> None:
+        if self._rest is not None and self._t_rest is not None and self.x0 is None:
+            self._rest.push(msg.data)
 
     def _send_reset(self, now: float) -> None:
         if self._reset is not None:

@@ -57,6 +57,8 @@ class IdentifierConfig:
     """Multiplies the NLARX training iterations (< 1 only for smoke runs)."""
     namespace: str = PLANT_NAMESPACE
     """Namespace the bags' topics live under."""
+    dt: float = field(default=0.01, metadata={"range": (1e-4, 10.0)})
+    """The run's sample time, s: every bag's stamps must tick at it (checked, never resampled)."""
     out_dir: str = ""
     """Where ``<model>.json`` and ``fits.json`` are written (required)."""
 
@@ -72,11 +74,11 @@ def identify_from_bags(cfg: IdentifierConfig) -> dict[str, Any]:
     """Read, fit, write; return the fit reports (shared by the node and the tests)."""
     out = writable_dir(cfg.out_dir, "out_dir")  # before the fit: a read-only disk fails at once
     if cfg.bags_dir:
-        roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace)
+        roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace, cfg.dt)
     else:
         roles = explicit_roles(cfg.bias_bags, cfg.broad_bag, cfg.validation_bag, cfg.settle_samples)
-    records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace)
-    rig = PlantParams(L=cfg.stroke, F=cfg.force)  # only the stroke and the force limit are known
+    records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace, cfg.dt)
+    rig = PlantParams(L=cfg.stroke, F=cfg.force, dt=cfg.dt)  # only these (and the checked dt) are known
     models, fits = identify_surrogates(records, cfg.models, cfg.seed, rig, cfg.nlarx_scale)
     prov = artifacts.Provenance(tuple(artifacts.source(r.path) for r in roles),
                                 {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()},
