@@ -91,9 +91,12 @@ def on_node_robustness(cfg: BenchConfig, results: list[AgentResult]) -> dict[str
 
     Never the emulator's model: a foreign node's scenarios are the ones its
     agent processes ran on it (``on_node_scenarios`` in each ``result.json``).
+    The table has one column per scenario, so it holds the kinds validated
+    under the scenarios (all kinds, nominal only, when there are none).
     """
     rob: dict[str, dict[str, Any]] = {}
-    for r in results:
+    chosen = [r for r in results if r.kind in cfg.scenario_kinds and cfg.node_scenarios] or results
+    for r in chosen:
         doc = json.loads((cfg.run_dir / "agents" / r.kind / "result.json").read_text())
         cells = {"nominal": robustness.cell([s["sse"] for s in r.per_seed], [s["mae"] for s in r.per_seed])}
         cells.update(doc.get("on_node_scenarios", {}))
@@ -119,9 +122,11 @@ def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any
     paths: dict[str, Any] = {"table": write_report(out, results, facts)}
     qtables = _qtables(cfg, results)
     paths["figures"] = write_figures(out / "figures", figure_data(cfg, results, qtables))
-    if cfg.plant_ns is not None:
+    if cfg.plant_ns is not None:  # the title names the node, not the emulator's true plant
         md = paths["table"]["md"]
-        md.write_text(md.read_text().rstrip("\n") + "\n\n" + _plant_ns_lines(facts))
+        text = md.read_text().replace(f"on the true plant ({cfg.run.preset} preset)",
+                                      f"on {cfg.plant_ns} (real time, measured position)", 1)
+        md.write_text(text.rstrip("\n") + "\n\n" + _plant_ns_lines(facts))
         rob = on_node_robustness(cfg, results)
     else:
         rob = {kind: robustness.evaluate(arrays["q"], learner, cfg.run.plant, seeds,
