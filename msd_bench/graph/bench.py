@@ -89,8 +89,13 @@ class BenchConfig:
                               "--plant-ns")
         if not self.realtime:
             raise ConfigError("--plant-ns runs in real time")
+        length = self.run.validation_steps * self.run.plant.dt
         for text in self.node_scenarios:
-            hardware_scenario(text)
+            sc = hardware_scenario(text)
+            if sc.disturbance != 0.0 and sc.disturbance_time >= length:
+                raise ConfigError(f"scenario {sc.id!r}: the disturbance starts at {sc.disturbance_time:g} s, "
+                                  f"after the {length:g} s validation episode ends; shorten its time or give "
+                                  f"other --node-scenarios")
         stray = [k for k in self.scenario_kinds if k not in self.run.agents]
         if stray:
             raise ConfigError(f"--scenario-kinds {stray[0]!r} is not among the run's agent kinds")

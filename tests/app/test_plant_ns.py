@@ -101,6 +101,7 @@ def test_quick_look_parses() -> None:
     (["--node-scenarios", "setpoint=0.5"], "need --plant-ns"),
     (["--plant-ns", "/rig", "--node-scenarios", "noise=0.01"], "noise"),
     (["--plant-ns", "/rig", "--scenario-kinds", "glm"], "not among"),
+    (["--plant-ns", "/rig", "--validation-steps", "1000"], "after the 10 s validation episode ends"),
 ])
 def test_plant_ns_mistakes_are_one_line(argv: list[str], needle: str, tmp_path,  # type: ignore[no-untyped-def]
                                         capsys: pytest.CaptureFixture[str]) -> None:
