@@ -17,6 +17,7 @@ import json
 import os
 import platform
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -44,6 +45,13 @@ COMMANDS: dict[str, list[str]] = {
     "efficiency": [sys.executable, "-m", "msd_bench.cli", "efficiency"],
 }
 """Named results: the exact ``msd-bench paper`` arguments behind each README table (``--out`` added)."""
+
+RIG_RUNS: dict[str, list[str]] = {
+    "rig_full": ["launch_scripts/bench.py", "--plant-ns", "/rig"],
+}
+"""Named runs of the main job against the rig emulator (``launch_scripts/rig.py``, defaults), real time."""
+RIG_DOMAIN = 231
+"""The rig run's ROS domain: the rig and the bench must share one, no other run may use it."""
 
 BENCHMARKS: dict[str, list[list[str]]] = {
     "performance": [["benchmarks/bench_training.py"], ["benchmarks/bench_lockstep.py"],
@@ -113,6 +121,40 @@ def run(name: str) -> Path:
     return path
 
 
+def run_rig(name: str) -> Path:
+    """Start the rig emulator, run the main job against it at full size, store its report's JSON."""
+    env = {**os.environ, "ROS_DOMAIN_ID": str(RIG_DOMAIN), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+    with tempfile.TemporaryDirectory(prefix=f"results_{name}_") as tmp:
+        out = Path(tmp) / "run"
+        rig = subprocess.Popen([sys.executable, "launch_scripts/rig.py"], cwd=REPO, env=env,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            time.sleep(5.0)  # the bench waits for the node's topics too; this only spares it the wait
+            t0 = time.perf_counter()
+            argv = [sys.executable, *RIG_RUNS[name], "--out", str(out)]
+            proc = subprocess.run(argv, cwd=REPO, env=env, capture_output=True, text=True)
+            seconds = time.perf_counter() - t0
+        finally:
+            rig.send_signal(signal.SIGINT)
+            rig.wait(timeout=30)
+        if proc.returncode != 0:
+            sys.exit(f"{name}: bench.py failed ({proc.returncode}): {proc.stderr.strip()[-800:]}")
+        doc = {
+            "name": name,
+            "command": "python launch_scripts/rig.py & python " + " ".join(RIG_RUNS[name]),
+            "commit": commit(),
+            "machine": machine(),
+            "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+            "seconds": round(seconds, 1),
+            "stage_seconds": json.loads((out / "run.json").read_text()).get("timings", {}),
+            "log_tail": [ln for ln in proc.stdout.splitlines() if "\r" not in ln][-60:],
+            **outputs(out / "report"),
+        }
+    path = RESULTS / f"{name}.json"
+    path.write_text(json.dumps(doc, indent=1) + "\n")
+    return path
+
+
 def run_benchmarks(name: str) -> Path:
     """Run a named benchmark suite one script at a time and store every script's JSON."""
     results: dict[str, Any] = {}
@@ -140,22 +182,28 @@ def run_benchmarks(name: str) -> Path:
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("names", nargs="*", help=f"results to make: {', '.join([*COMMANDS, *BENCHMARKS])}")
+    names = ", ".join([*COMMANDS, *RIG_RUNS, *BENCHMARKS])
+    p.add_argument("names", nargs="*", help=f"results to make: {names}")
     p.add_argument("--list", action="store_true", help="print the named commands and exit")
     args = p.parse_args()
     if args.list or not args.names:
         for name, argv in COMMANDS.items():
             print(f"{name}: msd-bench {' '.join(argv[3:])}")
+        for name, argv in RIG_RUNS.items():
+            print(f"{name}: python launch_scripts/rig.py & python {' '.join(argv)}  (about an hour)")
         for name, cmds in BENCHMARKS.items():
             print(f"{name}: " + "; ".join(" ".join(c) for c in cmds))
         return 0
-    unknown = [n for n in args.names if n not in COMMANDS and n not in BENCHMARKS]
+    unknown = [n for n in args.names if n not in {*COMMANDS, *RIG_RUNS, *BENCHMARKS}]
     if unknown:
-        known = ", ".join([*COMMANDS, *BENCHMARKS])
+        known = ", ".join([*COMMANDS, *RIG_RUNS, *BENCHMARKS])
         print(f"make_results: error: unknown result {unknown[0]!r}; choose from {known}", file=sys.stderr)
         return 2
     for name in args.names:
-        print(run_benchmarks(name) if name in BENCHMARKS else run(name))
+        if name in BENCHMARKS:
+            print(run_benchmarks(name))
+        else:
+            print(run_rig(name) if name in RIG_RUNS else run(name))
     return 0
 
 
