@@ -52,6 +52,7 @@ from msd_bench.core import identify, plant
 from msd_bench.core.data import Experiment, IOData
 from msd_bench.core.excitation import MultilevelConfig, PrbsConfig
 from msd_bench.core.fit import fit_percent
+from msd_bench.core.nlarx import NlarxConfig
 from msd_bench.core.plm import PLM_BIASES
 from msd_bench.core.sensor import SensorModel, clear_of_stops
 
@@ -87,7 +88,7 @@ def score_ours(name: str, rec: Records, p: plant.PlantParams, id_seed: int) -> d
     elif name == "greybox":
         model = identify.identify_greybox(rec.broad_train, identify.GreyboxConfig(stroke=p.L, force=p.F))
     else:
-        cfg = identify.NlarxConfig(form=name.removeprefix("nlarx-"), seed=id_seed)
+        cfg = NlarxConfig(form=name.removeprefix("nlarx-"), seed=id_seed)
         model = identify.identify_nlarx(rec.broad_train, cfg, p.L)
     seconds = time.perf_counter() - t0
     r = identify.evaluate(model, rec.broad_val)
