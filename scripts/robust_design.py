@@ -5,15 +5,20 @@ learning seeds 90,000+ are never reported anywhere else. Each candidate is
 trained on one identified surrogate and validated on *another* surrogate
 family standing in for the plant (PLM → improved NLARX and back), so neither
 the true plant nor a reported seed takes part in the choice. Scored under the
-three conditions the floors name: nominal, noise=0.005 and delay=1.
+three conditions the floors name (nominal, noise=0.005, delay=1) and the
+three where the first choice fell below the improved agent on held-out seeds
+(delay=2, setpoint=-1.5, and its mirror setpoint=1.5).
 
-    python scripts/robust_design.py [--seeds 32]   # prints JSON, writes docs/results/robust_design.json
+Selection rule, fixed before the table was run: the candidate with the most
+successes in its worst cell (any direction, any condition); ties go to the
+larger total.
+
+    python scripts/robust_design.py [--seeds 24]   # prints JSON, writes docs/results/robust_design.json
 """
 
 from __future__ import annotations
 
 import argparse
-import itertools
 import json
 import sys
 import time
@@ -36,18 +41,29 @@ from msd_bench.core.scenarios import parse  # noqa: E402
 
 DESIGN_ID_SEED = 90
 DESIGN_FIRST_SEED = 90_000
-CONDITIONS = ("nominal", "noise=0.005", "delay=1")
+CONDITIONS = ("nominal", "noise=0.005", "delay=1", "delay=2", "setpoint=-1.5", "setpoint=1.5")
 
 
 def candidates() -> list[tuple[str, QConfig]]:
-    """The improved agent, an α-β tracker, then model observers × gains × training perturbations."""
-    ab = {"observer": "alpha-beta", "obs_gain": 0.25, "obs_velocity_gain": 0.0357}
-    out = [("improved", improved_config()),
-           ("alpha-beta a=0.25", improved_config(**ab,
-                                                 train_noise=0.006, train_delay=1))]
-    for gain, noise, delay in itertools.product((0.05, 0.1, 0.2), (0.0, 0.006), (0, 1)):
-        out.append((f"model L={gain},noise={noise},delay={delay}",
-                    improved_config(observer="model", obs_gain=gain, train_noise=noise, train_delay=delay)))
+    """The improved agent, the first round's choice, then the second round's variations of it.
+
+    The first round (L in {0.05, 0.1, 0.2} × training noise {0, 6 mm} × training delay {0, 1}, and an
+    α-β tracker) chose L = 0.05, velocity share 1, no training noise, training delay 0..1. Its
+    delay-2 and set-point -1.5 m failures on held-out seeds are what the second round addresses: a
+    wider training delay (0..2, 0..3), an observer that assumes one sample of actuator delay (the
+    middle of 0..2), an integral (drift) correction, and a velocity share below 1 (a better damped
+    observer).
+    """
+    out = [("improved", improved_config())]
+    grid = ((0.05, 1.0, 0.0, 0, 1), (0.05, 1.0, 0.0, 0, 2), (0.05, 1.0, 0.0, 0, 3), (0.05, 1.0, 0.0, 1, 2),
+            (0.05, 1.0, 0.001, 0, 1),
+            (0.05, 0.1, 0.0, 0, 1), (0.05, 0.2, 0.0, 0, 0), (0.05, 0.2, 0.0, 0, 1), (0.05, 0.2, 0.0, 0, 2),
+            (0.05, 0.3, 0.0, 0, 1), (0.05, 0.5, 0.0, 0, 1), (0.1, 0.2, 0.0, 0, 1))
+    for gain, share, drift, assume, delay in grid:
+        name = f"model L={gain},share={share},drift={drift},assumed delay={assume},train delay=0..{delay}"
+        out.append((name,
+                    improved_config(observer="model", obs_gain=gain, obs_velocity_share=share,
+                                    obs_drift_gain=drift, obs_delay=assume, train_delay=delay)))
     return out
 
 
@@ -64,7 +80,7 @@ def score(cfg: QConfig, q: np.ndarray, stand_in, trained_on, seeds: list[int]) -
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--seeds", type=int, default=32)
+    p.add_argument("--seeds", type=int, default=24)
     args = p.parse_args()
     run = RunConfig()
     models, _ = identify_surrogates(make_records(run, DESIGN_ID_SEED), ["plm", "nlarx-improved"],
@@ -83,8 +99,11 @@ def main() -> int:
         row["seconds"] = round(time.perf_counter() - t0, 1)
         rows.append(row)
         print(json.dumps(row), flush=True)
+    best = max(rows, key=lambda r: (r["worst"], r["total"]))
     doc = {"command": "python scripts/robust_design.py --seeds " + str(args.seeds), "n": args.seeds,
-           "design_id_seed": DESIGN_ID_SEED, "design_first_seed": DESIGN_FIRST_SEED, "table": rows}
+           "design_id_seed": DESIGN_ID_SEED, "design_first_seed": DESIGN_FIRST_SEED,
+           "conditions": list(CONDITIONS), "rule": "most successes in the worst cell, then the larger total",
+           "chosen": best["candidate"], "table": rows}
     (REPO / "docs" / "results" / "robust_design.json").write_text(json.dumps(doc, indent=1) + "\n")
     return 0
 

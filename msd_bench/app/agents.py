@@ -24,14 +24,16 @@ PLANT = "plant"
 """Surrogate name of the on-plant learners (Q-learning on the true plant, Dyna-Q)."""
 
 def robust_config() -> QConfig:
-    """Our robust agent: the improved agent's grid, seen through an α-β observer, trained under noise
-    and delay drawn per episode (docs/decisions.md §Robust agent says how the values were chosen)."""
+    """Our robust agent: the improved agent's grid, seen through an observer that runs the surrogate as a
+    predictor, trained under an actuator delay drawn per episode (docs/decisions.md §Robust agent says
+    how the values were chosen)."""
     return improved_config(**ROBUST)
 
 
 ROBUST: dict[str, object] = {"observer": "model", "obs_gain": 0.05, "obs_velocity_gain": 0.0,
-                             "train_noise": 0.0, "train_delay": 1}
-"""The robust agent's observer gains and training perturbations (chosen on surrogates, see docs)."""
+                             "obs_velocity_share": 0.5, "train_noise": 0.0, "train_delay": 1}
+"""The robust agent's observer gains and training perturbations (chosen on surrogates only,
+``scripts/robust_design.py``; docs/decisions.md §Robust)."""
 
 LEARNERS: dict[str, Callable[[], QConfig]] = {
     "paper": QConfig,

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from msd_bench.core import kernels
 from msd_bench.core.kernels import KIND_PLANT, Kernel
 from msd_bench.core.qconfig import Learner
-from msd_bench.core.qlearning import encode, greedy, observe
+from msd_bench.core.qlearning import encode, greedy, observe, observer_state
 
 FloatArray = NDArray[np.float64]
 
@@ -75,7 +75,7 @@ def greedy_under(model: Kernel, lr: Learner, q: FloatArray, cond: Conditions,
     xs = np.empty((n, n_steps))
     us = np.empty((n, n_steps))
     state = np.zeros(4)
-    ost = np.zeros(4)
+    ost = observer_state(lr)
     queue = np.zeros(cond.delay + 1)
     for j in range(n):
         state[:] = 0.0

@@ -60,7 +60,7 @@ class StepwiseLearner:
         self._xh = 0.0
         self._dh = 0.0
         self._u = 0.0
-        self._ost = np.zeros(4)
+        self._ost = qlearning.observer_state(self._lr)
         self._obs = _observer_kernel(cfg, observer)
 
     @property
@@ -154,7 +154,7 @@ class GreedyPolicy:
                  observer: StepModel | None = None) -> None:
         self._lr = packed(cfg)
         self._obs = _observer_kernel(cfg, observer)
-        self._ost = np.zeros(4)
+        self._ost = qlearning.observer_state(self._lr)
         self._u = 0.0
         self.q = np.ascontiguousarray(q, dtype=np.float64)
         n_states = self._lr.enc.n_states

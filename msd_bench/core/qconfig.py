@@ -119,6 +119,19 @@ class QConfig:
     """Observer: position gain on the innovation (measured minus predicted position), in (0, 1]."""
     obs_velocity_gain: float = 0.0
     """Observer: velocity gain on the innovation (α-β: per-sample displacement; model: per dt)."""
+    obs_velocity_share: float = 1.0
+    """Model observer: the share of the position correction L·r that also moves the velocity estimate.
+    1 moves the estimate as a whole (an ARX model's implied displacement follows its position): the
+    observer's error then rings at about sqrt(L) rad per sample. Near 2 (1 - sqrt(1 - L)) / L - 1 it is
+    critically damped, and the velocity, which the lead multiplies by 50, takes in less noise."""
+    obs_drift_gain: float = 0.0
+    """Model observer: gain of its integral correction — a per-sample position drift, estimated from the
+    innovation and added to every prediction, so a surrogate that drifts where the plant holds still
+    (a wrong equilibrium force) leaves no steady bias of about (1 - L)/L times that drift."""
+    obs_delay: int = 0
+    """Model observer: predict with the force commanded ``obs_delay`` samples ago — the actuator delay the
+    observer assumes. A real actuator's delay is unknown; assuming the middle of a range halves the worst
+    mismatch (docs/decisions.md §Robust)."""
     train_noise: float = 0.0
     """Training on the surrogate: each episode draws a sensor noise σ uniformly in [0, train_noise] m."""
     train_delay: int = 0
@@ -151,6 +164,14 @@ class QConfig:
         _require(math.isfinite(self.train_noise) and 0.0 <= self.train_noise <= 0.1,
                  "train_noise must be in [0, 0.1] m")
         _require(0 <= self.train_delay <= 10, "train_delay must be in 0..10 samples")
+        _require(0.0 <= self.obs_velocity_share <= 1.0
+                 and (self.obs_velocity_share == 1.0 or self.observer == "model"),
+                 "obs_velocity_share must be in [0, 1], and only a model observer has one")
+        _require(0.0 <= self.obs_drift_gain <= 1.0
+                 and (self.obs_drift_gain == 0.0 or self.observer == "model"),
+                 "obs_drift_gain must be in [0, 1], and only a model observer has one")
+        _require(0 <= self.obs_delay <= 10 and (self.obs_delay == 0 or self.observer == "model"),
+                 "obs_delay must be in 0..10 samples, and only a model observer assumes one")
         _require(self.state != "paper" or not self.observed,
                  "the observer and training perturbations need the improved state")
 
@@ -239,6 +260,12 @@ class Learner(NamedTuple):
     """Largest sensor noise σ drawn per training episode, m."""
     train_delay: int
     """Largest actuator delay drawn per training episode, samples."""
+    obs_velocity_share: float
+    """Model observer: share of the position correction that also moves the velocity."""
+    obs_drift_gain: float
+    """Model observer's integral gain on the innovation (a per-sample drift estimate)."""
+    obs_delay: int
+    """Actuator delay the model observer assumes, samples."""
 
 
 def encoding(cfg: QConfig) -> Encoding:
@@ -263,7 +290,8 @@ def packed(cfg: QConfig) -> Learner:
                    cfg.e_max, cfg.eta, cfg.target_low, cfg.target_high,
                    _phi_table(_error_side(cfg, enc), actions, cfg.shaping), actions, cfg.observed,
                    OBSERVERS.index(cfg.observer), cfg.obs_gain, cfg.obs_velocity_gain, cfg.train_noise,
-                   cfg.train_delay)
+                   cfg.train_delay, cfg.obs_velocity_share,
+                   cfg.obs_drift_gain, cfg.obs_delay)
 
 
 def _error_side(cfg: QConfig, enc: Encoding) -> NDArray[np.int64]:

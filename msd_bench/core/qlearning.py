@@ -316,6 +316,28 @@ def normal(state: rng.U64Array, i: int) -> float:
 
 
 @numba.njit(cache=True)
+def observer_state(lr: Learner) -> FloatArray:
+    """A zeroed observer state: the model's four slots, then the ``obs_delay`` last commanded forces."""
+    return np.zeros(4 + lr.obs_delay)
+
+
+@numba.njit(cache=True)
+def assumed_force(lr: Learner, ost: FloatArray, u: float) -> float:
+    """The force the observer assumes acts now: ``u`` commanded ``obs_delay`` samples ago (0 before).
+
+    Shifts ``u`` into the command history kept behind the model's slots of ``ost``.
+    """
+    d = lr.obs_delay
+    if d == 0:
+        return u
+    acting: float = ost[3 + d]
+    for j in range(3 + d, 4, -1):
+        ost[j] = ost[j - 1]
+    ost[4] = u
+    return acting
+
+
+@numba.njit(cache=True)
 def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: float, dh: float,
             first: bool) -> tuple[float, float]:
     """The agent's (position, per-sample displacement) estimate after measurement ``y``.
@@ -326,7 +348,8 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
     agent trains on) from the observer state ``ost`` under the commanded force
     ``u`` as a predictor and correct it by the innovation — a fixed-gain
     Kalman-style observer; it does not differentiate raw samples, so it does
-    not multiply the sensor noise, and its prediction follows the force.
+    not multiply the sensor noise, and its prediction follows the force —
+    the one commanded ``obs_delay`` samples ago (:func:`assumed_force`).
     """
     if first:
         ost[:] = 0.0
@@ -339,16 +362,22 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
         pred = xh + dh
         innovation = y - pred
         return pred + lr.obs_gain * innovation, dh + lr.obs_velocity_gain * innovation
-    pred = kernels.advance(obs, ost, u)
+    # ost[3] (free in every kind's state) holds the drift estimate: added to each prediction, it
+    # integrates the innovation, so a steady model mismatch leaves no steady bias.
+    pred = kernels.advance(obs, ost, assumed_force(lr, ost, u)) + ost[3]
     innovation = y - pred
     ost[0] = pred + lr.obs_gain * innovation
+    ost[3] += lr.obs_drift_gain * innovation
+    share = lr.obs_velocity_share
     if obs.kind == kernels.KIND_PLANT:
         # Moving x by L·r moves an ARX model's implied displacement (x_k - x_{k-1}) by L·r too; the
         # plant-kind state holds the velocity apart, so it gets that correction explicitly (plus
         # any extra velocity gain), or an unmodelled force would bias the estimate for good.
         dt = obs.params[7]
-        ost[1] += (lr.obs_gain + lr.obs_velocity_gain) * innovation / dt
-        return ost[0], ost[1] * dt
+        ost[1] += (share * lr.obs_gain + lr.obs_velocity_gain) * innovation / dt
+        return ost[0], ost[1] * dt + ost[3]
+    if share != 1.0:  # keep only share·L·r of the move in the implied displacement
+        ost[1] += (1.0 - share) * lr.obs_gain * innovation
     return ost[0], ost[0] - ost[1]
 
 
@@ -364,7 +393,7 @@ def learn_observed(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, sn
     true position (training happens on a model, whose truth is known).
     """
     plant = np.zeros(4)
-    ost = np.zeros(4)
+    ost = observer_state(lr)
     queue = np.zeros(lr.train_delay + 1)
     k_snap = 0
     for ep in range(budget.episodes):

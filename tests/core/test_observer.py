@@ -1,0 +1,72 @@
+"""The robust agent's model observer, by hand: assumed actuator delay, velocity share, drift correction."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from msd_bench.core import kernels, qlearning
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.model import StepModel, plant_model
+from msd_bench.core.plant import PlantParams
+from msd_bench.core.qconfig import improved_config, packed
+
+PLANT = plant_model(PlantParams())
+# A damped ARX double integrator in deviation form [L, n1, n2, d1, d2, u0, y0].
+ARX = StepModel(kernels.KIND_LINEAR, np.array([5.0, 5e-5, 5e-5, -1.975, 0.9802, 0.0, 0.0]), "arx")
+STATIC = StepModel(kernels.KIND_LINEAR, np.array([5.0, 0.01, 0.0, 0.0, 0.0, 0.0, 0.0]), "static")
+
+
+def _observe_run(model: StepModel, ys: list[float], us: list[float],
+                 **cfg: object) -> list[tuple[float, float]]:
+    """The observer's estimates over measurements ``ys`` under commanded forces ``us``."""
+    lr = packed(improved_config(observer="model", **cfg))  # type: ignore[arg-type]
+    ost = qlearning.observer_state(lr)
+    xh, dh = qlearning.observe(lr, model.kernel, ost, 0.0, ys[0], 0.0, 0.0, True)
+    out = [(xh, dh)]
+    for u, y in zip(us, ys[1:], strict=True):
+        xh, dh = qlearning.observe(lr, model.kernel, ost, u, y, xh, dh, False)
+        out.append((xh, dh))
+    return out
+
+
+@pytest.mark.parametrize("model", [PLANT, ARX], ids=["plant", "arx"])
+@pytest.mark.parametrize("delay", [1, 2])
+def test_an_observer_assuming_the_actuators_delay_tracks_it_exactly(model: StepModel, delay: int) -> None:
+    us = list(np.random.default_rng(4).choice([-10.0, -5.0, 0.0, 5.0, 10.0], size=300))
+    applied = [0.0] * delay + us[:-delay]
+    state = model.initial_state()
+    ys = [0.0] + [model.step(state, u) for u in applied]
+    exact = _observe_run(model, ys, us, obs_gain=0.3, obs_delay=delay)
+    assert [x for x, _ in exact] == ys
+    unaware = _observe_run(model, ys, us, obs_gain=0.3)
+    assert max(abs(x - y) for (x, _), y in zip(unaware, ys, strict=True)) > 1e-4
+
+
+@pytest.mark.parametrize("model", [PLANT, ARX], ids=["plant", "arx"])
+@pytest.mark.parametrize("share", [1.0, 0.2, 0.0])
+def test_velocity_share_is_the_part_of_the_correction_the_velocity_takes(model: StepModel,
+                                                                          share: float) -> None:
+    gain, r = 0.1, 0.004  # from rest under no force the prediction is 0, so the innovation is r
+    (_, _), (xh, dh) = _observe_run(model, [0.0, r], [0.0], obs_gain=gain, obs_velocity_share=share)
+    assert xh == pytest.approx(gain * r, abs=1e-15)
+    assert dh == pytest.approx(share * gain * r, abs=1e-15)
+
+
+def test_drift_correction_removes_a_steady_model_bias() -> None:
+    # STATIC predicts 0 under no force, the sensor says 0.2 m for ever: a fixed-gain observer stays
+    # at L·0.2; the drift estimate integrates the innovation until the bias is gone.
+    ys, us = [0.0] + [0.2] * 3000, [0.0] * 3000
+    plain = _observe_run(STATIC, ys, us, obs_gain=0.05)
+    assert plain[-1][0] == pytest.approx(0.05 * 0.2, abs=1e-12)
+    drift = _observe_run(STATIC, ys, us, obs_gain=0.05, obs_drift_gain=0.01)
+    assert drift[-1][0] == pytest.approx(0.2, abs=1e-9)
+
+
+@pytest.mark.parametrize("kwargs", [{"obs_delay": 1}, {"obs_drift_gain": 0.01}, {"obs_velocity_share": 0.5},
+                                    {"observer": "model", "obs_gain": 0.1, "obs_velocity_share": 1.5},
+                                    {"observer": "model", "obs_gain": 0.1, "obs_delay": 11},
+                                    {"observer": "alpha-beta", "obs_gain": 0.1, "obs_delay": 1}])
+def test_observer_options_need_a_model_observer_and_sane_values(kwargs: dict[str, object]) -> None:
+    with pytest.raises(ConfigError):
+        improved_config(**kwargs)
