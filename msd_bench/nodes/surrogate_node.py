@@ -9,6 +9,10 @@ The namespace defaults to ``/surrogate/<model name>`` (``-r __ns:=...``
 overrides it). The name is in the artifact, which is only known once the
 parameters are read, so :func:`build_surrogate` reads them first with a
 short-lived loader node and then builds the real one.
+
+A surrogate does not publish ``/clock`` unless asked (``-p publish_clock:=true``):
+in a ``--via-ros`` graph the plant and every surrogate run in lock-step side
+by side, and only one node may own sim time (the plant).
 """
 
 from __future__ import annotations
@@ -75,4 +79,5 @@ def build_surrogate(*, namespace: str | None = None, **node_kwargs: Any) -> Plan
             namespace = surrogate_namespace(declare_surrogate(loader).model)
         finally:
             loader.destroy_node()
-    return PlantNode(declare_surrogate, node_name="surrogate", namespace=namespace, **node_kwargs)
+    return PlantNode(declare_surrogate, node_name="surrogate", namespace=namespace, clock_owner=False,
+                     **node_kwargs)
