@@ -34,12 +34,14 @@ def register(subparsers: Any) -> None:
     p.add_argument("namespace", help="namespace of the plant-like node, e.g. /rig or /msd")
     p.add_argument("--seconds", type=float, default=10.0,
                    help="least telemetry the timing clauses see, s (the script itself takes ~4 s)")
-    p.add_argument("--watchdog-timeout", type=float, default=0.5, help="the node's declared watchdog timeout, s")
+    p.add_argument("--watchdog-timeout", type=float, default=0.5,
+                   help="the node's declared watchdog timeout, s")
     p.add_argument("--force-limit", type=float, default=PlantParams().F, help="the node's force limit F, N")
     p.add_argument("--dt", type=float, default=DT, help="the node's sample period, s")
     p.add_argument("--p99-limit", type=float, default=0.025, help="limit of the inter-arrival p99, s")
     p.add_argument("--timing-tolerance", type=float, default=1.0,
-                   help="factor on the timing limits (rate, gaps, p99, watchdog slack); >1 on a loaded machine")
+                   help="factor on the timing limits (rate, gaps, p99, watchdog slack); > 1 on a loaded "
+                        "machine")
     p.add_argument("--position-tolerance", type=float, default=1e-9,
                    help="largest |position - joint_states.position| of one sample, m")
     p.add_argument("--rest-tolerance", type=float, default=0.01,

@@ -107,7 +107,8 @@ def qos_clause(reliabilities: dict[str, list[str]]) -> Clause:
     Why: a best-effort ``joint_states`` drops samples under load and the bag
     silently has holes; a best-effort ``force`` subscription drops commands.
     """
-    bad = [f"{topic} {kind}" for topic, kinds in reliabilities.items() for kind in kinds if kind != "reliable"]
+    bad = [f"{topic} {kind}" for topic, kinds in reliabilities.items()
+           for kind in kinds if kind != "reliable"]
     if bad:
         return Clause("qos", False, "not reliable: " + ", ".join(bad))
     return Clause("qos", True, f"reliable on {len(reliabilities)} endpoints")
@@ -177,7 +178,8 @@ def stamps_clause(stamps_ns: NDArray[np.int64], limits: Limits) -> Clause:
         return Clause("stamps", False, fig + f" — period must be {1e3 * limits.dt:g} ms within "
                                              f"{100 * limits.rate_tolerance:g} %")
     if gaps > limits.gap_fraction * limits.timing_tolerance:
-        return Clause("stamps", False, fig + f" — more than {100 * limits.gap_fraction * limits.timing_tolerance:g} %")
+        allowed = 100 * limits.gap_fraction * limits.timing_tolerance
+        return Clause("stamps", False, fig + f" — more than {allowed:g} %")
     return Clause("stamps", True, fig)
 
 
@@ -227,7 +229,8 @@ def clock_clause(clock_publishers: list[str], node: str, clock_ns: list[int],
     sim time jump between them, and every sim-time bag and node goes wrong.
     """
     if len(clock_publishers) > 1:
-        return Clause("clock", False, f"{len(clock_publishers)} /clock publishers ({', '.join(clock_publishers)}); "
+        owners = ", ".join(clock_publishers)
+        return Clause("clock", False, f"{len(clock_publishers)} /clock publishers ({owners}); "
                                       "at most one may own sim time")
     if node not in clock_publishers:
         owner = clock_publishers[0] if clock_publishers else "none"
@@ -251,7 +254,8 @@ class Alignment(NamedTuple):
     """Samples compared."""
 
 
-def align_positions(js_x: FloatArray, pos: FloatArray, skip: int = 0, max_offset: int = 50) -> Alignment | None:
+def align_positions(js_x: FloatArray, pos: FloatArray, skip: int = 0,
+                    max_offset: int = 50) -> Alignment | None:
     """The offset (in received messages) at which the two streams agree best.
 
     Why search an offset: the two subscriptions of the checker may start
@@ -297,7 +301,8 @@ def position_clause(js_x: FloatArray, pos: FloatArray, limits: Limits, resets: i
     if al.max_diff > limits.position_tolerance:
         return Clause("position", False, fig + f" (limit {limits.position_tolerance:g} m)")
     if abs(len(js_x) - len(pos)) > 50:
-        return Clause("position", False, fig + f", but {len(pos)} position vs {len(js_x)} joint_states messages")
+        return Clause("position", False,
+                      fig + f", but {len(pos)} position vs {len(js_x)} joint_states messages")
     return Clause("position", True, fig)
 
 
@@ -362,9 +367,11 @@ def effort_step_clause(resp: StepResponse, target: float, limits: Limits) -> Cla
            else f"step to {target:g} N: effort never within {100 * limits.reach_fraction:g} % "
                 f"(delay {resp.delay} samples)")
     if resp.peak > limits.force_limit + limits.force_tolerance:
-        return Clause("effort-step", False, fig + f" — effort {resp.peak:g} N exceeds the limit {limits.force_limit:g} N")
+        return Clause("effort-step", False,
+                      fig + f" — effort {resp.peak:g} N exceeds the limit {limits.force_limit:g} N")
     if not resp.reached <= limits.reach_within:
-        return Clause("effort-step", False, fig + f" — must reach the command within {limits.reach_within:g} s")
+        return Clause("effort-step", False,
+                      fig + f" — must reach the command within {limits.reach_within:g} s")
     return Clause("effort-step", True, fig)
 
 
@@ -399,7 +406,8 @@ def nonfinite_clause(efforts: FloatArray, positions: FloatArray, effort_before: 
     e = np.asarray(efforts, dtype=np.float64)
     x = np.asarray(positions, dtype=np.float64)
     if not (np.all(np.isfinite(e)) and np.all(np.isfinite(x))):
-        return Clause("non-finite", False, f"{sent} non-finite commands: non-finite effort or position published")
+        return Clause("non-finite", False,
+                      f"{sent} non-finite commands: non-finite effort or position published")
     lo = min(effort_before, last_safe, 0.0) - limits.reach_fraction * limits.force_limit
     hi = max(effort_before, last_safe, 0.0) + limits.reach_fraction * limits.force_limit
     if e.size and (e.min() < lo or e.max() > hi):
@@ -462,9 +470,11 @@ def reset_realtime_clause(supported: bool, row_times: FloatArray, positions: Flo
     visibly away from the origin for the reset to be seen at all).
     """
     if not supported:
-        return Clause("reset", True, "unsupported (no reset subscriber): the bench returns the node to rest itself")
+        return Clause("reset", True,
+                      "unsupported (no reset subscriber): the bench returns the node to rest itself")
     if displaced <= 3 * limits.rest_tolerance:
-        return Clause("reset", False, f"could not see a reset: the node was only {displaced:.3g} m from the origin")
+        return Clause("reset", False,
+                      f"could not see a reset: the node was only {displaced:.3g} m from the origin")
     t = np.asarray(row_times, dtype=np.float64)
     x = np.asarray(positions, dtype=np.float64)
     e = np.asarray(efforts, dtype=np.float64)
@@ -473,7 +483,8 @@ def reset_realtime_clause(supported: bool, row_times: FloatArray, positions: Flo
     if ok.size == 0:
         return Clause("reset", False, f"no row at the origin with 0 N within {limits.reset_within:g} s "
                                       f"of the reset (was {displaced:.3g} m away)")
-    return Clause("reset", True, f"acknowledged: at the origin with 0 N {1e3 * float(t[ok[0]] - sent_at):.0f} ms "
+    after = 1e3 * float(t[ok[0]] - sent_at)
+    return Clause("reset", True, f"acknowledged: at the origin with 0 N {after:.0f} ms "
                                  f"after the reset (was {displaced:.3g} m away)")
 
 
@@ -484,9 +495,11 @@ def reset_lockstep_clause(supported: bool, acks: list[float], rows_before_comman
     if not supported:
         return Clause("reset", True, "unsupported (no reset subscriber)")
     if len(acks) != 1:
-        return Clause("reset", False, f"{len(acks)} position messages acknowledged the reset (want exactly 1)")
+        return Clause("reset", False,
+                      f"{len(acks)} position messages acknowledged the reset (want exactly 1)")
     if rows_before_command:
-        return Clause("reset", False, f"the reset published {rows_before_command} joint_states rows (want none)")
+        return Clause("reset", False,
+                      f"the reset published {rows_before_command} joint_states rows (want none)")
     if first_stamp_ns is None or first_x is None:
         return Clause("reset", False, "no row after the first command following the reset")
     if first_stamp_ns != 0 or first_x != acks[0]:

@@ -128,8 +128,9 @@ class RigChecker:
                 p.reliability = ReliabilityPolicy.BEST_EFFORT  # still receive; the qos clause judges it
             return p
         js, pos = self.topic[JOINT_STATES.name], self.topic[POSITION.name]
-        subs = [self.node.create_subscription(msg_class(JOINT_STATES), js, self._row, profile(JOINT_STATES, js)),
-                self.node.create_subscription(Float64, pos, self._position, profile(POSITION, pos))]
+        sub = self.node.create_subscription
+        subs = [sub(msg_class(JOINT_STATES), js, self._row, profile(JOINT_STATES, js)),
+                sub(Float64, pos, self._position, profile(POSITION, pos))]
         self.node.create_subscription(msg_class(CLOCK), CLOCK.name, self._clock, profile(CLOCK, CLOCK.name))
         self.force = self.node.create_publisher(Float64, self.topic[FORCE.name], qos(FORCE))
         self.reset = self.node.create_publisher(Empty, self.topic[RESET.name], qos(RESET))
@@ -170,7 +171,8 @@ class RigChecker:
         if name is None:
             return [Clause("node", False, f"no plant-like node on {self.ns}: no publisher on "
                                           f"{self.topic[JOINT_STATES.name]} and no subscriber on "
-                                          f"{self.topic[FORCE.name]} (waited {self.script.discovery_timeout:g} s)")]
+                                          f"{self.topic[FORCE.name]} "
+                                          f"(waited {self.script.discovery_timeout:g} s)")]
         self.name = name
         self._subscribe()
         t0 = time.monotonic()
@@ -197,8 +199,8 @@ class RigChecker:
             topics.append(truth)
         pubs = {t: n.count_publishers(t) for t in topics}
         force = self.topic[FORCE.name]
-        rel: dict[str, list[str]] = {t: [_reliability(i.qos_profile) for i in n.get_publishers_info_by_topic(t)]
-                                     for t in topics}
+        rel: dict[str, list[str]] = {
+            t: [_reliability(i.qos_profile) for i in n.get_publishers_info_by_topic(t)] for t in topics}
         rel[force] = [_reliability(i.qos_profile) for i in n.get_subscriptions_info_by_topic(force)]
         if self._reset_supported():
             rel[self.topic[RESET.name]] = [_reliability(i.qos_profile)
@@ -237,12 +239,13 @@ class RigChecker:
         reset = self._realtime_reset()
         self._rows(a, settle)
         watchdog = self._realtime_watchdog(a, resp)
-        rest = self.script.seconds - (self.rec.arrivals[-1] - self.rec.arrivals[0]) if self.rec.arrivals else 0
+        arrivals = self.rec.arrivals
+        rest = self.script.seconds - (arrivals[-1] - arrivals[0]) if arrivals else 0.0
         if rest > 0:
             self.spin_for(rest)
         arr = np.asarray(self.rec.arrivals)
-        timing = [cf.rate_clause(arr, lim), cf.stamps_clause(np.asarray(self.rec.stamps, dtype=np.int64), lim),
-                  cf.interarrival_clause(arr, lim)]
+        stamps = np.asarray(self.rec.stamps, dtype=np.int64)
+        timing = [cf.rate_clause(arr, lim), cf.stamps_clause(stamps, lim), cf.interarrival_clause(arr, lim)]
         pos = cf.position_clause(np.asarray(self.rec.x), np.asarray(self.rec.pos), lim,
                                  resets=int(self._reset_supported()))
         return [*timing, pos, step, sat, nonfinite, watchdog, reset]
@@ -275,7 +278,8 @@ class RigChecker:
     def _realtime_reset(self) -> Clause:
         supported = self._reset_supported()
         if not supported:
-            return cf.reset_realtime_clause(False, np.array([]), np.array([]), np.array([]), 0.0, 0.0, self.limits)
+            none = np.array([])
+            return cf.reset_realtime_clause(False, none, none, none, 0.0, 0.0, self.limits)
         self._hold = None
         displaced = abs(self.rec.x[-1])
         start = len(self.rec.stamps)
@@ -336,9 +340,10 @@ class RigChecker:
         stamps = np.asarray(self.rec.stamps[start:idle_from], dtype=np.int64)
         steps = cf.lockstep_steps_clause([c[0] for c in counts], [c[1] for c in counts], idle, stamps, lim.dt)
         clock = self._clock_clause()
-        pos = cf.position_clause(np.asarray(self.rec.x[start:]), np.asarray(self.rec.pos[self._pos_start:]), lim)
-        watchdog = Clause("watchdog", True, "not applicable in lock-step: without a command the node does not "
-                                            "step (asserted by the steps clause)")
+        pos = cf.position_clause(np.asarray(self.rec.x[start:]), np.asarray(self.rec.pos[self._pos_start:]),
+                                 lim)
+        watchdog = Clause("watchdog", True, "not applicable in lock-step: without a command the node "
+                                            "does not step (asserted by the steps clause)")
         return [steps, clock, pos, step, sat, nonfinite, watchdog, reset]
 
     def _lockstep_reset(self) -> Clause:

@@ -17,7 +17,6 @@ by side, and only one node may own sim time (the plant).
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,9 +29,7 @@ from msd_bench.core.model import StepModel
 from msd_bench.io.artifacts import load_model
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_bench.nodes.plant_node import ModelSpec, PlantNode
-
-SURROGATE_ROOT = "/surrogate"
-"""Parent namespace of every surrogate."""
+from msd_msgs_py.contract import surrogate_namespace as namespace_for
 
 
 @dataclass(frozen=True)
@@ -62,9 +59,8 @@ def declare_surrogate(node: Node) -> ModelSpec:
 
 
 def surrogate_namespace(model: StepModel) -> str:
-    """``/surrogate/<name>``, the name made a valid ROS token (kind name if the model has none)."""
-    name = re.sub(r"\W", "_", model.name or kernels.KIND_NAMES[model.kind]).strip("_") or "model"
-    return f"{SURROGATE_ROOT}/{'m_' + name if name[0].isdigit() else name}"
+    """``/surrogate/<name>`` (:func:`msd_msgs_py.contract.surrogate_namespace`; the kind if unnamed)."""
+    return namespace_for(model.name or kernels.KIND_NAMES[model.kind])
 
 
 def build_surrogate(*, namespace: str | None = None, **node_kwargs: Any) -> PlantNode:
