@@ -12,7 +12,14 @@ measured figure. Exit status 0 only if every clause passes, 1 otherwise,
 from __future__ import annotations
 
 import argparse
+import datetime as dt
+import json
 import math
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
 from typing import Any
 
 import rclpy
@@ -20,6 +27,7 @@ import rclpy
 from msd_bench.core.conformance import Clause, Limits
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.plant import DT, PlantParams
+from msd_bench.io.paths import writable_dir
 from msd_bench.nodes.spin import ros_session
 
 
@@ -48,6 +56,8 @@ def register(subparsers: Any) -> None:
                    help="how close to the origin a real-time reset must bring the measured position, m")
     p.add_argument("--step-fraction", type=float, default=0.3, help="the step command as a fraction of F")
     p.add_argument("--discovery-timeout", type=float, default=5.0, help="wait for the node's endpoints, s")
+    p.add_argument("--json", type=Path, metavar="PATH",
+                   help="also write the clauses, the command, commit and machine to PATH (JSON)")
     p.set_defaults(func=run)
 
 
@@ -89,10 +99,41 @@ def check(args: argparse.Namespace, context: rclpy.context.Context | None = None
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print one line per clause; 0 if all pass."""
+    """Print one line per clause (and write them to ``--json``); 0 if all pass."""
     _check(args)
+    if args.json is not None:
+        writable_dir(args.json.parent.absolute(), "--json directory")
     with ros_session([]):
         clauses = check(args)
     for c in clauses:
         print(c.line(), flush=True)
+    if args.json is not None:
+        args.json.write_text(json.dumps(report(args, clauses), indent=1) + "\n")
     return 0 if all(c.passed for c in clauses) else 1
+
+
+def report(args: argparse.Namespace, clauses: list[Clause]) -> dict[str, Any]:
+    """The check as a results document: what ran where, and every clause."""
+    argv = ["msd-bench", "check-rig", *sys.argv[2:]] if sys.argv[1:2] == ["check-rig"] else []
+    return {
+        "namespace": args.namespace,
+        "passed": all(c.passed for c in clauses),
+        "clauses": [{"name": c.name, "passed": c.passed, "figure": c.figure} for c in clauses],
+        "command": " ".join(argv) or f"msd-bench check-rig {args.namespace}",
+        "commit": _commit(),
+        "machine": f"{platform.node()} ({os.cpu_count()} cores, {platform.platform()})",
+        "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+    }
+
+
+def _commit() -> str | None:
+    """The repository's commit (``+dirty`` with uncommitted changes), None outside a checkout."""
+    repo = Path(__file__).resolve().parents[2]
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=repo, capture_output=True,
+                              text=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=repo,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head + ("+dirty" if dirty else "")

@@ -153,7 +153,7 @@ def test_watchdog() -> None:
     assert not cf.watchdog_clause(t, np.where(t < 0.8, 3.0, 0.0), 0.0, 3.0, allowance, LIM).passed  # late
     assert not cf.watchdog_clause(t, np.where(t < 0.1, 3.0, 0.0), 0.0, 3.0, allowance, LIM).passed  # early
     lagging = cf.StepResponse(1, 0.05, 0.2, 3.0)  # a lagging actuator gets its measured lag on top
-    assert cf.watchdog_allowance(lagging, LIM) == pytest.approx(allowance + 0.01 + 0.2)
+    assert cf.watchdog_allowance(lagging, LIM) == pytest.approx(allowance + 0.01 + 0.25)
 
 
 def test_reset_realtime_and_lockstep() -> None:

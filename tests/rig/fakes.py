@@ -82,6 +82,21 @@ class SlowActuator(PlantNode):
         super()._step(self._lag, stamp)
 
 
+class RealisticActuator(PlantNode):
+    """Conforming, but like hardware: one sample of delay, a 30 ms lag, a 2 mm noisy sensor."""
+
+    TAU = 0.03
+
+    def _on_reset(self, msg: Any) -> None:
+        self._lag, self._queued = 0.0, 0.0
+        super()._on_reset(msg)
+
+    def _step(self, u: float, stamp: int) -> None:
+        self._lag += (1.0 - math.exp(-self.spec.dt / self.TAU)) * (self._queued - self._lag)
+        self._queued = u
+        super()._step(self._lag, stamp)
+
+
 class TwoPublishers(PlantNode):
     """A second (silent) publisher on joint_states, as a forgotten driver would leave (breaks: publishers)."""
 
@@ -126,3 +141,9 @@ def build(name: str, namespace: str, **node_kwargs: Any) -> PlantNode:
     """The fake ``name`` serving the default plant in real time under ``namespace``."""
     cls, _ = FAKES[name]
     return cls(true_plant_spec(), config=REALTIME, namespace=namespace, **node_kwargs)
+
+
+def realistic(namespace: str, **node_kwargs: Any) -> PlantNode:
+    """A conforming node with delay, lag and a noisy, quantised sensor."""
+    config = PlantNodeConfig(lockstep=False, duplicate_check=0.0, sensor_noise=0.002, sensor_quant=0.0001)
+    return RealisticActuator(true_plant_spec(), config=config, namespace=namespace, **node_kwargs)

@@ -6,6 +6,7 @@ the surrogates' own arguments), so it also shows the graph has one /clock owner.
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 import sys
@@ -63,10 +64,11 @@ def test_every_surrogate_kind_passes(graph: str, namespace: str) -> None:
         assert clock.figure == f"not published by this node (owner: {PLANT_NAMESPACE}/plant)"
 
 
-def test_the_plant_passes_through_the_cli(graph: str) -> None:
-    """The command as a user types it: one line per clause, exit 0."""
-    proc = subprocess.run([sys.executable, "-m", "msd_bench.cli", "check-rig", PLANT_NAMESPACE, *LENIENT],
-                          cwd=REPO, capture_output=True, text=True, timeout=120)
+def test_the_plant_passes_through_the_cli(graph: str, tmp_path: Path) -> None:
+    """The command as a user types it: one line per clause, exit 0, the same clauses in --json."""
+    out = tmp_path / "results" / "check.json"
+    proc = subprocess.run([sys.executable, "-m", "msd_bench.cli", "check-rig", PLANT_NAMESPACE, *LENIENT,
+                           "--json", str(out)], cwd=REPO, capture_output=True, text=True, timeout=120)
     lines = proc.stdout.splitlines()
     assert proc.returncode == 0, proc.stdout + proc.stderr
     names = [ln.split()[1] for ln in lines]
@@ -74,6 +76,10 @@ def test_the_plant_passes_through_the_cli(graph: str) -> None:
     assert names == ["publishers", "qos", "mode", *timing, "position", "effort-step", "saturation",
                      "non-finite", "watchdog", "reset"]
     assert all(ln.startswith("PASS  ") for ln in lines)
+    doc = json.loads(out.read_text())
+    assert doc["passed"] is True and doc["namespace"] == PLANT_NAMESPACE
+    assert [c["name"] for c in doc["clauses"]] == names
+    assert doc["command"].startswith(f"msd-bench check-rig {PLANT_NAMESPACE} --timing-tolerance 10")
     if graph == "lock-step":
         assert any("published by this node" in ln for ln in lines)
 

@@ -18,3 +18,17 @@ def test_a_broken_node_fails_exactly_its_clause(name: str) -> None:
     lines = "\n".join(c.line() for c in clauses)
     assert failed(clauses) == [fakes.FAKES[name][1]], lines
     assert all("\n" not in c.line() for c in clauses)
+
+
+def test_delay_lag_and_sensor_noise_are_not_faults() -> None:
+    """A conforming node with one sample of delay, a 30 ms lag and 2 mm of noise passes every clause,
+    and the effort-step clause measures its delay and time constant."""
+    with serving(lambda ctx: fakes.realistic("/fake_realistic", context=ctx)):
+        clauses = check("/fake_realistic")
+    lines = "\n".join(c.line() for c in clauses)
+    assert failed(clauses) == [], lines
+    step = next(c for c in clauses if c.name == "effort-step")
+    delay = int(step.figure.split("delay ")[1].split()[0])
+    tau_ms = float(step.figure.split("time constant ")[1].split()[0])
+    assert delay in (1, 2), lines  # one sample, +1 when a command arrives after the next tick
+    assert 25.0 <= tau_ms <= 35.0, lines
