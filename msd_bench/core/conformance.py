@@ -86,16 +86,18 @@ class Limits:
 
 # --- graph clauses -------------------------------------------------------------------------------
 
-def publishers_clause(publishers: dict[str, int], force_subscribers: int) -> Clause:
+def publishers_clause(publishers: dict[str, int], force_subscribers: int, namespace: str = "") -> Clause:
     """Exactly one publisher on every telemetry topic and a subscriber on ``force``.
 
     Why: two publishers on ``joint_states`` interleave two sample streams (a
     second driver, a forgotten emulator) and a bag of them is garbage.
+    ``publishers``: absolute topic -> publisher count, shown relative to ``namespace``.
     """
     bad = [f"{topic} has {n}" for topic, n in publishers.items() if n != 1]
     if force_subscribers < 1:
         bad.append("force has no subscriber")
-    counts = ", ".join(f"{topic.rsplit('/', 1)[-1]} {n}" for topic, n in publishers.items())
+    prefix = namespace.rstrip("/") + "/"
+    counts = ", ".join(f"{topic.removeprefix(prefix)} {n}" for topic, n in publishers.items())
     if bad:
         return Clause("publishers", False, "; ".join(bad) + " (want exactly 1 publisher each)")
     return Clause("publishers", True, f"1 each ({counts}); force subscribers {force_subscribers}")

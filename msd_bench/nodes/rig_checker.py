@@ -205,7 +205,7 @@ class RigChecker:
         if self._reset_supported():
             rel[self.topic[RESET.name]] = [_reliability(i.qos_profile)
                                            for i in n.get_subscriptions_info_by_topic(self.topic[RESET.name])]
-        return [cf.publishers_clause(pubs, n.count_subscribers(force)), cf.qos_clause(rel)]
+        return [cf.publishers_clause(pubs, n.count_subscribers(force), self.ns), cf.qos_clause(rel)]
 
     def _reset_supported(self) -> bool:
         return self.node.count_subscribers(self.topic[RESET.name]) > 0

@@ -35,7 +35,8 @@ def test_one_line_per_clause() -> None:
 
 
 def test_publishers_and_qos() -> None:
-    assert cf.publishers_clause({"/r/joint_states": 1, "/r/position": 1}, 1).passed
+    ok = cf.publishers_clause({"/r/joint_states": 1, "/r/position": 1, "/r/truth/joint_states": 1}, 1, "/r")
+    assert ok.passed and "(joint_states 1, position 1, truth/joint_states 1)" in ok.figure
     assert not cf.publishers_clause({"/r/joint_states": 2, "/r/position": 1}, 1).passed
     assert not cf.publishers_clause({"/r/joint_states": 1, "/r/position": 1}, 0).passed
     assert cf.qos_clause({"/r/joint_states": ["reliable"], "/r/force": ["reliable"]}).passed
