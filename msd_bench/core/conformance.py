@@ -124,8 +124,8 @@ def mode_clause(real_time_rows: int, lockstep_rows: int | None, listened: float)
     """
     if real_time_rows > 1:
         return Clause("mode", True, f"real-time ({real_time_rows} rows in {listened:.2f} s without commands)")
-    if lockstep_rows == 1:
-        return Clause("mode", True, "lock-step (no rows without a command; one row per command)")
+    if lockstep_rows is not None and lockstep_rows >= 1:  # how many per command is the steps clause's
+        return Clause("mode", True, f"lock-step (no rows without a command; a command gave {lockstep_rows})")
     probed = "not probed" if lockstep_rows is None else f"a command produced {lockstep_rows} rows"
     return Clause("mode", False, f"neither real-time nor lock-step: {real_time_rows} rows in "
                                  f"{listened:.2f} s without commands, {probed}")

@@ -187,7 +187,7 @@ class RigChecker:
         mode = cf.mode_clause(quiet_rows, probe, time.monotonic() - t0)
         if not mode.passed:
             return [*self._graph_clauses(), mode]
-        lockstep = probe == 1
+        lockstep = probe is not None and probe >= 1
         body = self._lockstep() if lockstep else self._realtime()
         return [*self._graph_clauses(), mode, *body]
 

@@ -123,6 +123,23 @@ class IgnoresReset(PlantNode):
         return
 
 
+class SilentReset(PlantNode):
+    """Lock-step: resets, but publishes no acknowledgement (breaks: reset)."""
+
+    def _on_reset_msg(self, msg: Any) -> None:
+        self._on_reset(msg)
+
+
+class DoubleStep(PlantNode):
+    """Lock-step: two steps per command (breaks: steps)."""
+
+    def _on_force(self, msg: Any) -> None:
+        super()._on_force(msg)
+        super()._on_force(msg)
+
+
+LOCKSTEP = PlantNodeConfig(lockstep=True, duplicate_check=0.0)
+
 FAKES: dict[str, tuple[type[PlantNode], str]] = {
     "wrong-rate": (WrongRate, "rate"),
     "non-monotonic": (NonMonotonicStamps, "stamps"),
@@ -133,14 +150,17 @@ FAKES: dict[str, tuple[type[PlantNode], str]] = {
     "two-publishers": (TwoPublishers, "publishers"),
     "best-effort": (BestEffort, "qos"),
     "ignores-reset": (IgnoresReset, "reset"),
+    "lockstep-silent-reset": (SilentReset, "reset"),
+    "lockstep-double-step": (DoubleStep, "steps"),
 }
 """Fake name -> (node class, the one clause it breaks)."""
 
 
 def build(name: str, namespace: str, **node_kwargs: Any) -> PlantNode:
-    """The fake ``name`` serving the default plant in real time under ``namespace``."""
+    """The fake ``name`` serving the default plant under ``namespace`` (real time unless ``lockstep-*``)."""
     cls, _ = FAKES[name]
-    return cls(true_plant_spec(), config=REALTIME, namespace=namespace, **node_kwargs)
+    config = LOCKSTEP if name.startswith("lockstep-") else REALTIME
+    return cls(true_plant_spec(), config=config, namespace=namespace, **node_kwargs)
 
 
 def realistic(namespace: str, **node_kwargs: Any) -> PlantNode:
