@@ -236,7 +236,7 @@ class RigChecker:
         sat = cf.saturation_clause(self.rec.efforts()[first + 1:], sat_cmd, lim)
         self._rows(a, settle)
         nonfinite = self._realtime_nonfinite(a)
-        reset = self._realtime_reset()
+        reset = self._realtime_reset(a)
         self._rows(a, settle)
         watchdog = self._realtime_watchdog(a, resp)
         arrivals = self.rec.arrivals
@@ -275,11 +275,15 @@ class RigChecker:
         return cf.nonfinite_clause(self.rec.efforts()[r], np.asarray(self.rec.x[r]), before, safe,
                                    len(NONFINITE), self.limits)
 
-    def _realtime_reset(self) -> Clause:
+    def _realtime_reset(self, push: float) -> Clause:
+        """Push the node visibly away from the origin (at most 3 s), then reset it and watch."""
         supported = self._reset_supported()
         if not supported:
             none = np.array([])
             return cf.reset_realtime_clause(False, none, none, none, 0.0, 0.0, self.limits)
+        self._hold = push
+        away = 10.0 * self.limits.rest_tolerance
+        self.spin_until(lambda: abs(self.rec.x[-1]) > away, 3.0 * self.limits.timing_tolerance)
         self._hold = None
         displaced = abs(self.rec.x[-1])
         start = len(self.rec.stamps)
