@@ -323,15 +323,35 @@ class StepResponse(NamedTuple):
     """Largest |effort| over the window, N."""
 
 
+def first_carrier(stamps_ns: NDArray[np.int64], arrivals_ns: NDArray[np.int64], sent_ns: int,
+                  fallback: int) -> int:
+    """Index of the first row that could carry a command sent at ``sent_ns`` (wall clock, ns).
+
+    The first row stamped at or after the send time, if the node stamps on the
+    checker's clock (its rows arrive 0–0.5 s after their stamps); else
+    ``fallback`` (the first row to arrive after sending). Why stamps: a checker
+    starved of CPU reads rows late, and counting from the rows it had not yet
+    read would add their number to the measured delay.
+    """
+    s = np.asarray(stamps_ns, dtype=np.int64)
+    lag = np.asarray(arrivals_ns, dtype=np.int64) - s
+    if s.size == 0 or not -5_000_000 <= float(np.median(lag)) <= 500_000_000:
+        return fallback
+    later = np.flatnonzero(s >= sent_ns)
+    return int(later[0]) if later.size else fallback
+
+
 def step_response(efforts: FloatArray, first: int, before: float, target: float,
                   limits: Limits) -> StepResponse:
     """Delay, time constant and reach time of ``efforts`` after a step from ``before`` to ``target``.
 
-    ``first`` is the index of the first row that could carry the command (the
-    row after the one the command was sent in reply to). The time constant is
-    the least-squares fit of ln(remaining fraction) = -(j+1)·dt/τ over the rows
-    from the first move while the remainder is between 2 % and 100 %, which is
-    exact for a first-order lag and 0 for a node that applies the step at once.
+    ``first`` is the index of the first row that could carry the command
+    (:func:`first_carrier`). The time constant comes from the remaining
+    fraction r_j of the rows from the first move while it is between 2 % and
+    100 %: a first-order lag shrinks it by e^(-dt/τ) per sample, whether the
+    row reports the lag's value at the sample or its mean over the sample, so
+    τ = -dt / (slope of ln r_j against j); with one such row, ln r_0 = -dt/τ.
+    A node that applies the step at once has τ = 0.
     """
     e = np.asarray(efforts, dtype=np.float64)[first:]
     size = target - before
@@ -346,14 +366,13 @@ def step_response(efforts: FloatArray, first: int, before: float, target: float,
         return StepResponse(-1, math.inf, reached, peak)
     d = int(moved[0])
     r = remaining[d:]
-    j = np.arange(r.size, dtype=np.float64) + 1.0
     keep = (r > limits.reach_fraction) & (r < 1.0)
-    if not np.any(keep) or (keep.size and not keep[0]):
-        tau = 0.0
-    else:
-        stop = int(np.argmin(keep)) if not np.all(keep) else keep.size  # the first contiguous run
-        jj, rr = j[:stop], r[:stop]
-        tau = float(-limits.dt * np.sum(jj * jj) / np.sum(jj * np.log(rr)))
+    if not keep.size or not keep[0]:
+        return StepResponse(d, 0.0, reached, peak)
+    stop = keep.size if np.all(keep) else int(np.argmin(keep))  # the first contiguous run
+    logs = np.log(r[:stop])
+    slope = float(np.polyfit(np.arange(stop, dtype=np.float64), logs, 1)[0]) if stop > 1 else 0.0
+    tau = -limits.dt / slope if slope < 0 else -limits.dt / float(logs[0])
     return StepResponse(d, tau, reached, peak)
 
 

@@ -58,6 +58,7 @@ class Record:
 
     stamps: list[int] = field(default_factory=list)
     arrivals: list[float] = field(default_factory=list)
+    arrivals_ns: list[int] = field(default_factory=list)
     x: list[float] = field(default_factory=list)
     effort: list[float] = field(default_factory=list)
     pos: list[float] = field(default_factory=list)
@@ -144,6 +145,7 @@ class RigChecker:
         r = self.rec
         r.stamps.append(_stamp_ns(msg.header.stamp))
         r.arrivals.append(time.monotonic())
+        r.arrivals_ns.append(time.time_ns())
         r.x.append(float(msg.position[0]) if len(msg.position) else math.nan)
         r.effort.append(float(msg.effort[0]) if len(msg.effort) else math.nan)
         if self._hold is not None:
@@ -162,6 +164,7 @@ class RigChecker:
         """Publish one force command and remember when."""
         self.force.publish(float64(u))
         self.last_command = time.monotonic()
+        self.last_command_ns = time.time_ns()
 
     # --- the check ---------------------------------------------------------------------------
 
@@ -218,6 +221,7 @@ class RigChecker:
         self._hold = hold
         if hold is not None:
             self.command(hold)
+            self._sent_ns = self.last_command_ns
         budget = 2.0 + 3.0 * rows * self.limits.dt * self.limits.timing_tolerance
         self.spin_until(lambda: len(self.rec.stamps) >= first + rows, budget)
         return first
@@ -228,6 +232,8 @@ class RigChecker:
         self._rows(0.0, 20)
         before = self.rec.effort[-1] if self.rec.effort else 0.0
         first = self._rows(a, round((lim.reach_within + 0.3) / lim.dt))
+        first = cf.first_carrier(np.asarray(self.rec.stamps, dtype=np.int64),
+                                 np.asarray(self.rec.arrivals_ns, dtype=np.int64), self._sent_ns, first)
         resp = cf.step_response(self.rec.efforts(), first, before, a, lim)
         step = cf.effort_step_clause(resp, a, lim)
         settle = self._settle_rows(resp)

@@ -115,6 +115,25 @@ def test_step_response_measures_delay_and_time_constant(tau: float, delay: int) 
     assert cf.effort_step_clause(resp, 3.0, LIM).passed
 
 
+@pytest.mark.parametrize("tau", [0.005, 0.02, 0.05])
+def test_time_constant_of_an_effort_reported_as_the_lag_mean_over_each_sample(tau: float) -> None:
+    """The rig emulator reports the lag's mean over the sample: U (1 - beta e^(-j dt/tau))."""
+    beta = (tau / DT) * (1.0 - math.exp(-DT / tau))
+    j = np.arange(80, dtype=np.float64)
+    e = np.r_[np.zeros(11), 3.0 * (1.0 - beta * np.exp(-j * DT / tau))]
+    resp = cf.step_response(e, 10, 0.0, 3.0, LIM)
+    assert resp.delay == 1 and resp.tau == pytest.approx(tau, rel=1e-6)
+
+
+def test_first_carrier_counts_from_the_send_time_on_the_stamps() -> None:
+    stamps = (1_000_000_000 + 10_000_000 * np.arange(50)).astype(np.int64)
+    late = stamps + 40_000_000  # rows read 40 ms late by a starved checker
+    sent = int(stamps[20]) - 3_000_000
+    assert cf.first_carrier(stamps, late, sent, fallback=24) == 20
+    other_clock = stamps - 10**15  # a driver stamping on its own clock: count from arrival instead
+    assert cf.first_carrier(other_clock, late, sent, fallback=24) == 24
+
+
 def test_effort_that_never_reaches_or_exceeds_the_limit_fails() -> None:
     u = np.r_[np.zeros(10), np.full(80, 3.0)]
     slow = cf.step_response(lag(u, 0.3), 10, 0.0, 3.0, LIM)

@@ -120,3 +120,20 @@ def test_a_usage_mistake_is_one_line(argv: list[str], message: str,
     out, err = capsys.readouterr()
     assert out == "" and len(err.splitlines()) == 1
     assert err.startswith("msd-bench check-rig: error: ") and message in err
+
+
+def test_the_rig_emulator_passes_with_its_default_imperfections() -> None:
+    """2 mm noise, 0.1 mm quantisation, one sample of delay, a 20 ms lag, friction, jitter, no reset."""
+    with launch.process_group() as procs:
+        rig = procs.start("rig.py", ["-p", "duplicate_check:=0.0", "-r", "__ns:=/rig_check"], name="rig")
+        rig.wait_for_line(r"ready \(", timeout=90.0)
+        clauses = check("/rig_check")
+    lines = "\n".join(c.line() for c in clauses)
+    assert failed(clauses) == [], lines
+    figures = {c.name: c.figure for c in clauses}
+    assert figures["mode"].startswith("real-time")
+    assert figures["reset"].startswith("unsupported")
+    delay = int(figures["effort-step"].split("delay ")[1].split()[0])
+    tau_ms = float(figures["effort-step"].split("time constant ")[1].split()[0])
+    assert delay >= 1, lines  # the rig's one sample of dead time (more if the rig was starved of CPU)
+    assert tau_ms == pytest.approx(20.0, abs=1.0), lines  # its actuator_tau, recovered from the rise
