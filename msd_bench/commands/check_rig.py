@@ -41,9 +41,9 @@ def register(subparsers: Any) -> None:
                               description=__doc__.splitlines()[0])
     p.add_argument("namespace", help="namespace of the plant-like node, e.g. /rig or /msd")
     p.add_argument("--seconds", type=float, default=10.0,
-                   help="least telemetry the timing clauses see, s (the script itself takes ~4 s)")
+                   help="real time: least telemetry the timing clauses see, s (the script itself takes ~4 s)")
     p.add_argument("--watchdog-timeout", type=float, default=0.5,
-                   help="the node's declared watchdog timeout, s")
+                   help="the node's declared watchdog timeout, s (real time)")
     p.add_argument("--force-limit", type=float, default=PlantParams().F, help="the node's force limit F, N")
     p.add_argument("--dt", type=float, default=DT, help="the node's sample period, s")
     p.add_argument("--p99-limit", type=float, default=0.025, help="limit of the inter-arrival p99, s")
