@@ -6,15 +6,20 @@ import numpy as np
 import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.validate_namespace import validate_namespace
 from std_msgs.msg import Float64
 
+from msd_bench.app.agents import agent_kind
+from msd_bench.app.config import RunConfig
 from msd_bench.core import kernels
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.model import StepModel
 from msd_bench.graph import launch
+from msd_bench.graph.bench import BenchConfig, agent_args, surrogate_args
 from msd_bench.io.artifacts import ArtifactError, Provenance, load_model, save_model
 from msd_bench.nodes.surrogate_node import build_surrogate, surrogate_namespace
 from msd_msgs_py.contract import CLOCK, FORCE, JOINT_STATES, POSITION
+from msd_msgs_py.contract import surrogate_namespace as surrogate_namespace_for
 from msd_msgs_py.ros import float64, msg_class, qos
 from tests.nodes.conftest import spin_until
 
@@ -99,3 +104,14 @@ def test_a_lockstep_surrogate_leaves_clock_to_the_plant_unless_asked(ctx, execut
     assert node.get_parameter("publish_clock").value is owns
     owners = [i.node_name for i in client.get_publishers_info_by_topic(CLOCK.name)]
     assert owners == (["surrogate"] if owns else [])
+
+
+@pytest.mark.parametrize("kind", ["glm", "nlarx-paper", "nlarx-improved+robust"])
+def test_via_ros_surrogate_and_agent_agree_on_a_valid_namespace(tmp_path, kind):
+    """bench.py --via-ros starts the surrogate and points the agent at it: one valid namespace for both
+    (``/surrogate/nlarx-paper`` is not one: rcl refuses to start on it)."""
+    cfg = BenchConfig(tmp_path, RunConfig(agents=(kind,)), via_ros=True)
+    model = agent_kind(kind).surrogate
+    ns = next(a.split(":=")[1] for a in surrogate_args(cfg, model) if a.startswith("__ns:="))
+    assert validate_namespace(ns) and ns == surrogate_namespace_for(model)
+    assert f"surrogate_ns:={ns}" in agent_args(cfg, kind)
