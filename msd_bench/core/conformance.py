@@ -133,28 +133,46 @@ def mode_clause(real_time_rows: int, lockstep_rows: int | None, listened: float)
 
 # --- timing clauses (real time) ------------------------------------------------------------------
 
-def fitted_period(arrivals: FloatArray) -> float:
-    """Least-squares slope of arrival time against sample index, s.
+def stamp_clock_rate(arrivals: FloatArray, stamps_ns: NDArray[np.int64], segments: int = 10) -> float:
+    """Seconds of stamp time the node advances per second of wall time (1 for a node keeping time).
 
-    Why a fit and not (last - first)/(n - 1): one late message at either end
-    of a short record would move the mean by its whole lateness.
+    The slope of the lower envelope of lateness (arrival - stamp) against
+    arrival: the least-late row of each of ``segments`` stretches, and the
+    median of the slopes between them (Theil-Sen). Why not the mean period of
+    arrivals: a node that stalls and catches up (as the plant's deadline pacer
+    does) delivers a burst of late rows mid-record, which pulls any fit through
+    all arrivals; the least-late rows are the ones the load did not touch.
+    The clock offset between stamps and arrivals cancels.
     """
     t = np.asarray(arrivals, dtype=np.float64)
-    n = np.arange(t.size, dtype=np.float64)
-    return float(np.polyfit(n, t, 1)[0])
+    late = t - np.asarray(stamps_ns, dtype=np.float64) * 1e-9
+    chunks = [c for c in np.array_split(np.arange(t.size), segments) if c.size]
+    pts = [(t[c[np.argmin(late[c])]], float(late[c].min())) for c in chunks]
+    slopes = [(b[1] - a[1]) / (b[0] - a[0]) for i, a in enumerate(pts) for b in pts[i + 1:] if b[0] > a[0]]
+    return 1.0 - float(np.median(slopes)) if slopes else math.nan
 
 
-def rate_clause(arrivals: FloatArray, limits: Limits) -> Clause:
-    """Mean publish rate of ``joint_states`` within ``rate_tolerance`` of 1/dt."""
-    if len(arrivals) < 10:
+def rate_clause(arrivals: FloatArray, stamps_ns: NDArray[np.int64], limits: Limits) -> Clause:
+    """Rows per wall-clock second within ``rate_tolerance`` of 1/dt.
+
+    Rate = (stamp seconds per wall second, :func:`stamp_clock_rate`) / (median
+    stamp period): a node stamping 10 ms apart but publishing every 12.5 ms
+    runs its stamp clock at 0.8 and fails at 80 Hz; one that stalls and
+    catches up keeps 1.0.
+    """
+    s = np.asarray(stamps_ns, dtype=np.int64)
+    if len(arrivals) < 20:
         return Clause("rate", False, f"only {len(arrivals)} rows received")
-    rate = 1.0 / fitted_period(arrivals)
+    period = float(np.median(np.diff(s))) * 1e-9
+    speed = stamp_clock_rate(arrivals, s)
+    if not (period > 0 and math.isfinite(speed) and speed > 0):
+        return Clause("rate", False, "stamps do not advance with wall time")
+    rate = speed / period
     want = 1.0 / limits.dt
     err = abs(rate / want - 1.0)
     allowed = limits.rate_tolerance * limits.timing_tolerance
-    ok = err <= allowed
-    return Clause("rate", ok, f"{rate:.2f} Hz over {len(arrivals)} rows ({100 * err:.2f} % off {want:g} Hz; "
-                              f"limit {100 * allowed:.2f} %)")
+    return Clause("rate", err <= allowed, f"{rate:.2f} Hz over {len(arrivals)} rows ({100 * err:.2f} % off "
+                                          f"{want:g} Hz; limit {100 * allowed:.2f} %)")
 
 
 def stamps_clause(stamps_ns: NDArray[np.int64], limits: Limits) -> Clause:
@@ -323,6 +341,21 @@ class StepResponse(NamedTuple):
     """Largest |effort| over the window, N."""
 
 
+def stamps_on_clock(stamps_ns: NDArray[np.int64], arrivals_ns: NDArray[np.int64]) -> bool:
+    """Whether the node stamps on the checker's wall clock: its rows arrive 0-0.5 s after their stamps.
+
+    Then command times and row stamps share one timeline, the node's own,
+    which CPU starvation of the checker does not distort.
+    """
+    s = np.asarray(stamps_ns, dtype=np.int64)
+    a = np.asarray(arrivals_ns, dtype=np.int64)
+    if s.size < 20:
+        return False
+    lag = float(np.median(a - s))
+    speed = stamp_clock_rate(a.astype(np.float64) * 1e-9, s)
+    return -5_000_000 <= lag <= 500_000_000 and abs(speed - 1.0) <= 0.02  # and it runs at our clock's rate
+
+
 def first_carrier(stamps_ns: NDArray[np.int64], arrivals_ns: NDArray[np.int64], sent_ns: int,
                   fallback: int) -> int:
     """Index of the first row that could carry a command sent at ``sent_ns`` (wall clock, ns).
@@ -334,8 +367,7 @@ def first_carrier(stamps_ns: NDArray[np.int64], arrivals_ns: NDArray[np.int64], 
     read would add their number to the measured delay.
     """
     s = np.asarray(stamps_ns, dtype=np.int64)
-    lag = np.asarray(arrivals_ns, dtype=np.int64) - s
-    if s.size == 0 or not -5_000_000 <= float(np.median(lag)) <= 500_000_000:
+    if not stamps_on_clock(s, arrivals_ns):
         return fallback
     later = np.flatnonzero(s >= sent_ns)
     return int(later[0]) if later.size else fallback
@@ -381,7 +413,10 @@ def effort_step_clause(resp: StepResponse, target: float, limits: Limits) -> Cla
 
     Delay (rows) and time constant are printed, not judged: a real actuator
     has both, and identification models them; what poisons a fit is an
-    effort that never becomes the command, or one above the limit.
+    effort that never becomes the command, or one above the limit. The rise
+    (first row that moved to within 2 %) is held to ``reach_within`` strictly,
+    being counted in samples; the whole time from the command, which a stalled
+    process lengthens, to ``reach_within`` times ``timing_tolerance``.
     """
     fig = (f"step to {target:g} N: delay {resp.delay} samples, time constant {1e3 * resp.tau:.1f} ms, "
            f"reached in {resp.reached * 1e3:.0f} ms" if math.isfinite(resp.reached)
@@ -390,7 +425,8 @@ def effort_step_clause(resp: StepResponse, target: float, limits: Limits) -> Cla
     if resp.peak > limits.force_limit + limits.force_tolerance:
         return Clause("effort-step", False,
                       fig + f" — effort {resp.peak:g} N exceeds the limit {limits.force_limit:g} N")
-    if not resp.reached <= limits.reach_within:
+    rise = resp.reached - max(resp.delay, 0) * limits.dt  # from the first row that moved
+    if not (rise <= limits.reach_within and resp.reached <= limits.reach_within * limits.timing_tolerance):
         return Clause("effort-step", False,
                       fig + f" — must reach the command within {limits.reach_within:g} s")
     return Clause("effort-step", True, fig)

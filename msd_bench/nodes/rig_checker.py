@@ -62,7 +62,6 @@ class Record:
     x: list[float] = field(default_factory=list)
     effort: list[float] = field(default_factory=list)
     pos: list[float] = field(default_factory=list)
-    pos_arrivals: list[float] = field(default_factory=list)
     clock: list[int] = field(default_factory=list)
 
     def efforts(self) -> np.ndarray:
@@ -155,7 +154,6 @@ class RigChecker:
 
     def _position(self, msg: Float64) -> None:
         self.rec.pos.append(float(msg.data))
-        self.rec.pos_arrivals.append(time.monotonic())
 
     def _clock(self, msg: Any) -> None:
         self.rec.clock.append(_stamp_ns(msg.clock))
@@ -215,35 +213,78 @@ class RigChecker:
 
     # --- real time ---------------------------------------------------------------------------
 
+    def _timeline(self) -> None:
+        """Decide once which clock phases are timed on: the node's stamps, if on our wall clock."""
+        self._wall = cf.stamps_on_clock(np.asarray(self.rec.stamps, dtype=np.int64),
+                                        np.asarray(self.rec.arrivals_ns, dtype=np.int64))
+
+    def _row_times(self, r: slice) -> np.ndarray:
+        """Times of rows ``r`` (s): their stamps on the wall clock, else their arrival (monotonic)."""
+        if self._wall:
+            return np.asarray(self.rec.stamps[r], dtype=np.float64) * 1e-9
+        return np.asarray(self.rec.arrivals[r], dtype=np.float64)
+
+    def _last_command_time(self) -> float:
+        """When the last command was sent, on the clock of :meth:`_row_times`."""
+        return self.last_command_ns * 1e-9 if self._wall else self.last_command
+
+    def _carrier(self, sent_ns: int, fallback: int) -> int:
+        """First row that could carry a command sent at ``sent_ns`` (see core's first_carrier)."""
+        if not self._wall:
+            return fallback
+        return cf.first_carrier(np.asarray(self.rec.stamps, dtype=np.int64),
+                                np.asarray(self.rec.arrivals_ns, dtype=np.int64), sent_ns, fallback)
+
+    def _until_row_time(self, t: float, timeout: float) -> None:
+        """Spin until a row at or after time ``t`` (clock of :meth:`_row_times`) has arrived."""
+        self.spin_until(lambda: bool(self.rec.stamps) and float(self._row_times(slice(-1, None))[0]) >= t,
+                        timeout)
+
     def _rows(self, hold: float | None, rows: int) -> int:
-        """Command ``hold`` in reply to each of the next ``rows`` rows; return the first row's index."""
-        first = len(self.rec.stamps)
+        """Command ``hold`` in reply to each row until ``rows`` rows could carry it; return the first's index.
+
+        Counted on the node's stamps: a checker starved of CPU reads rows late,
+        and rows published before the command was sent do not count.
+        """
+        fallback = len(self.rec.stamps)
         self._hold = hold
+        sent = time.time_ns()
         if hold is not None:
             self.command(hold)
-            self._sent_ns = self.last_command_ns
+            sent = self.last_command_ns
         budget = 2.0 + 3.0 * rows * self.limits.dt * self.limits.timing_tolerance
-        self.spin_until(lambda: len(self.rec.stamps) >= first + rows, budget)
+        self.spin_until(lambda: len(self.rec.stamps) >= self._carrier(sent, fallback) + rows, budget)
+        return self._carrier(sent, fallback)
+
+    def _settled(self, hold: float, rows: int) -> int:
+        """:meth:`_rows`, then hold on until the last 5 efforts agree within 0.5 % of F (at most 3 s
+        more, times the timing tolerance): a stalled node or checker must not cut a phase short."""
+        first = self._rows(hold, rows)
+        band = 0.005 * self.limits.force_limit
+
+        def steady() -> bool:
+            tail = self.rec.effort[-5:]
+            return len(self.rec.effort) >= first + 5 and max(tail) - min(tail) <= band
+        self.spin_until(steady, 3.0 * self.limits.timing_tolerance)
         return first
 
     def _realtime(self) -> list[Clause]:
         lim, F = self.limits, self.limits.force_limit
         a = self.script.step_fraction * F
+        self._timeline()
         self._rows(0.0, 20)
         before = self.rec.effort[-1] if self.rec.effort else 0.0
         first = self._rows(a, round((lim.reach_within + 0.3) / lim.dt))
-        first = cf.first_carrier(np.asarray(self.rec.stamps, dtype=np.int64),
-                                 np.asarray(self.rec.arrivals_ns, dtype=np.int64), self._sent_ns, first)
         resp = cf.step_response(self.rec.efforts(), first, before, a, lim)
         step = cf.effort_step_clause(resp, a, lim)
         settle = self._settle_rows(resp)
         sat_cmd = -self.script.saturation_factor * F  # back toward the origin
-        first = self._rows(sat_cmd, settle)
-        sat = cf.saturation_clause(self.rec.efforts()[first + 1:], sat_cmd, lim)
-        self._rows(a, settle)
+        first = self._settled(sat_cmd, settle)
+        sat = cf.saturation_clause(self.rec.efforts()[first:], sat_cmd, lim)
+        self._settled(a, settle)
         nonfinite = self._realtime_nonfinite(a)
         reset = self._realtime_reset(a)
-        self._rows(a, settle)
+        self._settled(a, settle)
         watchdog = self._realtime_watchdog(a, resp)
         arrivals = self.rec.arrivals
         rest = self.script.seconds - (arrivals[-1] - arrivals[0]) if arrivals else 0.0
@@ -251,7 +292,8 @@ class RigChecker:
             self.spin_for(rest)
         arr = np.asarray(self.rec.arrivals)
         stamps = np.asarray(self.rec.stamps, dtype=np.int64)
-        timing = [cf.rate_clause(arr, lim), cf.stamps_clause(stamps, lim), cf.interarrival_clause(arr, lim)]
+        timing = [cf.rate_clause(arr, stamps, lim), cf.stamps_clause(stamps, lim),
+                  cf.interarrival_clause(arr, lim)]
         pos = cf.position_clause(np.asarray(self.rec.x), np.asarray(self.rec.pos), lim,
                                  resets=int(self._reset_supported()))
         return [*timing, pos, step, sat, nonfinite, watchdog, reset]
@@ -294,45 +336,52 @@ class RigChecker:
         displaced = abs(self.rec.x[-1])
         start = len(self.rec.stamps)
         self.reset.publish(Empty())
-        sent = time.monotonic()
-        self.spin_for(self.limits.reset_within + 0.1)
+        sent = time.time_ns() * 1e-9 if self._wall else time.monotonic()
+        self._until_row_time(sent + self.limits.reset_within + 0.05,
+                             self.limits.reset_within + 1.0 * self.limits.timing_tolerance)
         r = slice(start, len(self.rec.stamps))
-        return cf.reset_realtime_clause(True, np.asarray(self.rec.arrivals[r]), np.asarray(self.rec.x[r]),
+        return cf.reset_realtime_clause(True, self._row_times(r), np.asarray(self.rec.x[r]),
                                         self.rec.efforts()[r], sent, displaced, self.limits)
 
     def _realtime_watchdog(self, held: float, resp: cf.StepResponse) -> Clause:
         self._hold = None
-        last = self.last_command
+        last = self._last_command_time()
         start = len(self.rec.stamps)
         allowance = cf.watchdog_allowance(resp, self.limits)
-        self.spin_for(allowance + 0.5)
+        self._until_row_time(last + allowance + 0.3, allowance + 0.5 + 1.0 * self.limits.timing_tolerance)
         r = slice(start, len(self.rec.stamps))
-        return cf.watchdog_clause(np.asarray(self.rec.arrivals[r]), self.rec.efforts()[r], last, held,
-                                  allowance, self.limits)
+        return cf.watchdog_clause(self._row_times(r), self.rec.efforts()[r], last, held, allowance,
+                                  self.limits)
 
     # --- lock-step ---------------------------------------------------------------------------
 
-    def _step(self, u: float, wait: float = 1.0) -> tuple[int, int]:
-        """Send one command, wait for its row and position; return (rows, positions) it gave."""
+    def _step(self, u: float) -> tuple[int, int]:
+        """Send one command, wait for its row and position; return (rows, positions) it gave.
+
+        Waits 1 s, or 0.1 s once two commands in a row went unanswered, so a
+        node that stopped stepping fails the steps clause in seconds, not minutes.
+        """
         rows, positions = len(self.rec.stamps), len(self.rec.pos)
         self.command(u)
+        wait = 0.1 if getattr(self, "_unanswered", 0) >= 2 else 1.0
         self.spin_until(lambda: len(self.rec.stamps) > rows and len(self.rec.pos) > positions, wait)
         self.executor.spin_once(timeout_sec=0.0)
-        return len(self.rec.stamps) - rows, len(self.rec.pos) - positions
+        got = len(self.rec.stamps) - rows, len(self.rec.pos) - positions
+        self._unanswered = getattr(self, "_unanswered", 0) + 1 if got[0] == 0 else 0
+        return got
 
     def _lockstep(self) -> list[Clause]:
         lim, F = self.limits, self.limits.force_limit
         a = self.script.step_fraction * F
-        reset = self._lockstep_reset()
+        supported = self._lockstep_reset()
         start = len(self.rec.stamps)
         counts: list[tuple[int, int]] = []
         plan = [0.0] * 5 + [a] * 60
         for u in plan:
             counts.append(self._step(u))
-        if reset.passed and self._reset_supported():
-            first_row = self.rec.stamps[start] if len(self.rec.stamps) > start else None
-            first_x = self.rec.x[start] if len(self.rec.x) > start else None
-            reset = cf.reset_lockstep_clause(True, self._acks, self._reset_rows, first_row, first_x)
+        first_row = self.rec.stamps[start] if len(self.rec.stamps) > start else None
+        first_x = self.rec.x[start] if len(self.rec.x) > start else None
+        reset = cf.reset_lockstep_clause(supported, self._acks, self._reset_rows, first_row, first_x)
         first = start + 5
         resp = cf.step_response(self.rec.efforts(), first, self.rec.effort[first - 1], a, lim)
         step = cf.effort_step_clause(resp, a, lim)
@@ -356,12 +405,13 @@ class RigChecker:
                                             "does not step (asserted by the steps clause)")
         return [steps, clock, pos, step, sat, nonfinite, watchdog, reset]
 
-    def _lockstep_reset(self) -> Clause:
+    def _lockstep_reset(self) -> bool:
+        """Send ``reset`` (if the node subscribes to it) and keep what answered; return whether it does."""
         self._acks: list[float] = []
         self._reset_rows = 0
         if not self._reset_supported():
             self._pos_start = len(self.rec.pos)
-            return cf.reset_lockstep_clause(False, [], 0, None, None)
+            return False
         rows, positions = len(self.rec.stamps), len(self.rec.pos)
         self.reset.publish(Empty())
         self.spin_until(lambda: len(self.rec.pos) > positions, 2.0)
@@ -369,7 +419,7 @@ class RigChecker:
         self._acks = self.rec.pos[positions:]
         self._reset_rows = len(self.rec.stamps) - rows
         self._pos_start = len(self.rec.pos)
-        return Clause("reset", True, "pending")
+        return True
 
     def _lockstep_nonfinite(self, safe: float) -> Clause:
         start = len(self.rec.stamps)

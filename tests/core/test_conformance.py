@@ -51,13 +51,24 @@ def test_mode() -> None:
     assert cf.mode_clause(0, 2, 1.0).passed  # lock-step; two rows per command are the steps clause's
 
 
+def stamps(n: int = 500) -> np.ndarray:
+    return (10_000_000 * np.arange(n)).astype(np.int64)
+
+
 def test_rate_within_half_a_percent() -> None:
-    assert cf.rate_clause(arrivals(), LIM).passed
-    assert not cf.rate_clause(arrivals(period=DT * 1.01), LIM).passed  # 99 Hz
-    assert cf.rate_clause(arrivals(period=DT * 1.01), Limits(timing_tolerance=4)).passed
-    late_end = arrivals()
-    late_end[-1] += 0.2  # one late message does not move a fitted rate much
-    assert cf.rate_clause(late_end, LIM).passed
+    assert cf.rate_clause(arrivals(), stamps(), LIM).passed
+    slow = cf.rate_clause(arrivals(period=DT * 1.01), stamps(), LIM)  # 99 Hz, stamps 10 ms apart
+    assert not slow.passed and slow.figure.startswith("99.0")
+    assert cf.rate_clause(arrivals(period=DT * 1.01), stamps(), Limits(timing_tolerance=4)).passed
+    assert not cf.rate_clause(arrivals(period=DT * 1.25), stamps(), Limits(timing_tolerance=10)).passed
+
+
+def test_rate_is_not_fooled_by_a_stall_and_its_catch_up() -> None:
+    t = arrivals()
+    t[100:150] = t[150]  # 0.5 s without a row, then 50 rows at once (the deadline pacer's burst)
+    t[-1] += 0.2  # and the very last row late
+    fig = cf.rate_clause(t, stamps(), LIM)
+    assert fig.passed, fig.figure
 
 
 def test_stamps_period_monotonicity_and_gaps() -> None:
@@ -144,6 +155,15 @@ def test_effort_that_never_reaches_or_exceeds_the_limit_fails() -> None:
     spike[12] = 11.0
     over = cf.step_response(spike, 10, 0.0, 3.0, LIM)
     assert "exceeds the limit" in cf.effort_step_clause(over, 3.0, LIM).figure
+
+
+def test_a_stall_before_the_effort_moves_is_a_timing_matter_a_slow_rise_is_not() -> None:
+    u = np.r_[np.zeros(10), np.full(130, 3.0)]
+    stalled = cf.step_response(lag(u, 0.0, delay=60), 10, 0.0, 3.0, LIM)  # 0.6 s of dead time
+    assert not cf.effort_step_clause(stalled, 3.0, LIM).passed
+    assert cf.effort_step_clause(stalled, 3.0, Limits(timing_tolerance=2)).passed
+    slow = cf.step_response(lag(u, 0.3), 10, 0.0, 3.0, LIM)
+    assert not cf.effort_step_clause(slow, 3.0, Limits(timing_tolerance=10)).passed
 
 
 def test_saturation() -> None:
