@@ -320,7 +320,7 @@ def position_clause(js_x: FloatArray, pos: FloatArray, limits: Limits, resets: i
         fig += " (the sample at the reset excluded)"
     if al.max_diff > limits.position_tolerance:
         return Clause("position", False, fig + f" (limit {limits.position_tolerance:g} m)")
-    if abs(len(js_x) - len(pos)) > 50:
+    if abs(len(js_x) - len(pos)) > max(50, 0.1 * len(js_x)):
         return Clause("position", False,
                       fig + f", but {len(pos)} position vs {len(js_x)} joint_states messages")
     return Clause("position", True, fig)

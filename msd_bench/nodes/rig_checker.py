@@ -134,10 +134,8 @@ class RigChecker:
         self.node.create_subscription(msg_class(CLOCK), CLOCK.name, self._clock, profile(CLOCK, CLOCK.name))
         self.force = self.node.create_publisher(Float64, self.topic[FORCE.name], qos(FORCE))
         self.reset = self.node.create_publisher(Empty, self.topic[RESET.name], qos(RESET))
-        wanted = [(s, self.node.count_publishers(s.topic_name) > 0) for s in subs]
-        self.spin_until(lambda: self.force.get_subscription_count() > 0
-                        and all(s.get_publisher_count() > 0 for s, has in wanted if has),
-                        self.script.discovery_timeout)
+        self.spin_until(lambda: self.force.get_subscription_count() > 0  # both telemetry streams matched
+                        and all(s.get_publisher_count() > 0 for s in subs), self.script.discovery_timeout)
         self.spin_for(0.1)
 
     def _row(self, msg: Any) -> None:
@@ -259,12 +257,15 @@ class RigChecker:
     def _settled(self, hold: float, rows: int) -> int:
         """:meth:`_rows`, then hold on until the last 5 efforts agree within 0.5 % of F (at most 3 s
         more, times the timing tolerance): a stalled node or checker must not cut a phase short."""
+        before = self.rec.effort[-1] if self.rec.effort else 0.0
         first = self._rows(hold, rows)
         band = 0.005 * self.limits.force_limit
+        change = 0.02 * self.limits.force_limit
 
-        def steady() -> bool:
+        def steady() -> bool:  # and, if the command changed, the effort has moved (not stuck before it)
             tail = self.rec.effort[-5:]
-            return len(self.rec.effort) >= first + 5 and max(tail) - min(tail) <= band
+            moved = abs(hold - before) <= change or abs(tail[-1] - before) > change
+            return len(self.rec.effort) >= first + 5 and max(tail) - min(tail) <= band and moved
         self.spin_until(steady, 3.0 * self.limits.timing_tolerance)
         return first
 
