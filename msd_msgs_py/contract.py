@@ -8,6 +8,7 @@ one absolute topic. Bag tooling imports this module without ROS installed.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 
@@ -35,6 +36,19 @@ class TopicSpec:
 
 PLANT_NAMESPACE = "/msd"
 """Namespace of the emulated plant (and of a real rig that replaces it)."""
+
+SURROGATE_ROOT = "/surrogate"
+"""Parent namespace of every surrogate node."""
+
+
+def surrogate_namespace(name: str) -> str:
+    """``/surrogate/<name>`` with ``name`` made a valid ROS namespace token.
+
+    A model kind name such as ``nlarx-paper`` is not one (rcl refuses
+    ``-r __ns:=/surrogate/nlarx-paper``): it becomes ``nlarx_paper``.
+    """
+    token = re.sub(r"\W", "_", name).strip("_") or "model"
+    return f"{SURROGATE_ROOT}/{'m_' + token if token[0].isdigit() else token}"
 
 JOINT_NAME = "msd_slider"
 """The one joint name in ``joint_states``."""

@@ -36,7 +36,7 @@ from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.registry import needs_bias_records
 from msd_bench.graph.launch import NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, paper_plan, record_experiments
-from msd_msgs_py.contract import PLANT_NAMESPACE
+from msd_msgs_py.contract import PLANT_NAMESPACE, surrogate_namespace
 
 STAGES = ("record", "identify", "agents", "report")
 
@@ -201,17 +201,25 @@ def agent_args(cfg: BenchConfig, kind: str) -> list[str]:
     args += ["-p", f"model_path:={cfg.run_dir / 'models' / (model + '.json')}",
              "-p", f"episodes:={run.episodes}"]
     if cfg.via_ros and k.surrogate != PLANT:
-        args += ["-p", "via_ros:=true", "-p", f"surrogate_ns:=/surrogate/{k.surrogate}"]
+        args += ["-p", "via_ros:=true", "-p", f"surrogate_ns:={surrogate_namespace(k.surrogate)}"]
     return args
+
+
+def surrogate_args(cfg: BenchConfig, name: str) -> list[str]:
+    """ROS arguments of the surrogate process serving model ``name`` for ``--via-ros`` training.
+
+    Lock-step beside the lock-step plant; it leaves ``/clock`` to the plant
+    (``publish_clock`` defaults to false for surrogates): one owner of sim time.
+    """
+    return ["-p", f"model_path:={cfg.run_dir / 'models' / (name + '.json')}",
+            "-p", "lockstep:=true", "-r", f"__ns:={surrogate_namespace(name)}"]
 
 
 def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[int, int, str], None]) -> None:
     """One agent process per kind, one after another (they share the plant)."""
     if cfg.via_ros:
         for name in cfg.run.surrogates_needed():
-            p = procs.start("surrogate.py", ["-p", f"model_path:={cfg.run_dir / 'models' / (name + '.json')}",
-                                              "-p", "lockstep:=true", "-r", f"__ns:=/surrogate/{name}"],
-                            name=f"surrogate-{name}")
+            p = procs.start("surrogate.py", surrogate_args(cfg, name), name=f"surrogate-{name}")
             p.wait_for_line(r"ready \(", timeout=60.0)
     agents = cfg.run.agents
     for i, kind in enumerate(agents):

@@ -11,7 +11,9 @@ Sample alignment (both modes). Each step k the node
 3. publishes ``joint_states`` row k: stamp ``t_k``, position ``x_k``, velocity
    ``v_k`` and effort ``u_k`` — the force actually applied over [t_k, t_k+1),
    so a bag row is exactly ``plant.simulate``'s ``(x[k], v[k], u_applied[k])``
-   — and, in lock-step only, ``/clock`` = ``(k+1)·dt``.
+   — and, in lock-step only, ``/clock`` = ``(k+1)·dt`` if the node owns
+   the clock (``publish_clock``: true for the emulated plant, false by default
+   for a surrogate, so a graph has one /clock publisher).
 
 Real-time: a 100 Hz steady-clock timer runs the step with the latest command
 (zero-order hold) against absolute deadlines (:class:`DeadlinePacer`: a stall
@@ -97,7 +99,11 @@ class PlantNodeConfig:
     """How a plant-like node runs (not what it simulates)."""
 
     lockstep: bool = False
-    """Advance one step per received command and publish /clock, instead of a 100 Hz timer."""
+    """Advance one step per received command (and publish /clock if ``publish_clock``), instead of a
+    100 Hz timer."""
+    publish_clock: bool = True
+    """Lock-step only: publish sim time on /clock. One node of a graph owns /clock: the emulated plant
+    by default; surrogate nodes default to false (two publishers would make sim time jump)."""
     watchdog_timeout: float = field(default=0.5, metadata={"range": (0.001, 60.0)})
     """Real-time only: seconds without a command after which the applied force drops to 0 N."""
     duplicate_check: float = field(default=4.0, metadata={"range": (0.0, 30.0)})
@@ -189,10 +195,15 @@ class PlantNode(Node):
         config: PlantNodeConfig | None = None,
         node_name: str = "plant",
         namespace: str = PLANT_NAMESPACE,
+        clock_owner: bool = True,
         **node_kwargs: Any,
     ) -> None:
-        """``spec`` is a :class:`ModelSpec` or a callable ``(node) -> ModelSpec`` reading parameters."""
+        """``spec`` is a :class:`ModelSpec` or a callable ``(node) -> ModelSpec`` reading parameters.
+
+        ``clock_owner``: the default of ``publish_clock`` (the plant owns sim time, a surrogate not).
+        """
         super().__init__(node_name, namespace=namespace, **node_kwargs)
+        self._clock_owner = clock_owner
         self.config = config or self._declare_config()
         self.spec: ModelSpec = spec if isinstance(spec, ModelSpec) else spec(self)
         self._is_plant = self.spec.model.kind == kernels.KIND_PLANT
@@ -209,7 +220,8 @@ class PlantNode(Node):
         )
         self._pub_x = self.create_publisher(Float64, POSITION.name, qos(POSITION))
         self._pub_clock: Publisher[Any] | None = (
-            self.create_publisher(msg_class(CLOCK), CLOCK.name, qos(CLOCK)) if self.config.lockstep else None
+            self.create_publisher(msg_class(CLOCK), CLOCK.name, qos(CLOCK))
+            if self.config.lockstep and self.config.publish_clock else None
         )
         self._init_sensor()
         self.create_subscription(Float64, FORCE.name, self._on_force, qos(FORCE))
@@ -234,7 +246,8 @@ class PlantNode(Node):
 
     def _declare_config(self) -> PlantNodeConfig:
         """Declare the node's own parameters and return how it runs."""
-        return declare_from_dataclass(self, PlantNodeConfig)
+        defaults = PlantNodeConfig(publish_clock=self._clock_owner)  # a surrogate leaves /clock to the plant
+        return declare_from_dataclass(self, PlantNodeConfig, defaults=defaults)
 
     def _init_sensor(self) -> None:
         """The sensor, its generator and velocity estimator, and the truth topic (only with a sensor)."""

@@ -9,11 +9,14 @@ The namespace defaults to ``/surrogate/<model name>`` (``-r __ns:=...``
 overrides it). The name is in the artifact, which is only known once the
 parameters are read, so :func:`build_surrogate` reads them first with a
 short-lived loader node and then builds the real one.
+
+A surrogate does not publish ``/clock`` unless asked (``-p publish_clock:=true``):
+in a ``--via-ros`` graph the plant and every surrogate run in lock-step side
+by side, and only one node may own sim time (the plant).
 """
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,9 +29,7 @@ from msd_bench.core.model import StepModel
 from msd_bench.io.artifacts import load_model
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_bench.nodes.plant_node import ModelSpec, PlantNode
-
-SURROGATE_ROOT = "/surrogate"
-"""Parent namespace of every surrogate."""
+from msd_msgs_py.contract import surrogate_namespace as namespace_for
 
 
 @dataclass(frozen=True)
@@ -58,9 +59,8 @@ def declare_surrogate(node: Node) -> ModelSpec:
 
 
 def surrogate_namespace(model: StepModel) -> str:
-    """``/surrogate/<name>``, the name made a valid ROS token (kind name if the model has none)."""
-    name = re.sub(r"\W", "_", model.name or kernels.KIND_NAMES[model.kind]).strip("_") or "model"
-    return f"{SURROGATE_ROOT}/{'m_' + name if name[0].isdigit() else name}"
+    """``/surrogate/<name>`` (:func:`msd_msgs_py.contract.surrogate_namespace`; the kind if unnamed)."""
+    return namespace_for(model.name or kernels.KIND_NAMES[model.kind])
 
 
 def build_surrogate(*, namespace: str | None = None, **node_kwargs: Any) -> PlantNode:
@@ -75,4 +75,5 @@ def build_surrogate(*, namespace: str | None = None, **node_kwargs: Any) -> Plan
             namespace = surrogate_namespace(declare_surrogate(loader).model)
         finally:
             loader.destroy_node()
-    return PlantNode(declare_surrogate, node_name="surrogate", namespace=namespace, **node_kwargs)
+    return PlantNode(declare_surrogate, node_name="surrogate", namespace=namespace, clock_owner=False,
+                     **node_kwargs)

@@ -6,15 +6,20 @@ import numpy as np
 import pytest
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.validate_namespace import validate_namespace
 from std_msgs.msg import Float64
 
+from msd_bench.app.agents import agent_kind
+from msd_bench.app.config import RunConfig
 from msd_bench.core import kernels
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.model import StepModel
 from msd_bench.graph import launch
+from msd_bench.graph.bench import BenchConfig, agent_args, surrogate_args
 from msd_bench.io.artifacts import ArtifactError, Provenance, load_model, save_model
 from msd_bench.nodes.surrogate_node import build_surrogate, surrogate_namespace
-from msd_msgs_py.contract import FORCE, JOINT_STATES, POSITION
+from msd_msgs_py.contract import CLOCK, FORCE, JOINT_STATES, POSITION
+from msd_msgs_py.contract import surrogate_namespace as surrogate_namespace_for
 from msd_msgs_py.ros import float64, msg_class, qos
 from tests.nodes.conftest import spin_until
 
@@ -80,3 +85,33 @@ def test_launch_script_exits_with_one_line_on_a_missing_artifact(tmp_path):
     proc = launch.start("surrogate.py", ["-p", f"model_path:={tmp_path / 'nope.json'}"])
     assert proc.wait(20.0) == 2
     assert [ln for ln in proc.lines if ln.strip()] == [f"error: {tmp_path / 'nope.json'}: no such artifact"]
+
+
+@pytest.mark.parametrize(("extra", "owns"), [({}, False), ({"publish_clock": True}, True)])
+def test_a_lockstep_surrogate_leaves_clock_to_the_plant_unless_asked(ctx, executor, tmp_path, extra, owns):
+    """One /clock owner per graph: the plant publishes sim time, a surrogate beside it does not."""
+    path = save_model(GLM, tmp_path / "glm.json", Provenance(seed=3))
+    node = build_surrogate(context=ctx, parameter_overrides=_overrides(path, **extra))
+    executor.add_node(node)
+    client = Node("client", namespace=node.get_namespace(), context=ctx)
+    executor.add_node(client)
+    pub = client.create_publisher(Float64, FORCE.name, qos(FORCE))
+    rows: list = []
+    client.create_subscription(msg_class(JOINT_STATES), JOINT_STATES.name, rows.append, qos(JOINT_STATES))
+    assert spin_until(executor, lambda: pub.get_subscription_count() > 0)
+    pub.publish(float64(1.0))
+    assert spin_until(executor, lambda: len(rows) == 1)  # it steps in lock-step all the same
+    assert node.get_parameter("publish_clock").value is owns
+    owners = [i.node_name for i in client.get_publishers_info_by_topic(CLOCK.name)]
+    assert owners == (["surrogate"] if owns else [])
+
+
+@pytest.mark.parametrize("kind", ["glm", "nlarx-paper", "nlarx-improved+robust"])
+def test_via_ros_surrogate_and_agent_agree_on_a_valid_namespace(tmp_path, kind):
+    """bench.py --via-ros starts the surrogate and points the agent at it: one valid namespace for both
+    (``/surrogate/nlarx-paper`` is not one: rcl refuses to start on it)."""
+    cfg = BenchConfig(tmp_path, RunConfig(agents=(kind,)), via_ros=True)
+    model = agent_kind(kind).surrogate
+    ns = next(a.split(":=")[1] for a in surrogate_args(cfg, model) if a.startswith("__ns:="))
+    assert validate_namespace(ns) and ns == surrogate_namespace_for(model)
+    assert f"surrogate_ns:={ns}" in agent_args(cfg, kind)

@@ -1,0 +1,139 @@
+"""``check-rig NS``: does the plant-like node under NS keep the topic contract? (docs/check-rig.md)
+
+    msd-bench check-rig /rig
+    msd-bench check-rig /msd --seconds 20 --watchdog-timeout 0.5
+
+Drives the node through a short, safe script (small forces, one brief
+over-limit command) and prints one line per clause, PASS or FAIL with the
+measured figure. Exit status 0 only if every clause passes, 1 otherwise,
+2 on a usage mistake.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import rclpy
+
+from msd_bench.core.conformance import Clause, Limits
+from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.plant import DT, PlantParams
+from msd_bench.io.paths import writable_dir
+from msd_bench.nodes.spin import ros_session
+
+
+class CheckRigError(MsdBenchError):
+    """A check-rig option is out of its range."""
+
+
+def register(subparsers: Any) -> None:
+    """Add ``check-rig`` to an argparse subparsers object."""
+    p = subparsers.add_parser("check-rig", help="check that a plant-like node keeps the topic contract",
+                              description=__doc__.splitlines()[0])
+    p.add_argument("namespace", help="namespace of the plant-like node, e.g. /rig or /msd")
+    p.add_argument("--seconds", type=float, default=10.0,
+                   help="real time: least telemetry the timing clauses see, s (the script itself takes ~4 s)")
+    p.add_argument("--watchdog-timeout", type=float, default=0.5,
+                   help="the node's declared watchdog timeout, s (real time)")
+    p.add_argument("--force-limit", type=float, default=PlantParams().F, help="the node's force limit F, N")
+    p.add_argument("--dt", type=float, default=DT, help="the node's sample period, s")
+    p.add_argument("--p99-limit", type=float, default=0.025, help="limit of the inter-arrival p99, s")
+    p.add_argument("--timing-tolerance", type=float, default=1.0,
+                   help="factor on the timing limits (rate, gaps, p99, watchdog slack); > 1 on a loaded "
+                        "machine")
+    p.add_argument("--position-tolerance", type=float, default=1e-9,
+                   help="largest |position - joint_states.position| of one sample, m")
+    p.add_argument("--rest-tolerance", type=float, default=0.01,
+                   help="how close to the origin a real-time reset must bring the measured position, m")
+    p.add_argument("--step-fraction", type=float, default=0.3, help="the step command as a fraction of F")
+    p.add_argument("--discovery-timeout", type=float, default=5.0, help="wait for the node's endpoints, s")
+    p.add_argument("--json", type=Path, metavar="PATH",
+                   help="also write the clauses, the command, commit and machine to PATH (JSON)")
+    p.set_defaults(func=run)
+
+
+def _check(args: argparse.Namespace) -> None:
+    positive = ("watchdog_timeout", "force_limit", "dt", "p99_limit", "timing_tolerance", "discovery_timeout")
+    for name in positive:
+        value = getattr(args, name)
+        if not (math.isfinite(value) and value > 0):
+            raise CheckRigError(f"--{name.replace('_', '-')} must be finite and > 0, got {value}")
+    for name in ("seconds", "position_tolerance", "rest_tolerance"):
+        value = getattr(args, name)
+        if not (math.isfinite(value) and value >= 0):
+            raise CheckRigError(f"--{name.replace('_', '-')} must be finite and >= 0, got {value}")
+    if not 0 < args.step_fraction <= 0.5:
+        raise CheckRigError(f"--step-fraction must be in (0, 0.5], got {args.step_fraction}")
+    if not args.namespace.startswith("/"):
+        raise CheckRigError(f"namespace must be absolute (start with /), got {args.namespace!r}")
+
+
+def limits_from_args(args: argparse.Namespace) -> Limits:
+    """The clause limits the options ask for."""
+    return Limits(dt=args.dt, p99_limit=args.p99_limit, timing_tolerance=args.timing_tolerance,
+                  force_limit=args.force_limit, watchdog_timeout=args.watchdog_timeout,
+                  position_tolerance=args.position_tolerance, rest_tolerance=args.rest_tolerance)
+
+
+def check(args: argparse.Namespace, context: rclpy.context.Context | None = None) -> list[Clause]:
+    """Run the check on ``context`` (an initialised one; the default context if None)."""
+    from msd_bench.nodes.rig_checker import RigChecker, Script
+
+    _check(args)
+    script = Script(step_fraction=args.step_fraction, seconds=args.seconds,
+                    discovery_timeout=args.discovery_timeout)
+    node = rclpy.create_node("msd_bench_check_rig", context=context, start_parameter_services=False)
+    try:
+        return RigChecker(node, args.namespace, limits_from_args(args), script).run()
+    finally:
+        node.destroy_node()
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print one line per clause (and write them to ``--json``); 0 if all pass."""
+    _check(args)
+    if args.json is not None:
+        writable_dir(args.json.parent.absolute(), "--json directory")
+    with ros_session([]):
+        clauses = check(args)
+    for c in clauses:
+        print(c.line(), flush=True)
+    if args.json is not None:
+        args.json.write_text(json.dumps(report(args, clauses), indent=1) + "\n")
+    return 0 if all(c.passed for c in clauses) else 1
+
+
+def report(args: argparse.Namespace, clauses: list[Clause]) -> dict[str, Any]:
+    """The check as a results document: what ran where, and every clause."""
+    argv = ["msd-bench", "check-rig", *sys.argv[2:]] if sys.argv[1:2] == ["check-rig"] else []
+    return {
+        "namespace": args.namespace,
+        "passed": all(c.passed for c in clauses),
+        "clauses": [{"name": c.name, "passed": c.passed, "figure": c.figure} for c in clauses],
+        "command": " ".join(argv) or f"msd-bench check-rig {args.namespace}",
+        "commit": _commit(),
+        "machine": f"{platform.node()} ({os.cpu_count()} cores, {platform.platform()})",
+        "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+    }
+
+
+def _commit() -> str | None:
+    """The repository's commit (``+dirty`` with uncommitted changes), None outside a checkout."""
+    repo = Path(__file__).resolve().parents[2]
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=repo, capture_output=True,
+                              text=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=repo,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head + ("+dirty" if dirty else "")
