@@ -9,12 +9,14 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Empty, Float64, String
+from std_msgs.msg import Empty, Float64, Float64MultiArray, String
 
 from msd_msgs_py.contract import JOINT_NAME, TopicSpec
+from msd_msgs_py.interface import MSD, PlantInterface
 
 MESSAGE_CLASSES = {
     "std_msgs/msg/Float64": Float64,
+    "std_msgs/msg/Float64MultiArray": Float64MultiArray,
     "std_msgs/msg/String": String,
     "std_msgs/msg/Empty": Empty,
     "sensor_msgs/msg/JointState": JointState,
@@ -65,4 +67,30 @@ def clock(stamp_ns: int) -> Clock:
     """A ``rosgraph_msgs/Clock`` at ``stamp_ns``."""
     msg = Clock()
     nanoseconds_to_stamp(stamp_ns, msg.clock)
+    return msg
+
+
+def command(iface: PlantInterface, u: float) -> Float64 | Float64MultiArray:
+    """The command that asks ``iface``'s plant for force ``u`` on our joint (others get 0.0)."""
+    if iface.kind == MSD:
+        return float64(u)
+    return Float64MultiArray(data=iface.command_values(u))
+
+
+def command_force(iface: PlantInterface, msg: Float64 | Float64MultiArray) -> float | None:
+    """Our joint's force in a received command; None when the controller would ignore it (wrong length)."""
+    if isinstance(msg, Float64):
+        return float(msg.data)
+    return iface.command_force(list(msg.data))
+
+
+def joint_states(stamp_ns: int, names: list[str], x: list[float], v: list[float],
+                 effort: list[float]) -> JointState:
+    """A stamped multi-joint JointState (a joint state broadcaster's message)."""
+    msg = JointState()
+    nanoseconds_to_stamp(stamp_ns, msg.header.stamp)
+    msg.name = list(names)
+    msg.position = [float(a) for a in x]
+    msg.velocity = [float(a) for a in v]
+    msg.effort = [float(a) for a in effort]
     return msg

@@ -20,3 +20,11 @@ class ConfigError(MsdBenchError):
 
 class IdentificationError(MsdBenchError):
     """A model could not be fitted from the records given."""
+
+
+class InterfaceError(MsdBenchError):
+    """A plant interface description is inconsistent, or a message does not fit it.
+
+    Raised by the wire layer (``msd_msgs_py/interface.py``): this module imports
+    nothing, so the lowest layer can still raise the project's one error family.
+    """

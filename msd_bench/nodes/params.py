@@ -167,13 +167,16 @@ def declare_from_dataclass(
         default = getattr(defaults, f.name) if defaults is not None else _default(f)
         desc = _descriptor(name, docs.get(f.name, ""), ptype, _bounds(cls, f, ranges))
         empty = _coerce_overrides(node, name, ptype)
+        initial = _to_ros(default, ptype, is_seq)
+        if is_seq and not initial:
+            initial = ptype  # rclpy would type a bare [] as a byte array and refuse every override
         try:
-            value = node.declare_parameter(name, _to_ros(default, ptype, is_seq), desc).value
+            value = node.declare_parameter(name, initial, desc).value
         except InvalidParameterValueException as exc:
             raise ConfigError(f"parameter {name}: {_range_text(exc)}") from None
         except ParameterException as exc:
             raise ConfigError(f"parameter {name}: {_one_line(exc)}") from None
-        value = [] if empty else value
+        value = [] if empty or value is None else value
         _check_finite(name, value)
         values[f.name] = tuple(elem(v) for v in value) if is_seq else value
     try:

@@ -1,0 +1,294 @@
+"""Plant interfaces: which face a plant-like node shows on the wire (docs/ros2-control.md §Face).
+
+The bench speaks to a plant through one of two faces, chosen once per run and
+handed to every node that talks to the plant (as ROS parameters, :func:`ros_args`):
+
+* ``msd`` — the project's own contract (:mod:`msd_msgs_py.contract`): ``force``
+  (``std_msgs/Float64``), ``joint_states`` with one joint ``msd_slider`` whose
+  effort is the force held over the next sample, ``position``, ``reset``;
+* ``ros2_control`` — what a forward effort controller and a joint state broadcaster
+  show: commands on ``<controller>/commands`` (``std_msgs/Float64MultiArray``, one
+  value per joint in the controller's ``joints`` order), ``joint_states`` with any
+  number of joints in any order, effort as the hardware measures it, no
+  ``position`` and no ``reset``.
+
+Why a description and not a second code path: every part (recorder, excitation,
+identifier, agents, check-rig, the Gymnasium backend) asks the same object for its
+topic names and for the two conversions that differ — building a command for our
+joint, and picking our joint out of a ``JointState`` — so a new face is one more
+description here. Pure Python (bag tooling imports it without ROS); the rclpy
+message builders are in :mod:`msd_msgs_py.ros`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from msd_bench.core.errors import InterfaceError
+from msd_msgs_py.contract import FORCE, JOINT_NAME, JOINT_STATES, POSITION, RESET, TopicSpec
+
+MSD = "msd"
+"""The project's own contract."""
+ROS2_CONTROL = "ros2_control"
+"""A forward effort controller plus a joint state broadcaster."""
+INTERFACE_KINDS = (MSD, ROS2_CONTROL)
+
+COMMANDED = "commanded"
+"""``effort`` is the force the node applies over the next sample (our contract)."""
+MEASURED = "measured"
+"""``effort`` is what the actuator reports: lagged, noisy; the input is rebuilt from the commands."""
+EFFORT_KINDS = (COMMANDED, MEASURED)
+
+DEFAULT_CONTROLLER = "effort_controller"
+"""Controller name of the ros2_control face when none is given."""
+DEFAULT_ROS2_CONTROL_JOINT = "slider_to_cart"
+"""Our joint's name on the ros2_control face when none is given."""
+COMMANDS_TYPE = "std_msgs/msg/Float64MultiArray"
+"""Message type of a forward command controller's ``commands`` topic."""
+
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*")
+"""A relative ROS name: what a controller name may be (``effort_controller``, ``arm/effort``)."""
+_JOINT = re.compile(r"[^\s,\[\]'\"]+")
+"""A joint name: anything URDF allows that survives a comma list and a ``-p name:=[a,b]``."""
+
+
+@dataclass(frozen=True)
+class InterfaceParams:
+    """The interface as ROS parameters (one per field; empty means the face's default)."""
+
+    interface: str = MSD
+    """Face of the plant-like node: ``msd`` (our contract) or ``ros2_control``."""
+    controller: str = ""
+    """ros2_control: the forward effort controller; commands go to ``<controller>/commands``
+    (default ``effort_controller``)."""
+    joint: str = ""
+    """Our joint's name in ``joint_states`` (default ``msd_slider``; ``slider_to_cart`` for
+    ros2_control)."""
+    controller_joints: tuple[str, ...] = ()
+    """ros2_control: the controller's ``joints`` list, which fixes the order of the command
+    vector (default: just ``joint``)."""
+    effort: str = ""
+    """What ``effort`` in joint_states is: ``commanded`` (held over the next sample; default for msd)
+    or ``measured`` (the actuator's report; default for ros2_control)."""
+
+    def resolve(self) -> PlantInterface:
+        """The complete description, defaults filled in (one-line InterfaceError if inconsistent)."""
+        kind = self.interface
+        if kind not in INTERFACE_KINDS:
+            raise InterfaceError(f"interface must be one of {', '.join(INTERFACE_KINDS)}, got {kind!r}")
+        if kind == MSD and (self.controller or self.controller_joints):
+            raise InterfaceError("controller and controller_joints are ros2_control options; "
+                                 "give --interface ros2_control too")
+        r2c = kind == ROS2_CONTROL
+        joint = self.joint or (DEFAULT_ROS2_CONTROL_JOINT if r2c else JOINT_NAME)
+        return PlantInterface(
+            kind=kind,
+            joint=joint,
+            controller=(self.controller or DEFAULT_CONTROLLER) if r2c else "",
+            controller_joints=tuple(self.controller_joints) or ((joint,) if r2c else ()),
+            effort=self.effort or (MEASURED if r2c else COMMANDED),
+        )
+
+
+@dataclass(frozen=True)
+class JointSample:
+    """Our joint's entry in one JointState; NaN where the message carries no value."""
+
+    position: float
+    velocity: float
+    effort: float
+
+
+@dataclass(frozen=True)
+class PlantInterface:
+    """One face of a plant-like node, complete (build it with :class:`InterfaceParams` or :func:`make`)."""
+
+    kind: str
+    """``msd`` or ``ros2_control``."""
+    joint: str
+    """Our joint's name in joint_states."""
+    controller: str = ""
+    """ros2_control: the forward effort controller's name ("" for msd)."""
+    controller_joints: tuple[str, ...] = field(default=())
+    """ros2_control: order of the command vector (our joint among them); () for msd."""
+    effort: str = COMMANDED
+    """``commanded`` or ``measured`` (see :data:`EFFORT_KINDS`)."""
+
+    def __post_init__(self) -> None:
+        if self.kind not in INTERFACE_KINDS:
+            raise InterfaceError(f"interface must be one of {', '.join(INTERFACE_KINDS)}, got {self.kind!r}")
+        if self.effort not in EFFORT_KINDS:
+            raise InterfaceError(f"effort must be one of {', '.join(EFFORT_KINDS)}, got {self.effort!r}")
+        for name in (self.joint, *self.controller_joints):
+            if not _JOINT.fullmatch(name):
+                raise InterfaceError(f"joint name {name!r} is empty or holds a space, comma, bracket "
+                                     "or quote")
+        if self.kind == MSD:
+            if self.controller or self.controller_joints:
+                raise InterfaceError("the msd interface has no controller; use --interface ros2_control")
+            return
+        if not _NAME.fullmatch(self.controller):
+            raise InterfaceError(f"controller {self.controller!r} is not a relative ROS name "
+                                 "(letters, digits, _ and /, e.g. effort_controller)")
+        if len(set(self.controller_joints)) != len(self.controller_joints):
+            raise InterfaceError(f"controller joints {list(self.controller_joints)} name a joint twice")
+        if self.joint not in self.controller_joints:
+            raise InterfaceError(f"joint {self.joint!r} is not among the controller joints "
+                                 f"{list(self.controller_joints)}")
+
+    # --- topics -----------------------------------------------------------------------------
+
+    @property
+    def command(self) -> TopicSpec:
+        """The command topic: ``force`` (msd) or ``<controller>/commands`` (ros2_control)."""
+        if self.kind == MSD:
+            return FORCE
+        return TopicSpec(f"{self.controller}/commands", COMMANDS_TYPE, FORCE.depth,
+                         f"effort commands of {self.controller}, N, one per joint in "
+                         f"{list(self.controller_joints)} order")
+
+    @property
+    def state(self) -> TopicSpec:
+        """The joint-state topic (``joint_states`` on both faces)."""
+        return JOINT_STATES
+
+    @property
+    def position(self) -> TopicSpec | None:
+        """The ``position`` topic, or None on a face without it."""
+        return POSITION if self.kind == MSD else None
+
+    @property
+    def reset(self) -> TopicSpec | None:
+        """The ``reset`` topic, or None on a face without it (ros2_control cannot teleport)."""
+        return RESET if self.kind == MSD else None
+
+    @property
+    def effort_is_commanded(self) -> bool:
+        """True when the state's effort is the held command, i.e. an identification input as is."""
+        return self.effort == COMMANDED
+
+    # --- conversions ------------------------------------------------------------------------
+
+    @property
+    def joint_index(self) -> int:
+        """Our joint's slot in the command vector (0 for msd's scalar)."""
+        return self.controller_joints.index(self.joint) if self.controller_joints else 0
+
+    def command_values(self, u: float) -> list[float]:
+        """The command's payload for force ``u`` on our joint: ``[u]`` or one value per controller joint.
+
+        Other joints get 0.0: the bench drives one joint and must not push the others.
+        """
+        if self.kind == MSD:
+            return [float(u)]
+        values = [0.0] * len(self.controller_joints)
+        values[self.joint_index] = float(u)
+        return values
+
+    def command_force(self, values: Sequence[float]) -> float | None:
+        """Our joint's force in a command payload; None when the controller would ignore it.
+
+        A forward command controller drops a command whose length differs from its
+        joint count (it logs an error and keeps the last one), so such a command
+        changes nothing the rig applies.
+        """
+        expected = len(self.controller_joints) if self.kind == ROS2_CONTROL else 1
+        if len(values) != expected:
+            return None
+        return float(values[self.joint_index])
+
+    def pick(self, names: Sequence[str], position: Sequence[float], velocity: Sequence[float],
+             effort: Sequence[float]) -> JointSample:
+        """Our joint's position, velocity and effort in one JointState's arrays.
+
+        Picked by name. A single-joint message on the msd face is ours whatever its
+        name (rigs recorded before joint names mattered). Missing velocity or
+        effort arrays (allowed by JointState) give NaN; a missing position is an error.
+        """
+        names = list(names)
+        if self.joint in names:
+            idx = names.index(self.joint)
+        elif self.kind == MSD and len(names) <= 1:
+            idx = 0
+        else:
+            raise InterfaceError(f"joint {self.joint!r} is not in joint_states (has {names or 'no names'})")
+        if len(position) <= idx:
+            raise InterfaceError(f"joint_states carries no position for joint {self.joint!r}")
+
+        def entry(values: Sequence[float]) -> float:
+            return float(values[idx]) if len(values) > idx else math.nan
+
+        return JointSample(float(position[idx]), entry(velocity), entry(effort))
+
+    # --- how it travels ---------------------------------------------------------------------
+
+    def params(self) -> InterfaceParams:
+        """The same description as ROS parameters (explicit values, no defaults left)."""
+        return InterfaceParams(self.kind, self.controller, self.joint, self.controller_joints, self.effort)
+
+    def ros_args(self) -> list[str]:
+        """``-p`` arguments that make a node's :func:`declare_interface` build this description."""
+        args = ["-p", f"interface:={self.kind}", "-p", f"joint:={self.joint}", "-p", f"effort:={self.effort}"]
+        if self.kind == ROS2_CONTROL:
+            args += ["-p", f"controller:={self.controller}",
+                     "-p", f"controller_joints:=[{','.join(self.controller_joints)}]"]
+        return args
+
+    def cli_args(self) -> list[str]:
+        """Command-line options that rebuild this description (:func:`from_cli`)."""
+        args = ["--interface", self.kind, "--joint", self.joint, "--effort", self.effort]
+        if self.kind == ROS2_CONTROL:
+            args += ["--controller", self.controller, "--controller-joints", ",".join(self.controller_joints)]
+        return args
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready description (stored with bags and identification results)."""
+        return {"interface": self.kind, "joint": self.joint, "controller": self.controller,
+                "controller_joints": list(self.controller_joints), "effort": self.effort,
+                "command_topic": self.command.name, "command_type": self.command.ros_type}
+
+    def describe(self, namespace: str) -> str:
+        """One line naming the face and its topics under ``namespace``."""
+        topics = f"commands {self.command.resolve(namespace)}, state {self.state.resolve(namespace)}"
+        return f"interface {self.kind} ({topics}; joint {self.joint}, effort {self.effort})"
+
+
+MSD_INTERFACE = PlantInterface(MSD, JOINT_NAME)
+"""Today's contract: the default of every node and command."""
+
+
+def make(interface: str = MSD, *, controller: str = "", joint: str = "",
+         controller_joints: Sequence[str] = (), effort: str = "") -> PlantInterface:
+    """The interface from loose values, defaults filled in (the CLI's and the tests' way in)."""
+    return InterfaceParams(interface, controller, joint, tuple(controller_joints), effort).resolve()
+
+
+def add_cli_options(parser: argparse.ArgumentParser) -> None:
+    """Add ``--interface``, ``--controller``, ``--joint``, ``--controller-joints``, ``--effort``."""
+    group = parser.add_argument_group("plant interface (docs/ros2-control.md)")
+    group.add_argument("--interface", default=MSD, help="face of the plant: msd (default) or ros2_control")
+    group.add_argument("--controller", default="",
+                       help=f"ros2_control: forward effort controller (default {DEFAULT_CONTROLLER})")
+    group.add_argument("--joint", default="",
+                       help=f"our joint in joint_states (default {JOINT_NAME}, "
+                            f"or {DEFAULT_ROS2_CONTROL_JOINT} for ros2_control)")
+    group.add_argument("--controller-joints", default="", metavar="A,B",
+                       help="ros2_control: the controller's joints in order (default: just --joint)")
+    group.add_argument("--effort", default="", choices=("", *EFFORT_KINDS),
+                       help="joint_states effort is the commanded force (msd default) "
+                            "or the measured one (ros2_control default)")
+
+
+def from_cli(args: argparse.Namespace) -> PlantInterface:
+    """The interface from options added by :func:`add_cli_options`."""
+    given = str(args.controller_joints)
+    joints = tuple(j.strip() for j in given.split(",")) if given else ()
+    if any(not j for j in joints):
+        raise InterfaceError(f"--controller-joints {args.controller_joints!r} has an empty name")
+    return make(args.interface, controller=args.controller, joint=args.joint,
+                controller_joints=joints, effort=args.effort)
