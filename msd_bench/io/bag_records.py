@@ -19,10 +19,12 @@ from msd_bench.core.data import Experiment, IOData
 from msd_bench.core.excitation import signal_from_params
 from msd_bench.core.plm import PLM_BIASES
 from msd_bench.core.records import Records
+from msd_bench.io.bag_interface import ForceSource, read_interface_experiment
 from msd_bench.io.bag_recover import RECOVERED_SUFFIX
 from msd_bench.io.bag_timing import DEFAULT_DT, IDENTIFY, READ
 from msd_bench.io.bags import missing_metadata, read_experiment
 from msd_bench.io.errors import BagError
+from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
 
 def align_to_played(exp: Experiment, params: Mapping[str, Any], force_limit: float = 10.0) -> Experiment:
@@ -123,7 +125,8 @@ def explicit_roles(bias_bags: Sequence[str], broad_bag: str, val_bag: str, settl
 
 
 def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/msd",
-                 dt: float = DEFAULT_DT) -> Records:
+                 dt: float = DEFAULT_DT, iface: PlantInterface = MSD_INTERFACE, force_limit: float = 10.0,
+                 sources: list[ForceSource] | None = None) -> Records:
     """Read every bag once and assemble the paper's records (one-line BagError if incomplete).
 
     The sample period comes from each bag's header stamps and must be the run's
@@ -132,10 +135,16 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
     — never resampled silently. A real-time bag is cut to the played samples by
     :func:`align_to_played`; its first sample need not be at rest at 0 (the fits
     estimate each record's initial state).
+
+    ``iface`` says how the bags' plant showed itself (docs/ros2-control.md §Force); the input
+    each bag gave is appended to ``sources`` when given.
     """
     data: dict[tuple[str, float | None], IOData] = {}
     for r in roles:
-        exp, _ = read_experiment(r.path, namespace, timing=replace(IDENTIFY, dt=dt))
+        exp, _, src = read_interface_experiment(r.path, iface, namespace, timing=replace(IDENTIFY, dt=dt),
+                                                force_limit=force_limit)
+        if sources is not None:
+            sources.append(src)
         if r.params is not None:
             exp = align_to_played(exp, r.params)
         if r.settle >= len(exp) - 3:

@@ -75,6 +75,7 @@ from msd_msgs_py.contract import (
     REFERENCE,
     TopicSpec,
 )
+from msd_msgs_py.interface import COMMANDS_TYPE, PlantInterface
 
 PARAMS_KEY = "msd_bench.params"
 """rosbag2 ``custom_data`` key holding the experiment parameters as JSON."""
@@ -509,4 +510,69 @@ def write_experiment(
                       qos[POSITION])
             rec.write(topics[2], f64_t, ns, store.serialize_cdr(types[f64_t](data=float(u[k])), f64_t),
                       qos[FORCE])
+    return Path(path)
+
+
+def write_interface_experiment(
+    path: str | Path,
+    t_ns: np.ndarray,
+    x: np.ndarray,
+    v: np.ndarray,
+    effort: np.ndarray,
+    *,
+    iface: PlantInterface,
+    command_ns: np.ndarray,
+    command_u: np.ndarray,
+    params: Mapping[str, Any],
+    namespace: str = PLANT_NAMESPACE,
+    other_joints: Sequence[str] = (),
+    state_log_ns: np.ndarray | None = None,
+    overwrite: bool = False,
+) -> Path:
+    """Write a recording as a rig with interface ``iface`` shows it: joint_states plus its commands.
+
+    ``joint_states`` row k (stamp ``t_ns[k]``, logged at ``state_log_ns[k]``,
+    default the stamp) lists ``other_joints`` first (position 0, velocity 0,
+    effort 0) and our joint last, with ``effort[k]`` as the rig reports it.
+    Command j asks for ``command_u[j]`` on our joint and is logged at
+    ``command_ns[j]``: a ``Float64MultiArray`` in the controller's joint order
+    (other joints 0.0) on ros2_control, a ``Float64`` on ``force`` for msd.
+    There is no ``position`` topic: that is what a ros2_control rig offers.
+    """
+    t_ns, x, v, effort = (np.asarray(a).ravel() for a in (t_ns, x, v, effort))
+    logs = t_ns if state_log_ns is None else np.asarray(state_log_ns).ravel()
+    command_ns, command_u = np.asarray(command_ns).ravel(), np.asarray(command_u).ravel()
+    if not (t_ns.size == x.size == v.size == effort.size == logs.size) or command_ns.size != command_u.size:
+        raise BagError(f"bag {path}: state arrays or command arrays differ in length")
+    store = typestore()
+    types = store.types
+    state_t, cmd = JOINT_STATES.ros_type, iface.command
+    names = [*other_joints, iface.joint]
+    pad = [0.0] * len(other_joints)
+    msgs: list[tuple[int, str, str, bytes | memoryview, TopicSpec]] = []
+    for k in range(t_ns.size):
+        ns = int(t_ns[k])
+        state = types[state_t](
+            header=types["std_msgs/msg/Header"](
+                stamp=types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9), frame_id=""),
+            name=names,
+            position=np.array([*pad, x[k]], dtype=np.float64),
+            velocity=np.array([*pad, v[k]], dtype=np.float64),
+            effort=np.array([*pad, effort[k]], dtype=np.float64),
+        )
+        msgs.append((int(logs[k]), iface.state.resolve(namespace), state_t,
+                     store.serialize_cdr(state, state_t), iface.state))
+    for j in range(command_ns.size):
+        values = iface.command_values(float(command_u[j]))
+        if cmd.ros_type == COMMANDS_TYPE:
+            layout = types["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
+            body = types[COMMANDS_TYPE](layout=layout, data=np.array(values, dtype=np.float64))
+        else:
+            body = types[cmd.ros_type](data=values[0])
+        msgs.append((int(command_ns[j]), cmd.resolve(namespace), cmd.ros_type,
+                     store.serialize_cdr(body, cmd.ros_type), cmd))
+    msgs.sort(key=lambda m: m[0])  # a bag is written in log-time order
+    with BagRecorder(path, params=params, overwrite=overwrite) as rec:
+        for log_ns, topic, ros_type, data, spec in msgs:
+            rec.write(topic, ros_type, log_ns, data, [contract_qos(spec)])
     return Path(path)

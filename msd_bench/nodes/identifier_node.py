@@ -24,11 +24,14 @@ from msd_bench.core.errors import ConfigError
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.registry import MODEL_KINDS, check_models, needs_bias_records
 from msd_bench.io import artifacts
+from msd_bench.io.bag_interface import ForceSource
 from msd_bench.io.bag_records import explicit_roles, load_records, roles_from_dir
 from msd_bench.io.paths import OutputError, writable_dir
 from msd_bench.io.run_output import write_models
+from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import PLANT_NAMESPACE
+from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
 
 @dataclass(frozen=True)
@@ -70,23 +73,34 @@ class IdentifierConfig:
         check_models(self.models)
 
 
-def identify_from_bags(cfg: IdentifierConfig) -> dict[str, Any]:
-    """Read, fit, write; return the fit reports (shared by the node and the tests)."""
+def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERFACE,
+                       sources: list[ForceSource] | None = None) -> dict[str, Any]:
+    """Read, fit, write; return the fit reports (shared by the node and the tests).
+
+    ``iface`` is the face the bags were recorded through; which force each bag gave as
+    input (its effort, or the commands rebuilt by log time) goes to ``inputs.json`` and,
+    when given, to ``sources`` (docs/ros2-control.md §Force).
+    """
+    sources = [] if sources is None else sources
     out = writable_dir(cfg.out_dir, "out_dir")  # before the fit: a read-only disk fails at once
     if cfg.bags_dir:
         roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace, cfg.dt)
     else:
         roles = explicit_roles(cfg.bias_bags, cfg.broad_bag, cfg.validation_bag, cfg.settle_samples)
-    records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace, cfg.dt)
+    records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace, cfg.dt, iface=iface,
+                           force_limit=cfg.force, sources=sources)
     rig = PlantParams(L=cfg.stroke, F=cfg.force, dt=cfg.dt)  # only these (and the checked dt) are known
     models, fits = identify_surrogates(records, cfg.models, cfg.seed, rig, cfg.nlarx_scale)
-    prov = artifacts.Provenance(tuple(artifacts.source(r.path) for r in roles),
-                                {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()},
-                                cfg.seed)
+    parameters = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()}
+    parameters["interface"] = iface.as_dict()
+    parameters["inputs"] = [s.as_dict() for s in sources]
+    prov = artifacts.Provenance(tuple(artifacts.source(r.path) for r in roles), parameters, cfg.seed)
     report = {name: asdict(f) for name, f in fits.items()}
     try:
         write_models(out, models, fits, prov)
         (out / "fits.json").write_text(json.dumps(artifacts.jsonable(report), indent=1) + "\n")
+        inputs = {"interface": iface.as_dict(), "bags": [s.as_dict() for s in sources]}
+        (out / "inputs.json").write_text(json.dumps(artifacts.jsonable(inputs), indent=1) + "\n")
     except OSError as exc:
         raise OutputError(f"out_dir {out}: writing the models failed ({exc.strerror or exc})") from None
     return report
@@ -98,13 +112,17 @@ class IdentifierNode(Node):
     def __init__(self, config: IdentifierConfig | None = None, **node_kwargs: Any) -> None:
         super().__init__("identifier", **node_kwargs)
         self.config = config or declare_from_dataclass(self, IdentifierConfig)
+        self.interface = declare_interface(self)
+        self.sources: list[ForceSource] = []
         self.done: Future[int] = Future()
         self.report: dict[str, Any] = {}
         self._timer = self.create_timer(0.01, self._run)
 
     def _run(self) -> None:
         self._timer.cancel()
-        self.report = identify_from_bags(self.config)
+        self.report = identify_from_bags(self.config, self.interface, self.sources)
+        for src in self.sources:
+            self.get_logger().info(src.line())
         for name, f in self.report.items():
             self.get_logger().info(
                 f"{name}: fit {f['sim_fit']:.1f} % (simulation), {f['one_step_fit']:.2f} % (one-step)")

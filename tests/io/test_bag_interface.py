@@ -1,0 +1,167 @@
+"""Bags from a ros2_control rig: our joint picked by name, the force rebuilt from the commands by log time.
+
+The bags are written by the project's bag writer as a ros2_control rig would show
+them: ``joint_states`` with another joint listed first, the effort as an actuator
+measures it (one sample of delay, a 30 ms lag, noise), and the commands on
+``effort_controller/commands`` as unstamped ``Float64MultiArray``s logged a few
+milliseconds before the sample they act on, with jitter.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from msd_bench.core import excitation as exc
+from msd_bench.core.actuation import held_commands
+from msd_bench.core.plant import PlantParams, simulate
+from msd_bench.io.bag_interface import read_interface_experiment
+from msd_bench.io.bag_writer import write_experiment, write_interface_experiment
+from msd_bench.io.errors import BagError
+from msd_bench.nodes.identifier_node import IdentifierConfig, identify_from_bags
+from msd_msgs_py.interface import make
+
+DT_NS = 10_000_000
+T0 = 1_700_000_000 * 10**9  # a wall-clock start, as a real-time recorder logs
+R2C = make("ros2_control", controller_joints=["pole", "slider_to_cart"])
+TAU_S = 0.03
+
+
+def _actuator(u: np.ndarray, rng: np.random.Generator, noise: float = 0.05) -> np.ndarray:
+    """What the rig's effort sensor reports: u delayed one sample, lagged (TAU_S), noisy."""
+    a = np.exp(-0.01 / TAU_S)
+    e = np.zeros_like(u)
+    for k in range(u.size - 1):
+        e[k + 1] = a * e[k] + (1 - a) * (u[k - 1] if k >= 1 else 0.0)
+    return e + rng.normal(0.0, noise, u.size)
+
+
+def _recording(u_cmd: np.ndarray, seed: int = 0) -> dict[str, np.ndarray]:
+    """Stamps, log times, state and commands of a real-time run of the plant driven by ``u_cmd``."""
+    rng = np.random.default_rng(seed)
+    n = u_cmd.size
+    t = T0 + np.arange(n, dtype=np.int64) * DT_NS
+    x, v, applied = simulate(np.nan_to_num(u_cmd), PlantParams())
+    return {
+        "t": t, "x": x, "v": v, "applied": applied, "effort": _actuator(applied, rng),
+        "state_log": t + 1_500_000 + rng.integers(0, 2_000_000, n),  # the recorder gets row k after t_k
+        "cmd_log": t - 4_000_000 + rng.integers(0, 2_000_000, n),  # command k arrives before row k
+    }
+
+
+def _r2c_bag(path: Path, u_cmd: np.ndarray, rec: dict[str, np.ndarray], iface=R2C, **kw) -> Path:  # type: ignore[no-untyped-def]
+    return write_interface_experiment(
+        path, rec["t"], rec["x"], rec["v"], rec["effort"], iface=iface, command_ns=rec["cmd_log"],
+        command_u=u_cmd, params={"role": "train"}, namespace="/rig", other_joints=["pole"],
+        state_log_ns=rec["state_log"], **kw)
+
+
+def _prbs(n: int = 1500) -> np.ndarray:
+    return exc.prbs(exc.PrbsConfig(bias=0.0, n_samples=n, settle=0), 3)
+
+
+def test_our_joint_and_the_commanded_force_come_back_exactly(tmp_path: Path) -> None:
+    u = _prbs()
+    rec = _recording(u)
+    exp, params, src = read_interface_experiment(_r2c_bag(tmp_path / "b", u, rec), R2C, "/rig")
+    assert np.array_equal(exp.y, rec["x"])  # slider_to_cart, not the pole listed first
+    assert np.array_equal(exp.u, rec["applied"])  # the held command, not the lagged measurement
+    assert not np.allclose(exp.u, rec["effort"], atol=0.5)
+    assert params == {"role": "train"}
+    assert (src.source, src.topic, src.commands, src.ignored) == (
+        "command", "/rig/effort_controller/commands", u.size, 0)
+    assert src.agreement is not None and src.agreement.delay_samples == 1
+    assert src.agreement.time_constant_s == pytest.approx(TAU_S, rel=0.25)
+    assert src.agreement.fit_percent > 90.0
+    assert "input = commands on /rig/effort_controller/commands" in src.line()
+
+
+def test_the_rigs_rules_are_replayed_refused_saturated_watchdog(tmp_path: Path) -> None:
+    u = np.full(400, 3.0)
+    u[100] = np.nan  # refused: 3 N stays
+    u[200:210] = 25.0  # saturates at 10 N
+    cmd = u[:300]  # the commands stop at sample 300: the watchdog (0.5 s) cuts in at 350
+    rec = _recording(np.concatenate([cmd, np.zeros(100)]))
+    rec["cmd_log"] = rec["cmd_log"][:300]
+    exp, _, src = read_interface_experiment(_r2c_bag(tmp_path / "b", cmd, rec), R2C, "/rig",
+                                            min_agreement=-np.inf)
+    assert exp.u[100] == 3.0 and np.all(exp.u[200:210] == 10.0)
+    assert np.all(exp.u[300:349] == 3.0) and np.all(exp.u[351:] == 0.0)
+    assert src.ignored == 1 and src.commands == 300
+
+
+def test_alignment_uses_the_last_command_logged_before_each_sample() -> None:
+    samples = np.array([100, 200, 300, 400])
+    got = held_commands(samples, np.array([100, 150, 250, 260]), np.array([1.0, 2.0, 3.0, 4.0]),
+                        force_limit=10.0, watchdog_s=0.0)
+    assert got.tolist() == [0.0, 2.0, 4.0, 4.0]  # a command logged at the sample's own time is too late
+
+
+def test_a_measured_effort_without_commands_is_an_error_not_a_silent_switch(tmp_path: Path) -> None:
+    u = _prbs(300)
+    rec = _recording(u)
+    bag = write_interface_experiment(tmp_path / "b", rec["t"], rec["x"], rec["v"], rec["effort"], iface=R2C,
+                                     command_ns=np.array([], dtype=np.int64), command_u=np.array([]),
+                                     params={}, namespace="/rig", other_joints=["pole"])
+    missing = r"no command topic /rig/effort_controller/commands .*--effort commanded"
+    with pytest.raises(BagError, match=missing):
+        read_interface_experiment(bag, R2C, "/rig")
+    commanded = make("ros2_control", controller_joints=["pole", "slider_to_cart"], effort="commanded")
+    exp, _, src = read_interface_experiment(bag, commanded, "/rig")
+    assert np.array_equal(exp.u, rec["effort"]) and src.source == "effort"
+
+
+def test_a_wrong_joint_order_is_caught_by_the_measured_effort(tmp_path: Path) -> None:
+    u = _prbs()
+    rec = _recording(u)
+    bag = _r2c_bag(tmp_path / "b", u, rec)
+    swapped = make("ros2_control", controller_joints=["slider_to_cart", "pole"])  # reads the pole's 0.0
+    with pytest.raises(BagError, match=r"do not explain the measured effort .*--controller-joints"):
+        read_interface_experiment(bag, swapped, "/rig")
+
+
+def test_an_absent_joint_is_one_line(tmp_path: Path) -> None:
+    u = _prbs(300)
+    bag = _r2c_bag(tmp_path / "b", u, _recording(u))
+    other = make("ros2_control", joint="cart", controller_joints=["pole", "cart"])
+    with pytest.raises(BagError, match=r"joint_states: joint 'cart' is not in joint_states \(has \['pole', "):
+        read_interface_experiment(bag, other, "/rig")
+
+
+def test_msd_face_with_a_measured_effort_rebuilds_from_force(tmp_path: Path) -> None:
+    u = _prbs()
+    rec = _recording(u)
+    msd_measured = make("msd", effort="measured")
+    bag = write_interface_experiment(tmp_path / "b", rec["t"], rec["x"], rec["v"], rec["effort"],
+                                     iface=msd_measured, command_ns=rec["cmd_log"], command_u=u,
+                                     params={}, namespace="/rig", state_log_ns=rec["state_log"])
+    exp, _, src = read_interface_experiment(bag, msd_measured, "/rig")
+    assert np.array_equal(exp.u, rec["applied"]) and src.topic == "/rig/force"
+
+
+def test_identification_through_ros2_control_equals_the_msd_face(tmp_path: Path) -> None:
+    """The same experiment, recorded through each face, gives each model the same simulation fit."""
+    cfg = exc.MultilevelConfig(n_samples=3000)
+    for name, seed in (("broad", 1), ("val", 2)):
+        u = exc.multilevel(cfg, seed)
+        rec = _recording(u, seed)
+        _r2c_bag(tmp_path / "r2c" / name, u, rec)
+        write_experiment(tmp_path / "msd" / name, rec["t"], rec["applied"], rec["x"], rec["v"],
+                         params={}, namespace="/rig")
+    fits = {}
+    for face, iface in (("msd", make()), ("r2c", R2C)):
+        d = tmp_path / face
+        ident = IdentifierConfig(broad_bag=str(d / "broad"), validation_bag=str(d / "val"), models=("glm",),
+                                 namespace="/rig", out_dir=str(tmp_path / f"out_{face}"))
+        fits[face] = identify_from_bags(ident, iface)["glm"]["sim_fit"]
+    assert fits["msd"] > 50.0
+    assert abs(fits["r2c"] - fits["msd"]) <= 1.0
+    inputs = json.loads((tmp_path / "out_r2c" / "inputs.json").read_text())
+    assert inputs["interface"]["interface"] == "ros2_control"
+    assert [b["source"] for b in inputs["bags"]] == ["command", "command"]
+    assert inputs["bags"][0]["agreement"]["delay_samples"] == 1
+    msd_inputs = json.loads((tmp_path / "out_msd" / "inputs.json").read_text())
+    assert [b["source"] for b in msd_inputs["bags"]] == ["effort", "effort"]
