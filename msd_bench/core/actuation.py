@@ -74,7 +74,8 @@ class EffortAgreement:
     """How the measured effort follows the rebuilt command: a delayed first-order actuator."""
 
     delay_samples: int
-    """Pure delay d of the best actuator fit, samples."""
+    """Pure delay d of the best actuator fit, samples: the effort at k+1 moves toward the command
+    held at k-d (d = 0: a reading one sample after the command already shows it)."""
     time_constant_s: float
     """Time constant of its first-order lag, s (0: none; inf: the effort does not follow)."""
     fit_percent: float

@@ -48,6 +48,7 @@ from std_msgs.msg import String
 from msd_bench.core.errors import ConfigError
 from msd_bench.io.bag_writer import STAMPED_TYPES, BagRecorder, leading_stamp
 from msd_bench.io.errors import BagError
+from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import (
     ALL_TOPICS,
@@ -59,6 +60,7 @@ from msd_msgs_py.contract import (
     RECORDER_READY,
     TopicSpec,
 )
+from msd_msgs_py.interface import COMMANDS_TYPE, PlantInterface
 from msd_msgs_py.ros import msg_class, qos
 
 _SPECS = {spec.name: spec for spec in ALL_TOPICS}
@@ -80,7 +82,8 @@ class RecorderConfig:
     bag_path: str = ""
     """Bag directory to create (must not exist); required."""
     topics: tuple[str, ...] = (JOINT_STATES.name, POSITION.name, FORCE.name)
-    """Contract topic names to record, relative to ``namespace`` (``/clock`` is absolute)."""
+    """Contract topic names to record, relative to ``namespace`` (``/clock`` is absolute); a
+    ros2_control face's command topic is ``<controller>/commands`` (docs/ros2-control.md §Face)."""
     namespace: str = PLANT_NAMESPACE
     """Namespace of the plant-like node whose topics are recorded."""
     params_json: str = "{}"
@@ -107,9 +110,10 @@ class RecorderConfig:
     def __post_init__(self) -> None:
         if not self.bag_path:
             raise ConfigError("bag_path is required (the bag directory to create)")
-        unknown = [t for t in self.topics if t not in _SPECS]
+        unknown = [t for t in self.topics if t not in _SPECS and not t.endswith("/commands")]
         if not self.topics or unknown:
-            raise ConfigError(f"topics must be among {sorted(_SPECS)}, got {list(self.topics)}")
+            raise ConfigError(f"topics must be among {sorted(_SPECS)} or <controller>/commands, "
+                              f"got {list(self.topics)}")
         if self.log_time not in LOG_TIMES:
             raise ConfigError(f"log_time must be one of {', '.join(LOG_TIMES)}, got {self.log_time!r}")
         if self.log_time == "stamp" and not any(s.ros_type in STAMPED_TYPES for s in self.specs()):
@@ -126,9 +130,24 @@ class RecorderConfig:
             raise ConfigError("params_json must be a JSON object")
         return value
 
-    def specs(self) -> tuple[TopicSpec, ...]:
-        """The contract entries of the recorded topics."""
-        return tuple(_SPECS[t] for t in self.topics)
+    def specs(self, iface: PlantInterface | None = None) -> tuple[TopicSpec, ...]:
+        """The contract entries of the recorded topics; ``<controller>/commands`` is ``iface``'s.
+
+        Without ``iface`` a command topic is described by its type only (enough to
+        validate the log-time choice); the node checks it against its interface.
+        """
+        known = dict(_SPECS)
+        for t in self.topics:
+            if t in known:
+                continue
+            if iface is None:
+                known[t] = TopicSpec(t, COMMANDS_TYPE, FORCE.depth, "commands")
+            elif iface.command.name == t:
+                known[t] = iface.command
+            else:
+                raise ConfigError(f"topic {t} is not the command topic of the plant interface "
+                                  f"({iface.command.name}); set controller to match")
+        return tuple(known[t] for t in self.topics)
 
 
 class RecorderNode(Node):
@@ -140,6 +159,8 @@ class RecorderNode(Node):
         """(topic, type, data, arrival ns) of unstamped messages waiting for a sim time or a decision."""
         super().__init__("recorder", **node_kwargs)
         self.config = declare_from_dataclass(self, RecorderConfig)
+        self.interface = declare_interface(self)
+        self._specs = self.config.specs(self.interface)
         self.done: Future[int] = Future()
         self._recorder = BagRecorder(
             self.config.bag_path,
@@ -151,10 +172,10 @@ class RecorderNode(Node):
         self._log_time: str | None = None if self.config.log_time == "auto" else self.config.log_time
         self._sim_ns: int | None = None
         """Newest sim time seen in a stamp (``stamp`` log times)."""
-        self._expects_stamps = any(spec.ros_type in STAMPED_TYPES for spec in self.config.specs())
+        self._expects_stamps = any(spec.ros_type in STAMPED_TYPES for spec in self._specs)
         self._offered: dict[str, list[Qos]] = {}
         self._unmatched: dict[str, Subscription[Any]] = {}
-        for spec in self.config.specs():
+        for spec in self._specs:
             self._subscribe(spec)
         self._timer = self.create_timer(self.config.flush_period_s / 2, self._on_timer)
         self._ready_pub = self.create_publisher(

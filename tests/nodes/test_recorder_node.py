@@ -363,3 +363,48 @@ def test_messages_waiting_for_a_stamp_are_kept_on_close(ctx: Context, tmp_path: 
     log_times, msgs = read_topic(bag, POSITION.resolve(PLANT_NAMESPACE))
     assert [m.data for m in msgs] == [0.0, 1.0, 2.0, 3.0, 4.0]
     assert np.all(np.diff(log_times) > 0)  # their own arrival times
+
+
+def test_records_a_ros2_control_face_that_identification_reads(ctx: Context, tmp_path: Path) -> None:
+    """joint_states with another joint first and Float64MultiArray commands: the bag rebuilds the force."""
+    from msd_bench.io.bag_interface import read_interface_experiment
+    from msd_msgs_py.interface import make
+    from msd_msgs_py.ros import command, joint_states
+
+    iface = make("ros2_control", controller_joints=["pole", "slider_to_cart"])
+    bag = tmp_path / "r2c"
+    rec = _recorder(ctx, bag, topics=["joint_states", "effort_controller/commands"], namespace="/rig",
+                    interface="ros2_control", controller_joints=["pole", "slider_to_cart"])
+    rig = Node("fake_rig", context=ctx)
+    state = rig.create_publisher(JointState, "/rig/joint_states", qos(JOINT_STATES))
+    cmd = rig.create_publisher(msg_class(iface.command), iface.command.resolve("/rig"), qos(iface.command))
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(rec)
+    executor.add_node(rig)
+    forces = [float(k % 7) - 3.0 for k in range(N)]
+    t0 = time.time_ns()  # a real-time rig stamps on the wall clock: log times are arrival times
+    try:
+        _spin_until(executor, lambda: state.get_subscription_count() and cmd.get_subscription_count())
+        for k in range(N):  # command k, then row k: the recorder logs them in that order
+            cmd.publish(command(iface, forces[k]))
+            # the first command waits inside the recorder until a stamped row decides the log times
+            _spin_until(executor, lambda k=k: rec.message_count + len(rec._held) >= 2 * k + 1)
+            state.publish(joint_states(t0 + 10_000_000 * k, ["pole", "slider_to_cart"], [9.0, 0.001 * k],
+                                       [0.0, 0.0], [0.0, forces[k - 1] if k else 0.0]))
+            _spin_until(executor, lambda k=k: rec.message_count >= 2 * k + 2)
+        rec.close()
+    finally:
+        executor.shutdown()
+        rec.destroy_node()
+        rig.destroy_node()
+    assert bag_info(bag).topics["/rig/effort_controller/commands"] == ("std_msgs/msg/Float64MultiArray", N)
+    exp, _, src = read_interface_experiment(bag, iface, "/rig")
+    np.testing.assert_array_equal(exp.u, forces)
+    np.testing.assert_array_equal(exp.y, 0.001 * np.arange(N))
+    assert src.source == "command" and src.agreement is not None  # effort k = command k-1: no extra delay
+    assert (src.agreement.delay_samples, src.agreement.fit_percent) == (0, pytest.approx(100.0))
+
+
+def test_a_command_topic_of_another_controller_is_refused(ctx: Context, tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"topic arm/commands is not the command topic .*effort_controller"):
+        _recorder(ctx, tmp_path / "x", topics=["joint_states", "arm/commands"], interface="ros2_control")
