@@ -36,7 +36,9 @@ Backends (:mod:`msd_bench.gym.backends`): the emulated NL-MSD in-process
 (``model="models/plm.json"`` or a :class:`StepModel`), or a plant-like node
 over ROS 2 (``ros_namespace="/msd"``): lock-step by default, real time with
 ``ros_lockstep=False`` (then an episode starts wherever the node came to rest,
-see :mod:`msd_bench.gym.ros_backend`).
+see :mod:`msd_bench.gym.ros_backend`). ``ros_interface`` (a
+:class:`msd_msgs_py.interface.PlantInterface`) drives a node with the
+ros2_control face (real time only; docs/ros2-control.md §Face).
 """
 
 from __future__ import annotations
@@ -55,6 +57,7 @@ from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import QConfig, packed
 from msd_bench.core.sensor import SensorModel
 from msd_bench.gym.backends import Backend, model_backend
+from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
 FloatArray = NDArray[np.float64]
 
@@ -81,6 +84,7 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
         qconfig: QConfig | None = None,
         ros_timeout: float = 5.0,
         ros_lockstep: bool = True,
+        ros_interface: PlantInterface = MSD_INTERFACE,
         render_mode: str | None = None,
     ) -> None:
         """See the module docstring; every argument is checked here, with a one-line error."""
@@ -94,7 +98,8 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
         self.sensor = SensorModel(sensor_noise, sensor_quant)
         self.episode_steps = episode_steps
         self._learner = packed(self.cfg)
-        self.backend: Backend = self._backend(model, preset, ros_namespace, ros_timeout, ros_lockstep)
+        self.backend: Backend = self._backend(model, preset, ros_namespace, ros_timeout, ros_lockstep,
+                                              ros_interface)
         self.dt = self.backend.dt
         try:
             self._fixed_target = None if target is None else self._check_target(target, "target")
@@ -121,7 +126,8 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
         self._target = 0.0
 
     def _backend(self, model: str | os.PathLike[str] | StepModel | None, preset: str,
-                 ros_namespace: str | None, ros_timeout: float, ros_lockstep: bool) -> Backend:
+                 ros_namespace: str | None, ros_timeout: float, ros_lockstep: bool,
+                 ros_interface: PlantInterface = MSD_INTERFACE) -> Backend:
         if ros_namespace is None:
             return model_backend(model, preset)
         from msd_bench.core.plant import preset as plant_preset
@@ -130,7 +136,7 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
         params = plant_preset(preset)
         # Discovery takes longer than one lock-step answer: allow it three answer timeouts.
         return RosBackend(ros_namespace, timeout_s=ros_timeout, match_timeout_s=3.0 * ros_timeout,
-                          dt=params.dt, x_max=0.5 * params.L, lockstep=ros_lockstep)
+                          dt=params.dt, x_max=0.5 * params.L, lockstep=ros_lockstep, interface=ros_interface)
 
     def _check_target(self, t: float, what: str) -> float:
         xm = self.backend.x_max

@@ -22,6 +22,11 @@ knows nothing of ROS, beside other nodes of the same process. It uses the
 caller's ``ROS_DOMAIN_ID`` and discovery range. One environment per
 namespace: two clients stepping the same lock-step node would interleave.
 
+A node with the ros2_control face (``interface=``, docs/ros2-control.md §Face)
+is driven through ``<controller>/commands`` and read from ``joint_states``
+(our joint picked by name): it has neither ``position`` nor ``reset``, so it
+runs in real time only.
+
 """
 
 from __future__ import annotations
@@ -29,16 +34,18 @@ from __future__ import annotations
 import time
 from collections import deque
 from collections.abc import Callable
+from typing import Any
 
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.publisher import Publisher
 from std_msgs.msg import Empty, Float64
 
-from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.errors import InterfaceError, MsdBenchError
 from msd_bench.core.plant import DT, PlantParams
-from msd_msgs_py.contract import FORCE, POSITION, RESET
-from msd_msgs_py.ros import float64, qos
+from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
+from msd_msgs_py.ros import command, msg_class, qos
 
 MATCH_SETTLE_S = 0.3
 """After our side sees the match, wait this long so the node's side sees it too (as the episode client)."""
@@ -53,7 +60,8 @@ class RosBackend:
 
     def __init__(self, namespace: str = "/msd", timeout_s: float = 5.0, match_timeout_s: float = 15.0,
                  dt: float = DT, x_max: float = 0.5 * PlantParams().L, *, lockstep: bool = True,
-                 still_tol: float = 1e-4, still_samples: int = 50, rest_timeout_s: float = 60.0) -> None:
+                 still_tol: float = 1e-4, still_samples: int = 50, rest_timeout_s: float = 60.0,
+                 interface: PlantInterface = MSD_INTERFACE) -> None:
         """``dt`` and ``x_max`` are the node's sample time and half stroke (the topics do not carry them).
 
         ``still_tol`` (m per sample), ``still_samples`` and ``rest_timeout_s``
@@ -61,7 +69,11 @@ class RosBackend:
         """
         if not namespace.startswith("/"):
             raise RosBackendError(f"ROS namespace must be absolute (start with '/'), got {namespace!r}")
+        if lockstep and interface.reset is None:
+            raise RosBackendError(f"the {interface.kind} interface has no reset: lock-step is impossible, "
+                                  "use ros_lockstep=False")
         self.namespace = namespace
+        self.interface = interface
         self.dt = float(dt)
         self.x_max = float(x_max)
         self.timeout_s = float(timeout_s)
@@ -71,19 +83,38 @@ class RosBackend:
         self._ctx = Context()
         rclpy.init(args=[], context=self._ctx)
         self._node = rclpy.create_node("msd_gym", context=self._ctx, start_parameter_services=False)
-        self._force = self._node.create_publisher(Float64, FORCE.resolve(namespace), qos(FORCE))
-        self._reset = self._node.create_publisher(Empty, RESET.resolve(namespace), qos(RESET))
-        self._pos = self._node.create_subscription(
-            Float64, POSITION.resolve(namespace), lambda m: self._positions.append(m.data), qos(POSITION))
+        cmd, reset, pos = interface.command, interface.reset, interface.position or interface.state
+        self._force: Publisher[Any] = self._node.create_publisher(msg_class(cmd), cmd.resolve(namespace),
+                                                                  qos(cmd))
+        self._reset = (None if reset is None else
+                       self._node.create_publisher(Empty, reset.resolve(namespace), qos(reset)))
+        self._pos = self._node.create_subscription(msg_class(pos), pos.resolve(namespace), self._on_sample,
+                                                   qos(pos))
+        self._bad_sample: str | None = None
         self._executor = SingleThreadedExecutor(context=self._ctx)
         self._executor.add_node(self._node)
         self._closed = False
         self._wait_for_match(match_timeout_s)
 
+    def _on_sample(self, msg: Float64 | object) -> None:
+        """A position: ``position``'s value, or our joint's in a ``joint_states`` message."""
+        if isinstance(msg, Float64):
+            self._positions.append(msg.data)
+            return
+        m: Any = msg
+        try:
+            sample = self.interface.pick(list(m.name), m.position, m.velocity, m.effort)
+            self._positions.append(sample.position)
+        except InterfaceError as exc:
+            self._bad_sample = str(exc)
+
+    def _publish(self, u: float) -> None:
+        self._force.publish(command(self.interface, u))
+
     @property
     def has_reset(self) -> bool:
         """Whether the node subscribes to ``reset`` (a real rig may not)."""
-        return self._reset.get_subscription_count() > 0
+        return self._reset is not None and self._reset.get_subscription_count() > 0
 
     def _matched(self) -> bool:
         return (self._force.get_subscription_count() > 0 and self._pos.get_publisher_count() > 0
@@ -92,7 +123,8 @@ class RosBackend:
     def _wait_for_match(self, timeout_s: float) -> None:
         if not self._spin_until(self._matched, timeout_s):
             self.close()
-            needs = "force, reset and position" if self.lockstep else "force and position"
+            cmd, pos = self.interface.command.name, (self.interface.position or self.interface.state).name
+            needs = f"{cmd}, reset and {pos}" if self.lockstep else f"{cmd} and {pos}"
             raise RosBackendError(
                 f"no plant-like node with {needs} under {self.namespace} (waited {timeout_s:g} s)")
         self._spin_for(MATCH_SETTLE_S)
@@ -109,10 +141,13 @@ class RosBackend:
             self._executor.spin_once(timeout_sec=0.005)
 
     def _answer(self, what: str) -> float:
-        if not self._spin_until(lambda: bool(self._positions), self.timeout_s):
+        if not self._spin_until(lambda: bool(self._positions) or self._bad_sample is not None,
+                                self.timeout_s):
             raise RosBackendError(
                 f"{self.namespace}: no position answered the {what} within {self.timeout_s:g} s "
                 "(the ROS backend needs a lock-step plant-like node)")
+        if self._bad_sample is not None and not self._positions:
+            raise RosBackendError(f"{self.namespace}: {self._bad_sample}")
         return self._positions.popleft()
 
     def reset(self) -> float:
@@ -120,10 +155,11 @@ class RosBackend:
         self._check_open()
         if self.lockstep:
             self._positions.clear()
+            assert self._reset is not None  # lock-step needs a reset (checked in __init__)
             self._reset.publish(Empty())
             return self._answer("reset")
-        self._force.publish(float64(0.0))
-        if not self.has_reset:
+        self._publish(0.0)
+        if self._reset is None or not self.has_reset:
             return self._come_to_rest()
         self._positions.clear()
         for _ in range(2):  # two samples later the 0 N command has overtaken nothing: it is applied
@@ -145,7 +181,7 @@ class RosBackend:
                 raise RosBackendError(
                     f"{self.namespace}: not at rest after {self.rest_timeout_s:g} s of 0 N "
                     f"(position still changes by more than {self.still_tol:g} m per sample)")
-            self._force.publish(float64(0.0))  # keeps the node's watchdog fed with a safe command
+            self._publish(0.0)  # keeps the node's watchdog fed with a safe command
             x = self._answer("zero force")
             still = still + 1 if abs(x - last) < self.still_tol else 0
             last = x
@@ -156,7 +192,7 @@ class RosBackend:
         self._check_open()
         if not self.lockstep:
             self._positions.clear()  # real time: only a sample arriving after the command counts
-        self._force.publish(float64(u))
+        self._publish(u)
         return self._answer("force command")
 
     def _check_open(self) -> None:
