@@ -1,4 +1,8 @@
-"""The excitation node: plays one seeded core signal on ``<ns>/force`` (docs/design.md §Nodes).
+"""The excitation node: plays one seeded core signal on the plant's command topic (docs/design.md §Nodes).
+
+The command topic is the plant interface's: ``<ns>/force`` on the msd face,
+``<ns>/<controller>/commands`` (one value per controller joint, ours carrying the
+force) on the ros2_control face (docs/ros2-control.md §Parameters).
 
 It does not start until its force publisher is matched by a subscriber (the
 plant) — a reliable publisher with no reader silently drops the first
@@ -26,16 +30,19 @@ import numpy as np
 from rclpy.clock import Clock, ClockType  # type: ignore[attr-defined]  # re-exported at run time
 from rclpy.duration import Duration
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.task import Future
 from rclpy.timer import Timer
 from std_msgs.msg import Empty, Float64, String
 
 from msd_bench.core import excitation as exc
-from msd_bench.core.errors import ConfigError
+from msd_bench.core.errors import ConfigError, InterfaceError
 from msd_bench.core.rest import RestConfig, RestDetector
+from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
-from msd_msgs_py.contract import FORCE, JOINT_STATES, PLANT_NAMESPACE, POSITION, RECORDER_READY, RESET
-from msd_msgs_py.ros import float64, msg_class, qos
+from msd_msgs_py.contract import JOINT_STATES, PLANT_NAMESPACE, POSITION, RECORDER_READY, RESET
+from msd_msgs_py.interface import PlantInterface
+from msd_msgs_py.ros import command, msg_class, qos
 
 SIGNALS = ("prbs", "multilevel", "steps")
 
@@ -121,15 +128,20 @@ class ExcitationNode(Node):
         config: ExcitationNodeConfig | None = None,
         node_name: str = "excitation",
         namespace: str = PLANT_NAMESPACE,
+        interface: PlantInterface | None = None,
         **node_kwargs: Any,
     ) -> None:
-        """``signal``/``config`` given directly (tests) or read from parameters."""
+        """``signal``/``config``/``interface`` given directly (tests) or read from parameters."""
         super().__init__(node_name, namespace=namespace, **node_kwargs)
         self.config = config or declare_from_dataclass(self, ExcitationNodeConfig)
+        self.interface = interface or declare_interface(self)
+        if self.config.reset_first and self.interface.reset is None:
+            raise ConfigError(f"reset_first: the {self.interface.kind} interface has no reset")
         self.signal = np.asarray(signal if signal is not None else self._declare_signal(), dtype=float)
         self.sent = 0
         self.done: Future[int] = Future()
-        self._pub = self.create_publisher(Float64, FORCE.name, qos(FORCE))
+        cmd = self.interface.command
+        self._pub: Publisher[Any] = self.create_publisher(msg_class(cmd), cmd.name, qos(cmd))
         self._reset = (
             self.create_publisher(Empty, RESET.name, qos(RESET)) if self.config.reset_first else None
         )
@@ -149,7 +161,8 @@ class ExcitationNode(Node):
         self._t_rest: float | None = None
         self.x0: float | None = None
         if self._rest is not None:
-            self.create_subscription(Float64, POSITION.name, self._on_rest_position, qos(POSITION))
+            pos = self.interface.position or self.interface.state  # ros2_control: our joint's row
+            self.create_subscription(msg_class(pos), pos.name, self._on_rest_position, qos(pos))
         self._recorders_ready: set[str] = set()
         if self.config.wait_recorder:
             self.create_subscription(String, RECORDER_READY.name, lambda m: self._recorders_ready.add(m.data),
@@ -215,12 +228,13 @@ class ExcitationNode(Node):
     def _rest_step(self, now: float) -> None:
         """Zero force (also keeps a watchdog fed) until the position is still or the timeout passes."""
         assert self._rest is not None
-        self._pub.publish(float64(0.0))
+        self._pub.publish(command(self.interface, 0.0))
         if self._t_rest is None:
             self._t_rest = now
         timed_out = now - self._t_rest > self.config.rest_timeout
         if timed_out and self._rest.samples == 0:
-            self._finish(1, f"no {POSITION.resolve(self.get_namespace())} sample within "
+            pos = self.interface.position or self.interface.state
+            self._finish(1, f"no {pos.resolve(self.get_namespace())} sample within "
                             f"{self.config.rest_timeout} s of zero force: the initial position is unknown")
             return
         if not (self._rest.still or timed_out):
@@ -234,9 +248,19 @@ class ExcitationNode(Node):
                 f"{self._rest.spread() * 1e3:.1f} mm); playing from x0 = {self.x0:+.4f} m")
         self._t_match = now  # the settle counts from here
 
-    def _on_rest_position(self, msg: Float64) -> None:
-        if self._rest is not None and self._t_rest is not None and self.x0 is None:
+    def _on_rest_position(self, msg: Any) -> None:
+        """A position while resting: ``position``'s value, or our joint's in a joint_states row."""
+        if self._rest is None or self._t_rest is None or self.x0 is not None:
+            return
+        if isinstance(msg, Float64):
             self._rest.push(msg.data)
+            return
+        try:
+            ours = self.interface.pick(list(msg.name), msg.position, msg.velocity, msg.effort)
+        except InterfaceError as err:
+            self._finish(1, f"resting: {err}")
+            return
+        self._rest.push(ours.position)
 
     def _send_reset(self, now: float) -> None:
         if self._reset is not None:
@@ -257,7 +281,7 @@ class ExcitationNode(Node):
         self._finish(1, f"no joint_states sample {self.sent - 1} within {self.config.sample_timeout} s")
 
     def _send(self) -> None:
-        self._pub.publish(float64(self.signal[self.sent]))
+        self._pub.publish(command(self.interface, float(self.signal[self.sent])))
         self.sent += 1
         self._t_sent = time.monotonic()
 

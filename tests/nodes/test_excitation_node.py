@@ -79,3 +79,30 @@ def test_gives_up_with_status_1_when_no_plant_appears(ctx, executor):
 def test_unknown_signal_kind_is_a_config_error(ctx):
     with pytest.raises(ConfigError, match="signal must be one of"):
         ExcitationNode(context=ctx, parameter_overrides=[Parameter("signal", value="chirp")])
+
+
+def test_ros2_control_face_plays_the_signal_as_command_vectors(ctx, executor):
+    """Parameters choose the face: Float64MultiArray on /rig/effort_controller/commands, ours second."""
+    from std_msgs.msg import Float64MultiArray
+
+    signal = exc.steps(exc.StepsConfig(levels=(1.0, -2.0, 3.0), dwell=3))
+    overrides = [Parameter("interface", value="ros2_control"),
+                 Parameter("controller_joints", value=["pole", "slider_to_cart"])]
+    source = ExcitationNode(signal=signal, config=ExcitationNodeConfig(settle=0.05, dt=0.01),
+                            namespace="/rig", context=ctx, parameter_overrides=overrides)
+    executor.add_node(source)
+    got: list[list[float]] = []
+    probe = Node("probe", namespace="/rig", context=ctx)
+    profile = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+    probe.create_subscription(Float64MultiArray, "effort_controller/commands",
+                              lambda m: got.append(list(m.data)), profile)
+    executor.add_node(probe)
+    assert spin_until(executor, source.done.done, timeout=10.0)
+    spin_for(executor, 0.1)
+    assert got == [[0.0, u] for u in signal] and source.done.result() == 0
+
+
+def test_reset_first_on_a_face_without_reset_is_a_config_error(ctx):
+    with pytest.raises(ConfigError, match="reset_first: the ros2_control interface has no reset"):
+        ExcitationNode(signal=np.ones(3), config=ExcitationNodeConfig(reset_first=True), context=ctx,
+                       parameter_overrides=[Parameter("interface", value="ros2_control")])
