@@ -1,23 +1,26 @@
 """The force a rig applied, rebuilt from its command stream, and how well a measured effort agrees.
 
 Why (docs/ros2-control.md §Force): a ros2_control rig reports in
-``joint_states.effort`` what its actuator measures — delayed, lagged, noisy —
-not the command it holds over the next sample, which is what identification
-needs as its input (the models learn the actuator's dynamics with the rest).
-A forward command controller's ``Float64MultiArray`` carries no header, so the
+``joint_states.effort`` what its actuator measures — noisy, and delayed and
+lagged behind the command — while identification needs the force applied over
+each sample, free of sensor noise. The commands are exact, but they carry no
+header: a forward command controller's ``Float64MultiArray`` carries no header, so the
 commands are placed by the time the recorder logged them: sample k gets the
 last command logged before sample k was. The rig's own rules are replayed:
 non-finite commands are rejected (the last accepted one stays), out-of-range
 ones saturate at the force limit, and after ``watchdog_s`` without a command
 the force is 0 N.
 
-The measured effort is then only a check. A first-order actuator with a pure
-delay, ``e[k+1] = a·e[k] + (1-a)·u[k-d]``, is fitted to it by least squares
-for each delay ``d`` up to ``max_delay``; the best one is simulated from the
-rebuilt commands and scored with the same fit percentage as the models. A
-poor score means the commands did not drive this joint (wrong
-``controller_joints`` order, another controller) or the log times are
-unusable.
+The measured effort then identifies the actuator between command and force:
+a dead time of d samples and a first-order lag, the lag's output averaged
+over each sample (the impulse a held sample delivers; :func:`actuator_force`).
+For each d up to ``max_delay`` the time constant is fitted by bounded scalar
+search on the simulation error; the best pair is reported with its fit (%),
+the same percentage the models are scored with. A poor score means the
+commands did not drive this joint (wrong ``controller_joints`` order, another
+controller) or the log times are unusable. Passing the commands through the
+fitted actuator gives the applied force — what the msd face reports as effort —
+free of the effort sensor's noise.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.optimize import minimize_scalar
 from scipy.signal import lfilter
 
 from msd_bench.core.errors import InvalidInputError
@@ -71,51 +75,72 @@ def held_commands(
 
 @dataclass(frozen=True)
 class EffortAgreement:
-    """How the measured effort follows the rebuilt command: a delayed first-order actuator."""
+    """The actuator that best explains the measured effort from the rebuilt command, and how well."""
 
     delay_samples: int
-    """Pure delay d of the best actuator fit, samples: the effort at k+1 moves toward the command
-    held at k-d (d = 0: a reading one sample after the command already shows it)."""
+    """Dead time d: the command held at sample k starts acting at sample k + d (0 = at once)."""
     time_constant_s: float
-    """Time constant of its first-order lag, s (0: none; inf: the effort does not follow)."""
+    """Time constant of the first-order lag after the dead time, s (0 = none)."""
     fit_percent: float
-    """Fit (%) of the simulated actuator output to the measured effort (100 = exact)."""
+    """Fit (%) of that actuator's simulated force to the measured effort (100 = exact)."""
     rms_n: float
-    """RMS of measured effort minus command, same sample, N (the error of taking the effort as input)."""
+    """RMS of measured effort minus held command, same sample, N (the error of taking either
+    for the other without the actuator)."""
     samples: int
     """Samples compared (those with a finite measured effort)."""
 
     def line(self) -> str:
         """One line for logs and reports."""
         return (f"measured effort against the rebuilt command: fit {self.fit_percent:.1f} % "
-                f"through a delay of {self.delay_samples} samples and a lag of "
+                f"through a dead time of {self.delay_samples} samples and a lag of "
                 f"{self.time_constant_s * 1e3:.1f} ms "
                 f"(effort - command: rms {self.rms_n:.3f} N over {self.samples} samples)")
 
 
-def _lag_pole(u: FloatArray, e: FloatArray, d: int) -> float:
-    """Least-squares pole a of ``e[k+1] - u[k-d] = a·(e[k] - u[k-d])``, clipped to [0, 1]."""
-    x = e[d:-1] - u[: u.size - d - 1]
-    y = e[d + 1:] - u[: u.size - d - 1]
-    den = float(x @ x)
-    a = float(x @ y) / den if den > 0 else 0.0
-    return min(max(a, 0.0), 1.0)
+def actuator_force(command: FloatArray, delay: int, tau: float, dt: float) -> FloatArray:
+    """The force a dead time of ``delay`` samples and a first-order lag ``tau`` make of a held ``command``.
+
+    The actuator starts at rest. Its force over sample k is the mean of the
+    continuous lag output over [t_k, t_k+1) for the command held at k - delay
+    (the impulse a zero-order-hold sample delivers): with the lag state s,
+    target r_k, ``a = exp(-dt/tau)`` and ``beta = (tau/dt)(1 - a)``, the force
+    is ``r_k + (s_k - r_k)·beta`` and ``s_{k+1} = r_k + (s_k - r_k)·a``.
+    ``tau = 0`` gives the delayed command itself.
+    """
+    u = np.asarray(command, dtype=np.float64)
+    if delay < 0 or not (math.isfinite(tau) and tau >= 0) or not dt > 0:
+        raise InvalidInputError(f"actuator needs delay >= 0, tau >= 0 and dt > 0, got {delay}, {tau}, {dt}")
+    r = np.concatenate([np.zeros(min(delay, u.size)), u[: max(u.size - delay, 0)]])
+    if tau == 0:
+        return r
+    a = math.exp(-dt / tau)
+    beta = (tau / dt) * (1.0 - a)
+    state = lfilter([0.0, 1.0 - a], [1.0, -a], r)  # s_k from s_0 = 0
+    return np.asarray(r + (state - r) * beta, dtype=np.float64)
 
 
-def _simulate(u: FloatArray, d: int, a: float, e0: float) -> FloatArray:
-    """Output of the delayed first-order actuator driven by ``u``, starting at ``e0``."""
-    src = np.concatenate([np.zeros(d), u[: u.size - d]]) if d else u
-    out = lfilter([0.0, 1.0 - a], [1.0, -a], src, zi=[e0])[0]
-    return np.asarray(out, dtype=np.float64)
+def _best_tau(u: FloatArray, e: FloatArray, finite: NDArray[np.bool_], d: int,
+              dt: float) -> tuple[float, float]:
+    """(fit %, tau) of the lag that best maps the command delayed by ``d`` onto the effort."""
+    def loss(log_tau: float) -> float:
+        sim = actuator_force(u, d, math.exp(log_tau), dt)
+        return float(np.sum((e[finite] - sim[finite]) ** 2))
+
+    fits = [(fit_percent(e[finite], actuator_force(u, d, 0.0, dt)[finite]), 0.0)]
+    res = minimize_scalar(loss, bounds=(math.log(dt / 100), math.log(5.0)), method="bounded",
+                          options={"xatol": 1e-4})
+    tau = math.exp(float(res.x))
+    fits.append((fit_percent(e[finite], actuator_force(u, d, tau, dt)[finite]), tau))
+    return max(fits)
 
 
 def effort_agreement(command: FloatArray, effort: FloatArray, dt: float,
                      max_delay: int = 10) -> EffortAgreement:
-    """Fit a delayed first-order actuator from ``command`` to ``effort`` and score it.
+    """Fit the actuator (dead time up to ``max_delay`` samples, then a lag) from ``command`` to ``effort``.
 
     Samples where the effort is not finite (a state without effort) are left out
-    of the comparison; with fewer than ``max_delay + 3`` finite ones there is
-    nothing to compare (InvalidInputError).
+    of the comparison; with fewer than ``max_delay + 3`` finite ones, or a
+    constant effort, there is nothing to compare (InvalidInputError).
     """
     u = np.asarray(command, dtype=np.float64)
     e = np.asarray(effort, dtype=np.float64)
@@ -124,16 +149,12 @@ def effort_agreement(command: FloatArray, effort: FloatArray, dt: float,
     finite = np.isfinite(e)
     if int(finite.sum()) < max_delay + 3:
         raise InvalidInputError(f"only {int(finite.sum())} samples carry a finite effort")
-    e_filled = np.where(finite, e, 0.0)
     best: tuple[float, int, float] | None = None
     for d in range(min(max_delay, u.size - 3) + 1):
-        a = _lag_pole(u, e_filled, d)
-        sim = _simulate(u, d, a, float(e_filled[0]))
-        score = fit_percent(e[finite], sim[finite])
+        score, tau = _best_tau(u, e, finite, d, dt)
         if best is None or score > best[0]:
-            best = (score, d, a)
+            best = (score, d, tau)
     assert best is not None
-    score, d, a = best
-    tau = 0.0 if a <= 0.0 else math.inf if a >= 1.0 else -dt / math.log(a)
+    score, d, tau = best
     rms = float(np.sqrt(np.mean((e[finite] - u[finite]) ** 2)))
     return EffortAgreement(d, tau, float(score), rms, int(finite.sum()))

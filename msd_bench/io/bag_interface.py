@@ -8,8 +8,13 @@ face needs two things more (docs/ros2-control.md §Force):
   name (:meth:`PlantInterface.pick`);
 * when the state's effort is *measured* (a ros2_control rig reports what its
   actuator does: delayed, lagged, noisy), the input is rebuilt from the
-  recorded command topic by log time (:func:`msd_bench.core.actuation.held_commands`)
-  and the measured effort only checks it (:func:`~msd_bench.core.actuation.effort_agreement`).
+  recorded command topic by log time (:func:`msd_bench.core.actuation.held_commands`);
+  the actuator that maps those commands onto the measured effort is fitted
+  (:func:`~msd_bench.core.actuation.effort_agreement`, which also checks that the
+  commands drove this joint at all), and by default (``force_input="applied"``)
+  the commands are passed through it: the applied force, as the msd face reports
+  it, without the effort sensor's noise. ``force_input="held"`` keeps the held
+  commands, so the models absorb the actuator.
 
 Every read says which input it used (:class:`ForceSource`), so the identifier
 can report it; a measured effort without the command topic in the bag is an
@@ -24,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from msd_bench.core.actuation import EffortAgreement, effort_agreement, held_commands
+from msd_bench.core.actuation import EffortAgreement, actuator_force, effort_agreement, held_commands
 from msd_bench.core.data import Experiment
 from msd_bench.core.errors import InterfaceError, MsdBenchError
 from msd_bench.io.bag_timing import READ, TimingPolicy, check_timing
@@ -33,6 +38,9 @@ from msd_bench.io.bags import _open_bag, _params, _topic_list, read_experiment
 from msd_bench.io.errors import BagError
 from msd_msgs_py.contract import PLANT_NAMESPACE
 from msd_msgs_py.interface import MSD, MSD_INTERFACE, PlantInterface
+
+FORCE_INPUTS = ("applied", "held")
+"""How a measured-effort bag's input is rebuilt: the commands through the fitted actuator, or held."""
 
 MIN_AGREEMENT = 50.0
 """Lowest fit (%) of the measured effort to the rebuilt command that still counts as the same force:
@@ -47,8 +55,9 @@ class ForceSource:
     bag: str
     """The bag read."""
     source: str
-    """``effort`` (the state's effort field, held over the next sample) or ``command``
-    (rebuilt from the command topic by log time)."""
+    """``effort`` (the state's effort field, held over the next sample), ``held`` (the commands
+    rebuilt by log time, held over each sample) or ``applied`` (those commands through the actuator
+    fitted to the measured effort)."""
     topic: str
     """The topic ``u`` came from."""
     commands: int = 0
@@ -62,7 +71,8 @@ class ForceSource:
         """One line for the identifier's log."""
         if self.source == "effort":
             return f"{self.bag}: input = effort of {self.topic} (held over the next sample)"
-        text = f"{self.bag}: input = commands on {self.topic}, held by log time ({self.commands} commands"
+        how = "held by log time" if self.source == "held" else "by log time through the fitted actuator"
+        text = f"{self.bag}: input = commands on {self.topic}, {how} ({self.commands} commands"
         text += f", {self.ignored} refused)" if self.ignored else ")"
         return text + (f"; {self.agreement.line()}" if self.agreement else "")
 
@@ -82,12 +92,14 @@ def read_interface_experiment(
     force_limit: float = 10.0,
     watchdog_s: float = 0.5,
     min_agreement: float = MIN_AGREEMENT,
+    force_input: str = "applied",
 ) -> tuple[Experiment, dict[str, Any], ForceSource]:
     """Input and position of our joint from ``<namespace>/joint_states`` (+ commands), in stamp order.
 
     ``force_limit`` and ``watchdog_s`` are the rig's saturation and watchdog,
     replayed on the rebuilt commands. A measured effort that agrees with them
-    by less than ``min_agreement`` % is an error naming both figures.
+    by less than ``min_agreement`` % is an error naming both figures. ``force_input``
+    (:data:`FORCE_INPUTS`) says how a measured-effort bag's input is rebuilt.
     """
     path = Path(path)
     state_topic = iface.state.resolve(namespace)
@@ -104,7 +116,8 @@ def read_interface_experiment(
     if commands is None:
         u, source = rows.effort, ForceSource(str(path), "effort", state_topic)
     else:
-        u, source = _rebuilt(path, rows, commands, command_topic, force_limit, watchdog_s, min_agreement)
+        u, source = _rebuilt(path, rows, commands, command_topic, force_limit, watchdog_s, min_agreement,
+                             force_input)
     try:
         return Experiment(u=u, y=rows.x, name=str(path)), params, source
     except MsdBenchError as exc:
@@ -181,8 +194,11 @@ def _command_rows(path: Path, reader: Any, iface: PlantInterface, topic: str) ->
 
 
 def _rebuilt(path: Path, rows: _States, commands: _Commands, topic: str,
-             force_limit: float, watchdog_s: float, min_agreement: float) -> tuple[np.ndarray, ForceSource]:
-    """The held force per sample from the commands, checked against the measured effort."""
+             force_limit: float, watchdog_s: float, min_agreement: float,
+             force_input: str) -> tuple[np.ndarray, ForceSource]:
+    """The force per sample from the commands (held, or through the fitted actuator), checked."""
+    if force_input not in FORCE_INPUTS:
+        raise BagError(f"force input must be one of {', '.join(FORCE_INPUTS)}, got {force_input!r}")
     cmd_ns, cmd_f, refused = commands
     u = held_commands(rows.log_ns, cmd_ns, cmd_f, force_limit=force_limit, watchdog_s=watchdog_s)
     effort = rows.effort
@@ -199,4 +215,10 @@ def _rebuilt(path: Path, rows: _States, commands: _Commands, topic: str,
                 f"bag {path}: the commands on {topic} do not explain the measured effort (fit "
                 f"{agreement.fit_percent:.1f} % < {min_agreement:.0f} %): check --controller-joints order, "
                 f"--controller and --joint")
-    return u, ForceSource(str(path), "command", topic, int(cmd_ns.size), refused, agreement)
+    if force_input == "held":
+        return u, ForceSource(str(path), "held", topic, int(cmd_ns.size), refused, agreement)
+    if agreement is None:
+        raise BagError(f"bag {path}: joint_states carries no effort to fit the actuator to; "
+                       f"identify from the held commands (force_input held) instead")
+    applied = actuator_force(u, agreement.delay_samples, agreement.time_constant_s, dt)
+    return applied, ForceSource(str(path), "applied", topic, int(cmd_ns.size), refused, agreement)

@@ -126,7 +126,7 @@ def explicit_roles(bias_bags: Sequence[str], broad_bag: str, val_bag: str, settl
 
 def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/msd",
                  dt: float = DEFAULT_DT, iface: PlantInterface = MSD_INTERFACE, force_limit: float = 10.0,
-                 sources: list[ForceSource] | None = None) -> Records:
+                 sources: list[ForceSource] | None = None, force_input: str = "applied") -> Records:
     """Read every bag once and assemble the paper's records (one-line BagError if incomplete).
 
     The sample period comes from each bag's header stamps and must be the run's
@@ -136,13 +136,16 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
     :func:`align_to_played`; its first sample need not be at rest at 0 (the fits
     estimate each record's initial state).
 
-    ``iface`` says how the bags' plant showed itself (docs/ros2-control.md §Force); the input
-    each bag gave is appended to ``sources`` when given.
+    ``iface`` says how the bags' plant showed itself and ``force_input`` how a measured effort's
+    input is rebuilt (docs/ros2-control.md §Force); the input each bag gave is appended to
+    ``sources`` when given.
     """
     data: dict[tuple[str, float | None], IOData] = {}
     for r in roles:
         exp, _, src = read_interface_experiment(r.path, iface, namespace, timing=replace(IDENTIFY, dt=dt),
-                                                force_limit=force_limit)
+                                                force_limit=force_limit, force_input=force_input)
+        if sources is not None:
+            sources.append(src)
         if sources is not None:
             sources.append(src)
         if r.params is not None:

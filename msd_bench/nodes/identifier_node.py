@@ -24,7 +24,7 @@ from msd_bench.core.errors import ConfigError
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.registry import MODEL_KINDS, check_models, needs_bias_records
 from msd_bench.io import artifacts
-from msd_bench.io.bag_interface import ForceSource
+from msd_bench.io.bag_interface import FORCE_INPUTS, ForceSource
 from msd_bench.io.bag_records import explicit_roles, load_records, roles_from_dir
 from msd_bench.io.paths import OutputError, writable_dir
 from msd_bench.io.run_output import write_models
@@ -62,6 +62,10 @@ class IdentifierConfig:
     """Namespace the bags' topics live under."""
     dt: float = field(default=0.01, metadata={"range": (1e-4, 10.0)})
     """The run's sample time, s: every bag's stamps must tick at it (checked, never resampled)."""
+    force_input: str = "applied"
+    """Bags whose effort is measured (ros2_control): identify from the commands passed through the
+    actuator fitted to the effort (``applied``, the force the msd face reports) or from the commands
+    held over each sample (``held``: the models absorb the actuator). docs/ros2-control.md §Force."""
     out_dir: str = ""
     """Where ``<model>.json`` and ``fits.json`` are written (required)."""
 
@@ -71,6 +75,9 @@ class IdentifierConfig:
         if not self.bags_dir and not self.broad_bag:
             raise ConfigError("give bags_dir (our bags) or broad_bag/validation_bag/bias_bags (a rig's)")
         check_models(self.models)
+        if self.force_input not in FORCE_INPUTS:
+            raise ConfigError(f"force_input must be one of {', '.join(FORCE_INPUTS)}, "
+                              f"got {self.force_input!r}")
 
 
 def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERFACE,
@@ -88,7 +95,7 @@ def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERF
     else:
         roles = explicit_roles(cfg.bias_bags, cfg.broad_bag, cfg.validation_bag, cfg.settle_samples)
     records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace, cfg.dt, iface=iface,
-                           force_limit=cfg.force, sources=sources)
+                           force_limit=cfg.force, sources=sources, force_input=cfg.force_input)
     rig = PlantParams(L=cfg.stroke, F=cfg.force, dt=cfg.dt)  # only these (and the checked dt) are known
     models, fits = identify_surrogates(records, cfg.models, cfg.seed, rig, cfg.nlarx_scale)
     parameters = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()}

@@ -1,10 +1,11 @@
 """Bags from a ros2_control rig: our joint picked by name, the force rebuilt from the commands by log time.
 
 The bags are written by the project's bag writer as a ros2_control rig would show
-them: ``joint_states`` with another joint listed first, the effort as an actuator
-measures it (one sample of delay, a 30 ms lag, noise), and the commands on
-``effort_controller/commands`` as unstamped ``Float64MultiArray``s logged a few
-milliseconds before the sample they act on, with jitter.
+them: ``joint_states`` with another joint listed first, the plant moved by an
+actuator (one sample of dead time, a 30 ms lag) whose force is measured with
+noise, and the commands on ``effort_controller/commands`` as unstamped
+``Float64MultiArray``s logged a few milliseconds before the sample they act on,
+with jitter.
 """
 
 from __future__ import annotations
@@ -30,13 +31,20 @@ R2C = make("ros2_control", controller_joints=["pole", "slider_to_cart"])
 TAU_S = 0.03
 
 
-def _actuator(u: np.ndarray, rng: np.random.Generator, noise: float = 0.05) -> np.ndarray:
-    """What the rig's effort sensor reports: u delayed one sample, lagged (TAU_S), noisy."""
-    a = np.exp(-0.01 / TAU_S)
-    e = np.zeros_like(u)
-    for k in range(u.size - 1):
-        e[k + 1] = a * e[k] + (1 - a) * (u[k - 1] if k >= 1 else 0.0)
-    return e + rng.normal(0.0, noise, u.size)
+def _actuator(u: np.ndarray) -> np.ndarray:
+    """The force a drive applies: u one sample late, through a lag of TAU_S, averaged over each sample.
+
+    Written out sample by sample (the exact solution of the lag for a held input),
+    independently of ``core.actuation.actuator_force``, which must find it.
+    """
+    decay = np.exp(-0.01 / TAU_S)
+    gain = (TAU_S / 0.01) * (1.0 - decay)
+    state, out = 0.0, np.zeros_like(u)
+    for k in range(u.size):
+        target = u[k - 1] if k >= 1 else 0.0
+        out[k] = target + (state - target) * gain
+        state = target + (state - target) * decay
+    return out
 
 
 def _recording(u_cmd: np.ndarray, seed: int = 0) -> dict[str, np.ndarray]:
@@ -44,9 +52,12 @@ def _recording(u_cmd: np.ndarray, seed: int = 0) -> dict[str, np.ndarray]:
     rng = np.random.default_rng(seed)
     n = u_cmd.size
     t = T0 + np.arange(n, dtype=np.int64) * DT_NS
-    x, v, applied = simulate(np.nan_to_num(u_cmd), PlantParams())
+    held = np.clip(np.nan_to_num(u_cmd), -10.0, 10.0)
+    applied = _actuator(held)
+    x, v, _ = simulate(applied, PlantParams())
     return {
-        "t": t, "x": x, "v": v, "applied": applied, "effort": _actuator(applied, rng),
+        "t": t, "x": x, "v": v, "held": held, "applied": applied,
+        "effort": applied + rng.normal(0.0, 0.05, n),  # what the effort sensor reports
         "state_log": t + 1_500_000 + rng.integers(0, 2_000_000, n),  # the recorder gets row k after t_k
         "cmd_log": t - 4_000_000 + rng.integers(0, 2_000_000, n),  # command k arrives before row k
     }
@@ -66,17 +77,28 @@ def _prbs(n: int = 1500) -> np.ndarray:
 def test_our_joint_and_the_commanded_force_come_back_exactly(tmp_path: Path) -> None:
     u = _prbs()
     rec = _recording(u)
-    exp, params, src = read_interface_experiment(_r2c_bag(tmp_path / "b", u, rec), R2C, "/rig")
+    bag = _r2c_bag(tmp_path / "b", u, rec)
+    exp, params, src = read_interface_experiment(bag, R2C, "/rig", force_input="held")
     assert np.array_equal(exp.y, rec["x"])  # slider_to_cart, not the pole listed first
-    assert np.array_equal(exp.u, rec["applied"])  # the held command, not the lagged measurement
+    assert np.array_equal(exp.u, rec["held"])  # the held command, not the lagged measurement
     assert not np.allclose(exp.u, rec["effort"], atol=0.5)
     assert params == {"role": "train"}
     assert (src.source, src.topic, src.commands, src.ignored) == (
-        "command", "/rig/effort_controller/commands", u.size, 0)
+        "held", "/rig/effort_controller/commands", u.size, 0)
     assert src.agreement is not None and src.agreement.delay_samples == 1
-    assert src.agreement.time_constant_s == pytest.approx(TAU_S, rel=0.25)
-    assert src.agreement.fit_percent > 90.0
-    assert "input = commands on /rig/effort_controller/commands" in src.line()
+    assert src.agreement.time_constant_s == pytest.approx(TAU_S, rel=0.05)
+    assert src.agreement.fit_percent > 90.0  # the rest is the effort sensor's noise
+    assert "input = commands on /rig/effort_controller/commands, held by log time" in src.line()
+
+
+def test_the_applied_force_is_rebuilt_through_the_fitted_actuator(tmp_path: Path) -> None:
+    """Default input: the commands through the actuator the noisy effort reveals — the applied force."""
+    u = _prbs()
+    rec = _recording(u)
+    exp, _, src = read_interface_experiment(_r2c_bag(tmp_path / "b", u, rec), R2C, "/rig")
+    assert src.source == "applied" and "through the fitted actuator" in src.line()
+    noise = np.abs(rec["effort"] - rec["applied"]).max()
+    assert np.abs(exp.u - rec["applied"]).max() < 0.1 * noise  # far closer than the measured effort
 
 
 def test_the_rigs_rules_are_replayed_refused_saturated_watchdog(tmp_path: Path) -> None:
@@ -87,7 +109,7 @@ def test_the_rigs_rules_are_replayed_refused_saturated_watchdog(tmp_path: Path) 
     rec = _recording(np.concatenate([cmd, np.zeros(100)]))
     rec["cmd_log"] = rec["cmd_log"][:300]
     exp, _, src = read_interface_experiment(_r2c_bag(tmp_path / "b", cmd, rec), R2C, "/rig",
-                                            min_agreement=-np.inf)
+                                            min_agreement=-np.inf, force_input="held")
     assert exp.u[100] == 3.0 and np.all(exp.u[200:210] == 10.0)
     assert np.all(exp.u[300:349] == 3.0) and np.all(exp.u[351:] == 0.0)
     assert src.ignored == 1 and src.commands == 300
@@ -138,8 +160,8 @@ def test_msd_face_with_a_measured_effort_rebuilds_from_force(tmp_path: Path) -> 
     bag = write_interface_experiment(tmp_path / "b", rec["t"], rec["x"], rec["v"], rec["effort"],
                                      iface=msd_measured, command_ns=rec["cmd_log"], command_u=u,
                                      params={}, namespace="/rig", state_log_ns=rec["state_log"])
-    exp, _, src = read_interface_experiment(bag, msd_measured, "/rig")
-    assert np.array_equal(exp.u, rec["applied"]) and src.topic == "/rig/force"
+    exp, _, src = read_interface_experiment(bag, msd_measured, "/rig", force_input="held")
+    assert np.array_equal(exp.u, rec["held"]) and src.topic == "/rig/force"
 
 
 def test_identification_through_ros2_control_equals_the_msd_face(tmp_path: Path) -> None:
@@ -161,7 +183,14 @@ def test_identification_through_ros2_control_equals_the_msd_face(tmp_path: Path)
     assert abs(fits["r2c"] - fits["msd"]) <= 1.0
     inputs = json.loads((tmp_path / "out_r2c" / "inputs.json").read_text())
     assert inputs["interface"]["interface"] == "ros2_control"
-    assert [b["source"] for b in inputs["bags"]] == ["command", "command"]
+    assert [b["source"] for b in inputs["bags"]] == ["applied", "applied"]
     assert inputs["bags"][0]["agreement"]["delay_samples"] == 1
     msd_inputs = json.loads((tmp_path / "out_msd" / "inputs.json").read_text())
     assert [b["source"] for b in msd_inputs["bags"]] == ["effort", "effort"]
+
+
+def test_an_unknown_force_input_is_one_line(tmp_path: Path) -> None:
+    from msd_bench.core.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="force_input must be one of applied, held, got 'raw'"):
+        IdentifierConfig(broad_bag="b", validation_bag="v", out_dir=str(tmp_path), force_input="raw")

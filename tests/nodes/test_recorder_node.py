@@ -398,11 +398,11 @@ def test_records_a_ros2_control_face_that_identification_reads(ctx: Context, tmp
         rec.destroy_node()
         rig.destroy_node()
     assert bag_info(bag).topics["/rig/effort_controller/commands"] == ("std_msgs/msg/Float64MultiArray", N)
-    exp, _, src = read_interface_experiment(bag, iface, "/rig")
+    exp, _, src = read_interface_experiment(bag, iface, "/rig", force_input="held")
     np.testing.assert_array_equal(exp.u, forces)
     np.testing.assert_array_equal(exp.y, 0.001 * np.arange(N))
-    assert src.source == "command" and src.agreement is not None  # effort k = command k-1: no extra delay
-    assert (src.agreement.delay_samples, src.agreement.fit_percent) == (0, pytest.approx(100.0))
+    assert src.source == "held" and src.agreement is not None  # effort k = command k-1: one sample late
+    assert (src.agreement.delay_samples, src.agreement.fit_percent) == (1, pytest.approx(100.0))
 
 
 def test_a_command_topic_of_another_controller_is_refused(ctx: Context, tmp_path: Path) -> None:
