@@ -218,13 +218,13 @@ class PlantNode(Node):
         self._pub_js: Publisher[Any] = self.create_publisher(
             msg_class(JOINT_STATES), JOINT_STATES.name, qos(JOINT_STATES)
         )
-        self._pub_x = self.create_publisher(Float64, POSITION.name, qos(POSITION))
+        self._pub_x: Publisher[Any] | None = self._position_publisher()
         self._pub_clock: Publisher[Any] | None = (
             self.create_publisher(msg_class(CLOCK), CLOCK.name, qos(CLOCK))
             if self.config.lockstep and self.config.publish_clock else None
         )
         self._init_sensor()
-        self.create_subscription(Float64, FORCE.name, self._on_force, qos(FORCE))
+        self._subscribe_commands()
         if self.SERVES_RESET:
             self.create_subscription(Empty, RESET.name, self._on_reset_msg, qos(RESET))
         self._on_reset(None)
@@ -248,6 +248,14 @@ class PlantNode(Node):
         """Declare the node's own parameters and return how it runs."""
         defaults = PlantNodeConfig(publish_clock=self._clock_owner)  # a surrogate leaves /clock to the plant
         return declare_from_dataclass(self, PlantNodeConfig, defaults=defaults)
+
+    def _position_publisher(self) -> Publisher[Any] | None:
+        """The ``position`` publisher (None on a face without one: the rig's ros2_control face)."""
+        return self.create_publisher(Float64, POSITION.name, qos(POSITION))
+
+    def _subscribe_commands(self) -> None:
+        """Take force commands on ``force`` (the rig's ros2_control face takes them elsewhere)."""
+        self.create_subscription(Float64, FORCE.name, self._on_force, qos(FORCE))
 
     def _init_sensor(self) -> None:
         """The sensor, its generator and velocity estimator, and the truth topic (only with a sensor)."""
@@ -341,7 +349,7 @@ class PlantNode(Node):
 
     def _on_reset_msg(self, msg: Empty) -> None:
         self._on_reset(msg)
-        if self.config.lockstep:
+        if self.config.lockstep and self._pub_x is not None:
             self._pub_x.publish(float64(self._y))
 
     def _accept(self, u: float) -> float | None:
@@ -446,7 +454,8 @@ class PlantNode(Node):
         self._y = self._measure(x_next)
         self._k += 1
         self.counters["steps"] += 1
-        self._pub_x.publish(float64(self._y))
+        if self._pub_x is not None:
+            self._pub_x.publish(float64(self._y))
         self._pub_js.publish(joint_state(stamp, y, v_row, u))
         if self._pub_truth is not None:
             self._pub_truth.publish(joint_state(stamp, x, v, u))

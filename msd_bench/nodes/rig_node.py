@@ -21,6 +21,14 @@ published after a random jitter delay, stamped with the acquisition time. A
 watchdog trip disables the drive at once (delay line and lag emptied), as a
 drive's own watchdog does. ``truth/joint_states`` (true position and velocity)
 exists only with ``publish_truth`` (tests and scoring; a real rig has none).
+
+With ``-p interface:=ros2_control`` it shows the face of a forward effort
+controller and a joint state broadcaster instead (docs/ros2-control.md §Face):
+commands as ``Float64MultiArray`` on ``<controller>/commands`` (one value per
+controller joint; a command of the wrong length is refused and counted),
+``joint_states`` with ``extra_joints`` listed before ours (``slider_to_cart``
+by default), effort = the actuator's force as above (lagged: what the
+hardware measures), and no ``position`` topic.
 """
 
 from __future__ import annotations
@@ -30,10 +38,12 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from rclpy.publisher import Publisher
+from std_msgs.msg import Float64
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.rig import Rig, RigImperfections
+from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_bench.nodes.plant_node import (
     ModelSpec,
@@ -44,7 +54,8 @@ from msd_bench.nodes.plant_node import (
 )
 from msd_bench.nodes.spin import stops_deferred
 from msd_msgs_py.contract import TRUTH_JOINT_STATES
-from msd_msgs_py.ros import float64, joint_state, msg_class, qos
+from msd_msgs_py.interface import ROS2_CONTROL
+from msd_msgs_py.ros import command_force, float64, joint_state, joint_states, msg_class, qos
 
 RIG_NAMESPACE = "/rig"
 """Default namespace of the rig emulator."""
@@ -67,6 +78,9 @@ class RigNodeConfig:
     publish_truth: bool = False
     """Also publish the true position and velocity on truth/joint_states (tests and scoring only:
     a real rig has no truth)."""
+    extra_joints: tuple[str, ...] = ("pole_joint",)
+    """ros2_control face only: joints listed before ours in joint_states (at rest, no effort), as a
+    joint state broadcaster of a larger robot would, so clients must pick our joint by name."""
 
 
 class RigNode(PlantNode):
@@ -84,10 +98,46 @@ class RigNode(PlantNode):
                               "drop -p lockstep")
         self.rig_config = declare_from_dataclass(self, RigNodeConfig)
         self.imperfections = declare_from_dataclass(self, RigImperfections)
+        self.interface = declare_interface(self)
+        self._r2c = self.interface.kind == ROS2_CONTROL
+        clash = set(self.rig_config.extra_joints) & {self.interface.joint}
+        if self._r2c and clash:
+            raise ConfigError(f"extra_joints must not name our joint {self.interface.joint!r}")
+        self._names = [*self.rig_config.extra_joints, self.interface.joint] if self._r2c else []
+        self._pad = [0.0] * len(self.rig_config.extra_joints)
         return PlantNodeConfig(
             lockstep=False, watchdog_timeout=self.rig_config.watchdog_timeout,
             duplicate_check=self.rig_config.duplicate_check, sensor_noise=self.imperfections.sensor_noise,
             sensor_quant=self.imperfections.sensor_quant, sensor_seed=self.rig_config.seed)
+
+    def _position_publisher(self) -> Publisher[Any] | None:
+        """The ros2_control face has no ``position`` topic."""
+        return None if self._r2c else super()._position_publisher()
+
+    def _subscribe_commands(self) -> None:
+        """``force`` on the msd face; ``<controller>/commands`` (one value per joint) on ros2_control."""
+        if not self._r2c:
+            super()._subscribe_commands()
+            return
+        cmd = self.interface.command
+        self.create_subscription(msg_class(cmd), cmd.name, self._on_commands, qos(cmd))
+
+    def _on_commands(self, msg: Any) -> None:
+        """A forward command controller's input: our joint's value, or nothing if the length is wrong."""
+        u = command_force(self.interface, msg)
+        if u is None:
+            self.counters["rejected"] += 1
+            self.get_logger().warning(
+                f"rejected a command of {len(msg.data)} values for {len(self.interface.controller_joints)} "
+                f"joints {list(self.interface.controller_joints)}", throttle_duration_sec=1.0)
+            return
+        self._on_force(Float64(data=u))
+
+    def _state_message(self, stamp: int, x: float, v: float, effort: float) -> Any:
+        """joint_states as this face shows it: our joint alone, or after the extra joints."""
+        if not self._r2c:
+            return joint_state(stamp, x, v, effort)
+        return joint_states(stamp, self._names, [*self._pad, x], [*self._pad, v], [*self._pad, effort])
 
     def _declare_plant(self, _node: Any) -> ModelSpec:
         self._params = declare_plant_params(self, RIG_PRESET)
@@ -136,10 +186,11 @@ class RigNode(PlantNode):
             time.sleep(wait)
         self._k += 1
         self.counters["steps"] += 1
-        self._pub_x.publish(float64(row.measured_next))  # the plant node's order: position, then row
-        self._pub_js.publish(joint_state(stamp, row.measured, row.velocity, row.effort))
+        if self._pub_x is not None:  # the plant node's order: position, then row
+            self._pub_x.publish(float64(row.measured_next))
+        self._pub_js.publish(self._state_message(stamp, row.measured, row.velocity, row.effort))
         if self._pub_truth is not None:
-            self._pub_truth.publish(joint_state(stamp, row.x, row.v, row.effort))
+            self._pub_truth.publish(self._state_message(stamp, row.x, row.v, row.effort))
 
 
 def build_rig() -> RigNode:
