@@ -176,11 +176,14 @@ def test_identification_through_ros2_control_equals_the_msd_face(tmp_path: Path)
     fits = {}
     for face, iface in (("msd", make()), ("r2c", R2C)):
         d = tmp_path / face
-        ident = IdentifierConfig(broad_bag=str(d / "broad"), validation_bag=str(d / "val"), models=("glm",),
-                                 namespace="/rig", out_dir=str(tmp_path / f"out_{face}"))
-        fits[face] = identify_from_bags(ident, iface)["glm"]["sim_fit"]
-    assert fits["msd"] > 50.0
-    assert abs(fits["r2c"] - fits["msd"]) <= 1.0
+        ident = IdentifierConfig(broad_bag=str(d / "broad"), validation_bag=str(d / "val"),
+                                 models=("glm", "greybox"), namespace="/rig",
+                                 out_dir=str(tmp_path / f"out_{face}"))
+        report = identify_from_bags(ident, iface)
+        fits[face] = {m: report[m]["sim_fit"] for m in ("glm", "greybox")}
+    for model in ("glm", "greybox"):
+        assert fits["msd"][model] > 50.0
+        assert abs(fits["r2c"][model] - fits["msd"][model]) <= 1.0, fits
     inputs = json.loads((tmp_path / "out_r2c" / "inputs.json").read_text())
     assert inputs["interface"]["interface"] == "ros2_control"
     assert [b["source"] for b in inputs["bags"]] == ["applied", "applied"]
