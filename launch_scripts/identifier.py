@@ -5,6 +5,9 @@
     # a rig's bags:
     python launch_scripts/identifier.py --ros-args -p broad_bag:=/data/broad \
         -p validation_bag:=/data/val -p "models:=[glm,nlarx-improved]" -p out_dir:=models
+    # bags of a ros2_control rig (joint_states + effort_controller/commands; docs/ros2-control.md):
+    python launch_scripts/identifier.py --ros-args -p namespace:=/rig -p interface:=ros2_control \
+        -p broad_bag:=/data/broad -p validation_bag:=/data/val -p out_dir:=models
 """
 
 # ruff: noqa: E402  (the stop handlers must be in place before the slow imports)

@@ -3,6 +3,8 @@
     python launch_scripts/rig.py [--ros-args -p sensor_noise:=0.0 -p delay_samples:=2 -r __ns:=/rig]
 
 No reset, no lock-step, no /clock; every imperfection is a parameter (docs/rig.md §Parameters).
+``-p interface:=ros2_control`` shows the face of a forward effort controller and a joint state
+broadcaster instead (docs/ros2-control.md §Emulator).
 """
 
 # ruff: noqa: E402  (the stop handlers must be in place before the slow imports)
