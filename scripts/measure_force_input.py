@@ -89,9 +89,11 @@ def main() -> None:
     actuators: list[dict[str, float]] = []
     for e in paper_plan(0, args.samples, args.val_samples):
         multilevel = isinstance(e.signal, exc.MultilevelConfig)
-        u = exc.multilevel(e.signal, e.seed) if multilevel else exc.prbs(e.signal, e.seed)
+        if isinstance(e.signal, exc.MultilevelConfig):
+            u, settle = exc.multilevel(e.signal, e.seed), 0
+        else:
+            u, settle = exc.prbs(e.signal, e.seed), e.signal.settle
         y, candidates = inputs(u, e.seed, args.effort_noise, actuators)
-        settle = 0 if multilevel else e.signal.settle
         for face, inp in candidates.items():
             record = IOData((Experiment(inp[settle:], y[settle:]),), 0.01, {})
             if multilevel:
