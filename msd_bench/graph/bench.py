@@ -37,6 +37,7 @@ from msd_bench.core.registry import needs_bias_records
 from msd_bench.graph.launch import NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, paper_plan, record_experiments
 from msd_msgs_py.contract import PLANT_NAMESPACE, surrogate_namespace
+from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
 STAGES = ("record", "identify", "agents", "report")
 
@@ -69,6 +70,9 @@ class BenchConfig:
     """With ``plant_ns``: the agent kinds validated under ``node_scenarios`` too."""
     left_out: tuple[str, ...] = ()
     """With ``plant_ns``: requested kinds left out because they need the emulator's own model."""
+    interface: PlantInterface = MSD_INTERFACE
+    """With ``plant_ns``: the node's face (``--interface ros2_control ...``), handed to every node
+    that talks to it (docs/ros2-control.md §Parameters)."""
     timings: dict[str, float] = field(default_factory=dict, compare=False)
     """Seconds per stage, filled in as the run goes."""
 
@@ -81,6 +85,9 @@ class BenchConfig:
         if self.plant_ns is None:
             if self.node_scenarios or self.scenario_kinds:
                 raise ConfigError("--node-scenarios and --scenario-kinds need --plant-ns")
+            if self.interface != MSD_INTERFACE:
+                raise ConfigError(f"--interface {self.interface.kind} needs --plant-ns (the emulator "
+                                  "speaks the msd face)")
             return
         if not self.plant_ns.startswith("/") or self.plant_ns == "/":
             raise ConfigError(f"--plant-ns must be an absolute namespace like /rig, got {self.plant_ns!r}")
@@ -163,7 +170,8 @@ def stage_record(cfg: BenchConfig, procs: ProcessSet, bar: Callable[[int, int, s
     """Record the run's experiments through the recorder and excitation processes (and its sensor)."""
     return record_experiments(record_plan(cfg), cfg.excitation_dir, procs, cfg.namespace, not cfg.realtime,
                               bar, force_limit=cfg.run.plant.F, dt=cfg.run.plant.dt,
-                              truth=cfg.run.sensor is not None, rest=cfg.plant_ns is not None)
+                              truth=cfg.run.sensor is not None, rest=cfg.plant_ns is not None,
+                              iface=cfg.interface)
 
 
 def stage_identify(cfg: BenchConfig, procs: ProcessSet) -> dict[str, Any]:
@@ -173,7 +181,7 @@ def stage_identify(cfg: BenchConfig, procs: ProcessSet) -> dict[str, Any]:
     args = ["-p", f"bags_dir:={cfg.excitation_dir}", "-p", f"out_dir:={cfg.run_dir / 'models'}",
             "-p", f"models:={models}", "-p", f"nlarx_scale:={float(cfg.run.nlarx_scale)!r}",
             "-p", f"seed:={cfg.id_seed}", "-p", f"stroke:={p.L!r}", "-p", f"force:={p.F!r}",
-            "-p", f"dt:={p.dt!r}", "-p", f"namespace:={cfg.namespace}"]
+            "-p", f"dt:={p.dt!r}", "-p", f"namespace:={cfg.namespace}", *cfg.interface.ros_args()]
     # a rig's run has cost real time already: a slow machine must not lose it to a timeout here
     _run_to_end(procs.start("identifier.py", args, name="identifier"),
                 timeout=600.0 if cfg.plant_ns is None else 3600.0)
@@ -190,7 +198,7 @@ def agent_args(cfg: BenchConfig, kind: str) -> list[str]:
             "-p", f"validation_steps:={run.validation_steps}", "-p", f"window:={run.window}",
             "-p", f"target:={float(run.target)!r}", "-p", f"dt:={run.plant.dt!r}",
             "-p", f"force:={run.plant.F!r}", "-p", f"shaping:={run.shaping}",
-            "-p", f"plant_ns:={cfg.namespace}"]
+            "-p", f"plant_ns:={cfg.namespace}", *cfg.interface.ros_args()]
     if cfg.plant_ns is not None:
         args += ["-p", "reset:=false"]
         if kind in cfg.scenario_kinds and cfg.node_scenarios:

@@ -75,7 +75,8 @@ def figure_data(cfg: BenchConfig, results: list[AgentResult],
     return FigureData(
         target=cfg.run.target, dt=cfg.run.plant.dt, models=models, fits=_fits(cfg),
         records=load_records(roles_from_dir(cfg.excitation_dir, cfg.namespace, cfg.run.plant.dt),
-                             needs_bias_records(models), cfg.namespace, cfg.run.plant.dt),
+                             needs_bias_records(models), cfg.namespace, cfg.run.plant.dt,
+                             iface=cfg.interface, force_limit=cfg.run.plant.F),
         qtables={k: a for k, (a, _, _) in qtables.items()}, responses=responses)
 
 
@@ -108,6 +109,10 @@ def _plant_ns_lines(facts: dict[str, Any]) -> str:
     """What a reader of Table 1 must know about a run on a foreign node."""
     lines = [f"Run against `{facts['plant_ns']}` (no emulator; real time; no reset: zero force until "
              f"still before every experiment and episode; docs/plant-ns.md)."]
+    face = facts.get("interface", {})
+    if face.get("interface", "msd") != "msd":
+        lines.append(f"Through the {face['interface']} face: commands on `{face['command_topic']}` for joint "
+                     f"`{face['joint']}`, effort {face['effort']} (docs/ros2-control.md).")
     lines += [f"{facts[k][0].upper()}{facts[k][1:]}." for k in ("left_out", "dyna_budget") if facts[k]]
     scenarios = ", ".join(facts["node_scenarios"]) or "no scenario"
     lines.append(f"Robustness: measured on the node for {scenarios} "

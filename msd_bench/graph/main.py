@@ -35,6 +35,7 @@ from msd_bench.graph.launch import caller_env, process_group, stop
 from msd_bench.io.bag_records import roles_from_dir
 from msd_bench.io.paths import writable_dir
 from msd_bench.progress import StageProgress
+from msd_msgs_py.interface import add_cli_options, from_cli
 
 REPO = Path(__file__).resolve().parents[2]
 BENCH_DEFAULTS: dict[str, Any] = {"seeds": 3, "dyna_episodes": 5, "val_samples": 2_000}
@@ -70,6 +71,7 @@ def parse(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--scenario-kinds", metavar="KINDS",
                    help="with --plant-ns: agent kinds validated under --node-scenarios "
                         f"(default those of {','.join(plant_ns.DEFAULT_SCENARIO_KINDS)} that run)")
+    add_cli_options(p)
     return p.parse_args(argv)
 
 
@@ -100,7 +102,7 @@ def config(args: argparse.Namespace) -> BenchConfig:
     return BenchConfig(
         run_dir=Path(run_dir), run=run, realtime=args.realtime or args.plant_ns is not None,
         via_ros=args.via_ros, bags=args.bags.absolute() if args.bags else None,
-        stages=stages or tuple(args.stages.split(",")), **extra)
+        stages=stages or tuple(args.stages.split(",")), interface=from_cli(args), **extra)
 
 
 def say(line: str) -> None:
@@ -178,7 +180,7 @@ def dyna_budget(cfg: BenchConfig) -> str:
 
 def plant_ns_facts(cfg: BenchConfig) -> dict[str, Any]:
     """What the report must say about a run on a foreign node."""
-    return {"plant_ns": cfg.plant_ns, "realtime": True, "reset": False,
+    return {"plant_ns": cfg.plant_ns, "interface": cfg.interface.as_dict(), "realtime": True, "reset": False,
             "left_out": plant_ns.left_out_note(cfg.left_out), "dyna_budget": dyna_budget(cfg),
             "node_scenarios": list(cfg.node_scenarios), "scenario_kinds": list(cfg.scenario_kinds),
             "expected_seconds": round(expected_duration(cfg).total, 1)}
@@ -188,6 +190,7 @@ def announce_plant_ns(cfg: BenchConfig) -> None:
     """Print what a --plant-ns run will do and how long its real-time part takes."""
     say(f"plant-like node {cfg.plant_ns}: no emulator started; real time, no reset "
         f"(zero force until still before each experiment and episode)")
+    say(cfg.interface.describe(cfg.plant_ns or ""))
     for line in (plant_ns.left_out_note(cfg.left_out), dyna_budget(cfg), expected_duration(cfg).line()):
         if line:
             say(line)

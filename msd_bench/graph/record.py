@@ -45,8 +45,10 @@ from msd_bench.app import plan
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet, stop
-from msd_bench.io.bags import bag_info, read_experiment, read_topic
+from msd_bench.io.bag_interface import read_interface_experiment
+from msd_bench.io.bags import bag_info, read_topic
 from msd_msgs_py.contract import JOINT_STATES, PLANT_NAMESPACE, TRUTH_JOINT_STATES, TopicSpec
+from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
 SignalConfig = exc.PrbsConfig | exc.MultilevelConfig | exc.StepsConfig
 Progress = Callable[[int, int, str], None]
@@ -163,13 +165,18 @@ def record_experiments(
     dt: float = 0.01,
     truth: bool = False,
     rest: bool = False,
+    iface: PlantInterface = MSD_INTERFACE,
 ) -> list[Path]:
     """Record every spec into ``out_dir/<name>`` from the running plant under ``namespace``.
 
     ``truth``: the plant measures through a sensor and publishes ``truth/joint_states`` (recorded too).
     ``rest``: the node has no ``reset`` (a rig, real time): each experiment starts by zero force
     until the position is still, from wherever the mass rests.
+    ``iface``: the node's face (docs/ros2-control.md); with a measured effort its command topic is
+    recorded too, so identification can rebuild the applied force.
     """
+    if lockstep and iface.reset is None:
+        raise ConfigError(f"the {iface.kind} interface has no reset: record in real time")
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
         raise ConfigError(f"experiment names must be unique, got {names}")
@@ -178,11 +185,13 @@ def record_experiments(
     bags = []
     for i, spec in enumerate(specs):
         try:
-            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth, rest)
+            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth, rest,
+                             iface)
         except SampleLossError as err:
             print(f"warning: {err}; recording it again", file=sys.stderr, flush=True)
             shutil.rmtree(out / spec.name)
-            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth, rest)
+            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth, rest,
+                             iface)
         bags.append(bag)
         if progress is not None:
             progress(i + 1, len(specs), spec.name)
@@ -192,6 +201,7 @@ def record_experiments(
 def record_one(
     spec: ExperimentSpec, bag: Path, procs: ProcessSet, namespace: str, lockstep: bool,
     force_limit: float, dt: float, truth: bool = False, rest: bool = False,
+    iface: PlantInterface = MSD_INTERFACE,
 ) -> Path:
     """Record one experiment through a recorder and an excitation process; verify the bag."""
     if bag.exists():
@@ -201,10 +211,14 @@ def record_one(
     # Both start at once (process start-up dominates a short experiment); the excitation
     # waits until the recorder's reader is in the graph, then settles before playing.
     topics = recorded_topics(truth)
+    if not iface.effort_is_commanded:
+        topics = (*topics, iface.command)  # a measured effort: the applied force is rebuilt from these
     rec = procs.start("recorder.py",
-                      _recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
+                      [*_recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
+                       *iface.ros_args()],
                       name=f"recorder[{spec.name}]")
-    ex = procs.start("excitation.py", _excitation_args(spec, bag, namespace, lockstep, dt, rest),
+    ex = procs.start("excitation.py", [*_excitation_args(spec, bag, namespace, lockstep, dt, rest),
+                                       *iface.ros_args()],
                      name=f"excitation[{spec.name}]")
     try:
         _wait_playing(spec, ex, rec, 40.0 + (REST_TIMEOUT if rest else 0.0))
@@ -217,7 +231,8 @@ def record_one(
     finally:
         for proc in (ex, rec):
             stop(proc)
-    _verify(spec, bag, namespace, np.clip(u, -force_limit, force_limit), None if lockstep else dt, topics)
+    _verify(spec, bag, namespace, np.clip(u, -force_limit, force_limit), None if lockstep else dt, topics,
+            iface, force_limit)
     TIMINGS.append(RecordTiming(spec.name, int(u.size), startup, time.monotonic() - t0))
     return bag
 
@@ -279,7 +294,8 @@ def _last(proc: NodeProcess) -> str:
 
 
 def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: float | None,
-            topics: Sequence[TopicSpec] = _TOPICS) -> None:
+            topics: Sequence[TopicSpec] = _TOPICS, iface: PlantInterface = MSD_INTERFACE,
+            force_limit: float = 10.0) -> None:
     """The bag holds exactly the played samples (lock-step: ``dt`` None), or a gap-free superset.
 
     With the truth recorded, every topic holds every sample and the plant must
@@ -290,7 +306,9 @@ def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: 
         counts = {t: info.get(t.resolve(namespace), ("", 0))[1] for t in topics}
         if not counts[JOINT_STATES]:
             raise SampleLossError(f"experiment {spec.name}: bag {bag} has no joint_states sample")
-        experiment, _ = read_experiment(bag, namespace)
+        # our joint by name; a measured effort must be explained by the recorded commands
+        experiment, _, _ = read_interface_experiment(bag, iface, namespace, force_limit=force_limit,
+                                                     force_input="held")
     except SampleLossError:
         raise
     except MsdBenchError as err:

@@ -52,6 +52,7 @@ from msd_bench.io import artifacts
 from msd_bench.io.bag_writer import write_experiment
 from msd_bench.io.run_output import qtable_meta
 from msd_bench.nodes.episode_client import Episode, EpisodeClient
+from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import PLANT_NAMESPACE, REFERENCE
 from msd_msgs_py.ros import float64, qos
@@ -188,6 +189,11 @@ class AgentNode(Node):
     def __init__(self, config: AgentNodeConfig | None = None, **node_kwargs: Any) -> None:
         super().__init__("agent", **node_kwargs)
         self.config = config or declare_from_dataclass(self, AgentNodeConfig)
+        self.interface = declare_interface(self)
+        """The plant's face (``plant_ns`` only; surrogates speak the msd face)."""
+        if self.config.reset and self.interface.reset is None:
+            raise ConfigError(f"the {self.interface.kind} interface has no reset: set reset:=false "
+                              "(and lockstep:=false)")
         self.out = Path(self.config.out_dir)
         self.done: Future[int] = Future()
         self.q: np.ndarray | None = None
@@ -198,7 +204,8 @@ class AgentNode(Node):
         self.x0: dict[str, dict[int, float]] = {}
         self._client = EpisodeClient(
             self, lockstep=self.config.lockstep, reset=self.config.reset,
-            rest=RestConfig(threshold=self.config.rest_threshold, timeout=self.config.rest_timeout))
+            rest=RestConfig(threshold=self.config.rest_threshold, timeout=self.config.rest_timeout),
+            interfaces={self.config.plant_ns: self.interface})
         self._client.log = self._warn
         self._reference = self.create_publisher(
             Float64, REFERENCE.resolve(self.config.plant_ns), qos(REFERENCE))

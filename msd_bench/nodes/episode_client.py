@@ -17,6 +17,11 @@ and ``observe(x)``) with the namespace of a plant-like node and a length. The
   (:class:`msd_bench.core.rest.RestDetector`, or its timeout), then start the
   episode from the rest position it measured (the window's mean).
 
+Each namespace speaks a plant interface (``interfaces``; the msd face unless
+named): commands go out in the face's message, and on a face without
+``position`` (ros2_control) our joint's position in each ``joint_states`` row
+answers the last force (docs/ros2-control.md §Face).
+
 When ``record`` is set the episode also collects the node's ``joint_states``
 rows (x_k, v_k, applied u_k) so the run can be written as a bag; the episode
 ends only once every row has arrived (the two topics are not ordered).
@@ -31,12 +36,14 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from std_msgs.msg import Empty, Float64
 
-from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.errors import InterfaceError, MsdBenchError
 from msd_bench.core.rest import RestConfig, RestDetector
-from msd_msgs_py.contract import FORCE, JOINT_STATES, POSITION, RESET
-from msd_msgs_py.ros import float64, msg_class, qos
+from msd_msgs_py.contract import JOINT_STATES, POSITION
+from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
+from msd_msgs_py.ros import command, msg_class, qos
 
 
 class EpisodeError(MsdBenchError):
@@ -73,33 +80,59 @@ class Episode:
 
 
 class _Endpoint:
-    """Publishers/subscriptions of one plant-like namespace."""
+    """Publishers/subscriptions of one plant-like namespace, through its interface.
 
-    def __init__(self, node: Node, ns: str, client: EpisodeClient) -> None:
+    On a face without ``position`` (ros2_control) our joint's position in each
+    ``joint_states`` row is the answer to the last force.
+    """
+
+    def __init__(self, node: Node, ns: str, client: EpisodeClient, iface: PlantInterface) -> None:
         self.ns = ns
+        self.iface = iface
         self.needs_reset = client.reset
-        self.force = node.create_publisher(Float64, FORCE.resolve(ns), qos(FORCE))
-        self.reset = node.create_publisher(Empty, RESET.resolve(ns), qos(RESET))
-        self.pos = node.create_subscription(
-            Float64, POSITION.resolve(ns), lambda m: client.on_position(ns, m.data), qos(POSITION))
+        cmd = iface.command
+        self.force: Publisher[Any] = node.create_publisher(msg_class(cmd), cmd.resolve(ns), qos(cmd))
+        self.reset = (None if iface.reset is None else
+                      node.create_publisher(Empty, iface.reset.resolve(ns), qos(iface.reset)))
+        self.pos = None if iface.position is None else node.create_subscription(
+            Float64, iface.position.resolve(ns), lambda m: client.on_position(ns, m.data), qos(POSITION))
         self.js = node.create_subscription(
-            msg_class(JOINT_STATES), JOINT_STATES.resolve(ns), lambda m: client.on_row(ns, m),
+            msg_class(JOINT_STATES), JOINT_STATES.resolve(ns), lambda m: self._on_row(client, m),
             qos(JOINT_STATES))
 
+    def _on_row(self, client: EpisodeClient, msg: Any) -> None:
+        try:
+            ours = self.iface.pick(list(msg.name), msg.position, msg.velocity, msg.effort)
+        except InterfaceError as err:
+            raise EpisodeError(f"{self.ns}: {err}") from None
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        client.on_row(self.ns, stamp, ours.position, ours.velocity, ours.effort)
+        if self.pos is None:
+            client.on_position(self.ns, ours.position)
+
+    def send(self, u: float) -> None:
+        """Ask for force ``u`` in the face's command message."""
+        self.force.publish(command(self.iface, u))
+
     def matched(self) -> bool:
-        return (self.force.get_subscription_count() > 0
-                and (self.reset.get_subscription_count() > 0 or not self.needs_reset)
-                and self.pos.get_publisher_count() > 0 and self.js.get_publisher_count() > 0)
+        reset_ok = not self.needs_reset or (self.reset is not None
+                                            and self.reset.get_subscription_count() > 0)
+        return (self.force.get_subscription_count() > 0 and reset_ok
+                and (self.pos is None or self.pos.get_publisher_count() > 0)
+                and self.js.get_publisher_count() > 0)
 
 
 class EpisodeClient:
     """Plays queued episodes on plant-like nodes; calls ``on_idle`` when the queue empties."""
 
     def __init__(self, node: Node, lockstep: bool = True, settle_s: float = 0.5,
-                 match_timeout_s: float = 30.0, reset: bool = True, rest: RestConfig | None = None) -> None:
+                 match_timeout_s: float = 30.0, reset: bool = True, rest: RestConfig | None = None,
+                 interfaces: dict[str, PlantInterface] | None = None) -> None:
+        """``interfaces``: the face of each namespace that is not the msd face (docs/ros2-control.md)."""
         if lockstep and not reset:
             raise EpisodeError("lock-step episodes need the node's reset (its acknowledgement paces them)")
         self.node = node
+        self.interfaces = dict(interfaces or {})
         self.lockstep = lockstep
         self.reset = reset
         self.rest = rest or RestConfig()
@@ -119,9 +152,12 @@ class EpisodeClient:
         node.create_timer(0.05, self._on_tick)
 
     def endpoint(self, ns: str) -> _Endpoint:
-        """Create (once) the publishers and subscriptions for namespace ``ns``."""
+        """Create (once) the publishers and subscriptions for namespace ``ns``, through its interface."""
         if ns not in self._endpoints:
-            self._endpoints[ns] = _Endpoint(self.node, ns, self)
+            iface = self.interfaces.get(ns, MSD_INTERFACE)
+            if self.reset and iface.reset is None:
+                raise EpisodeError(f"{ns}: the {iface.kind} interface has no reset; use reset=False")
+            self._endpoints[ns] = _Endpoint(self.node, ns, self, iface)
         return self._endpoints[ns]
 
     def submit(self, episode: Episode) -> None:
@@ -169,12 +205,14 @@ class EpisodeClient:
             self._detector = RestDetector(self.rest)
             return
         self._phase, self._since = ("reset" if self.lockstep else "settle"), now
-        self._endpoints[self._ep.namespace].reset.publish(Empty())
+        reset = self._endpoints[self._ep.namespace].reset
+        assert reset is not None  # a face without reset needs reset=False (checked in endpoint())
+        reset.publish(Empty())
 
     def _rest_step(self, x: float) -> None:
         """Zero force for every sample until the detector calls the mass still."""
         assert self._ep is not None and self._detector is not None
-        self._endpoints[self._ep.namespace].force.publish(float64(0.0))
+        self._endpoints[self._ep.namespace].send(0.0)
         if self._detector.push(x):
             self._start_steps(self._detector.x0)
 
@@ -209,13 +247,12 @@ class EpisodeClient:
                 self._phase = "drain"
                 self._maybe_finish()
 
-    def on_row(self, ns: str, msg: Any) -> None:
-        """joint_states callback: collect rows of recorded episodes."""
+    def on_row(self, ns: str, stamp: int, x: float, v: float, effort: float) -> None:
+        """joint_states callback (our joint, picked by the endpoint): collect rows of recorded episodes."""
         ep = self._ep
         if ep is None or ns != ep.namespace or not ep.record or self._phase not in ("step", "drain"):
             return
-        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        ep.rows.append((stamp, msg.position[0], msg.velocity[0], msg.effort[0]))
+        ep.rows.append((stamp, x, v, effort))
         self._maybe_finish()
 
     def _start_steps(self, x0: float) -> None:
@@ -226,7 +263,7 @@ class EpisodeClient:
         self._send(self._ep)
 
     def _send(self, ep: Episode) -> None:
-        self._endpoints[ep.namespace].force.publish(float64(ep.controller.act()))
+        self._endpoints[ep.namespace].send(ep.controller.act())
 
     def _maybe_finish(self) -> None:
         ep = self._ep
