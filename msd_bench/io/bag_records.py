@@ -146,8 +146,6 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
                                                 force_limit=force_limit, force_input=force_input)
         if sources is not None:
             sources.append(src)
-        if sources is not None:
-            sources.append(src)
         if r.params is not None:
             exp = align_to_played(exp, r.params)
         if r.settle >= len(exp) - 3:
