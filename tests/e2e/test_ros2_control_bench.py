@@ -63,9 +63,10 @@ def test_bags_hold_the_face_and_identify_from_the_applied_force(run) -> None:  #
     exp, _, src = read_interface_experiment(out / "excitation" / "broad", iface, NS)
     assert len(exp) >= 600  # the played samples at least (real time records a little more)
     assert src.source == "applied" and src.agreement is not None
-    # the rig's dead time of one sample; the fit stays below an offline bag's because publish jitter
-    # and transport let a command overtake a row now and then in log time (docs/ros2-control.md §Force)
-    assert src.agreement.delay_samples == 1 and src.agreement.fit_percent > 85.0
+    # the rig's dead time of one sample, seen in log time: publish jitter and transport let a command
+    # overtake a row now and then, so the effective dead time may read one more and the fit stays
+    # below an offline bag's (docs/ros2-control.md §Force)
+    assert src.agreement.delay_samples in (1, 2) and src.agreement.fit_percent > 85.0
     inputs = json.loads((out / "models" / "inputs.json").read_text())
     assert {b["source"] for b in inputs["bags"]} == {"applied"}
     fits = json.loads((out / "models" / "fits.json").read_text())
