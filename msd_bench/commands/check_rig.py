@@ -2,6 +2,7 @@
 
     msd-bench check-rig /rig
     msd-bench check-rig /msd --seconds 20 --watchdog-timeout 0.5
+    msd-bench check-rig --interface ros2_control --controller effort_controller --joint slider_to_cart /rig
 
 Drives the node through a short, safe script (small forces, one brief
 over-limit command) and prints one line per clause, PASS or FAIL with the
@@ -29,6 +30,7 @@ from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.plant import DT, PlantParams
 from msd_bench.io.paths import writable_dir
 from msd_bench.nodes.spin import ros_session
+from msd_msgs_py.interface import add_cli_options, from_cli
 
 
 class CheckRigError(MsdBenchError):
@@ -58,6 +60,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--discovery-timeout", type=float, default=5.0, help="wait for the node's endpoints, s")
     p.add_argument("--json", type=Path, metavar="PATH",
                    help="also write the clauses, the command, commit and machine to PATH (JSON)")
+    add_cli_options(p)
     p.set_defaults(func=run)
 
 
@@ -93,7 +96,7 @@ def check(args: argparse.Namespace, context: rclpy.context.Context | None = None
                     discovery_timeout=args.discovery_timeout)
     node = rclpy.create_node("msd_bench_check_rig", context=context, start_parameter_services=False)
     try:
-        return RigChecker(node, args.namespace, limits_from_args(args), script).run()
+        return RigChecker(node, args.namespace, limits_from_args(args), script, from_cli(args)).run()
     finally:
         node.destroy_node()
 
@@ -101,6 +104,7 @@ def check(args: argparse.Namespace, context: rclpy.context.Context | None = None
 def run(args: argparse.Namespace) -> int:
     """Print one line per clause (and write them to ``--json``); 0 if all pass."""
     _check(args)
+    from_cli(args)  # an inconsistent interface is one line before any ROS work
     if args.json is not None:
         writable_dir(args.json.parent.absolute(), "--json directory")
     with ros_session([]):

@@ -86,21 +86,23 @@ class Limits:
 
 # --- graph clauses -------------------------------------------------------------------------------
 
-def publishers_clause(publishers: dict[str, int], force_subscribers: int, namespace: str = "") -> Clause:
-    """Exactly one publisher on every telemetry topic and a subscriber on ``force``.
+def publishers_clause(publishers: dict[str, int], force_subscribers: int, namespace: str = "",
+                      command: str = "force") -> Clause:
+    """Exactly one publisher on every telemetry topic and a subscriber on the command topic.
 
     Why: two publishers on ``joint_states`` interleave two sample streams (a
     second driver, a forgotten emulator) and a bag of them is garbage.
-    ``publishers``: absolute topic -> publisher count, shown relative to ``namespace``.
+    ``publishers``: absolute topic -> publisher count, shown relative to ``namespace``;
+    ``command``: the command topic's relative name (``force``, or ``<controller>/commands``).
     """
     bad = [f"{topic} has {n}" for topic, n in publishers.items() if n != 1]
     if force_subscribers < 1:
-        bad.append("force has no subscriber")
+        bad.append(f"{command} has no subscriber")
     prefix = namespace.rstrip("/") + "/"
     counts = ", ".join(f"{topic.removeprefix(prefix)} {n}" for topic, n in publishers.items())
     if bad:
         return Clause("publishers", False, "; ".join(bad) + " (want exactly 1 publisher each)")
-    return Clause("publishers", True, f"1 each ({counts}); force subscribers {force_subscribers}")
+    return Clause("publishers", True, f"1 each ({counts}); {command} subscribers {force_subscribers}")
 
 
 def qos_clause(reliabilities: dict[str, list[str]]) -> Clause:
@@ -324,6 +326,21 @@ def position_clause(js_x: FloatArray, pos: FloatArray, limits: Limits, resets: i
         return Clause("position", False,
                       fig + f", but {len(pos)} position vs {len(js_x)} joint_states messages")
     return Clause("position", True, fig)
+
+
+def joint_clause(rows: int, missing: int, joint: str, names: list[str]) -> Clause:
+    """Every ``joint_states`` row carries our joint (ros2_control face: found by name, in any order).
+
+    Why: a joint state broadcaster lists every joint of the robot; a bench
+    that read the first entry, or a row without ours, would identify another
+    joint's motion. ``names``: the joint names of the last row.
+    """
+    if rows == 0:
+        return Clause("joint", False, f"no joint_states row to look for {joint!r} in")
+    if missing:
+        return Clause("joint", False, f"{missing} of {rows} rows lack joint {joint!r} (last row: {names})")
+    where = names.index(joint) + 1 if joint in names else 0
+    return Clause("joint", True, f"{joint!r} in all {rows} rows (entry {where} of {len(names)}: {names})")
 
 
 # --- effort --------------------------------------------------------------------------------------

@@ -24,13 +24,16 @@ from typing import Any
 import numpy as np
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Empty, Float64
 
 from msd_bench.core import conformance as cf
 from msd_bench.core.conformance import Clause, Limits
+from msd_bench.core.errors import InterfaceError
 from msd_msgs_py.contract import CLOCK, FORCE, JOINT_STATES, POSITION, RESET, TRUTH_JOINT_STATES
-from msd_msgs_py.ros import float64, msg_class, qos
+from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
+from msd_msgs_py.ros import command, msg_class, qos
 
 NONFINITE = (math.nan, math.nan, math.inf, math.inf, -math.inf, -math.inf)
 """The non-finite commands sent, one per row (lock-step: one at a time)."""
@@ -79,15 +82,20 @@ def _reliability(profile: Any) -> str:
 class RigChecker:
     """One check of one namespace; :meth:`run` returns the clauses in report order."""
 
-    def __init__(self, node: Node, namespace: str, limits: Limits, script: Script) -> None:
+    def __init__(self, node: Node, namespace: str, limits: Limits, script: Script,
+                 iface: PlantInterface = MSD_INTERFACE) -> None:
         self.node, self.ns, self.limits, self.script = node, namespace.rstrip("/") or "/", limits, script
+        self.iface = iface
         self.rec = Record()
+        self.missing_joint = 0
+        self.names: list[str] = []
         self.executor = SingleThreadedExecutor(context=node.context)
         self.executor.add_node(node)
         self._hold: float | None = None
         self._on_row: Callable[[], None] | None = None
         self.topic = {s.name: s.resolve(self.ns) for s in (JOINT_STATES, POSITION, FORCE, RESET,
                                                              TRUTH_JOINT_STATES)}
+        self.topic[FORCE.name] = iface.command.resolve(self.ns)  # the command topic of the face
 
     # --- plumbing ----------------------------------------------------------------------------
 
@@ -129,10 +137,13 @@ class RigChecker:
             return p
         js, pos = self.topic[JOINT_STATES.name], self.topic[POSITION.name]
         sub = self.node.create_subscription
-        subs = [sub(msg_class(JOINT_STATES), js, self._row, profile(JOINT_STATES, js)),
-                sub(Float64, pos, self._position, profile(POSITION, pos))]
+        subs = [sub(msg_class(JOINT_STATES), js, self._row, profile(JOINT_STATES, js))]
+        if self.iface.position is not None:
+            subs.append(sub(Float64, pos, self._position, profile(POSITION, pos)))
         self.node.create_subscription(msg_class(CLOCK), CLOCK.name, self._clock, profile(CLOCK, CLOCK.name))
-        self.force = self.node.create_publisher(Float64, self.topic[FORCE.name], qos(FORCE))
+        cmd = self.iface.command
+        self.force: Publisher[Any] = self.node.create_publisher(msg_class(cmd), self.topic[FORCE.name],
+                                                                qos(cmd))
         self.reset = self.node.create_publisher(Empty, self.topic[RESET.name], qos(RESET))
         self.spin_until(lambda: self.force.get_subscription_count() > 0  # both telemetry streams matched
                         and all(s.get_publisher_count() > 0 for s in subs), self.script.discovery_timeout)
@@ -143,8 +154,15 @@ class RigChecker:
         r.stamps.append(_stamp_ns(msg.header.stamp))
         r.arrivals.append(time.monotonic())
         r.arrivals_ns.append(time.time_ns())
-        r.x.append(float(msg.position[0]) if len(msg.position) else math.nan)
-        r.effort.append(float(msg.effort[0]) if len(msg.effort) else math.nan)
+        self.names = list(msg.name)
+        try:
+            ours = self.iface.pick(self.names, msg.position, msg.velocity, msg.effort)
+            x, effort = ours.position, ours.effort
+        except InterfaceError:
+            self.missing_joint += 1
+            x, effort = math.nan, math.nan
+        r.x.append(x)
+        r.effort.append(effort)
         if self._hold is not None:
             self.command(self._hold)
         if self._on_row is not None:
@@ -158,7 +176,7 @@ class RigChecker:
 
     def command(self, u: float) -> None:
         """Publish one force command and remember when."""
-        self.force.publish(float64(u))
+        self.force.publish(command(self.iface, u))
         self.last_command = time.monotonic()
         self.last_command_ns = time.time_ns()
 
@@ -192,7 +210,9 @@ class RigChecker:
 
     def _graph_clauses(self) -> list[Clause]:
         n = self.node
-        topics = [self.topic[JOINT_STATES.name], self.topic[POSITION.name]]
+        topics = [self.topic[JOINT_STATES.name]]
+        if self.iface.position is not None:
+            topics.append(self.topic[POSITION.name])
         truth = self.topic[TRUTH_JOINT_STATES.name]
         if n.count_publishers(truth):
             topics.append(truth)
@@ -204,10 +224,17 @@ class RigChecker:
         if self._reset_supported():
             rel[self.topic[RESET.name]] = [_reliability(i.qos_profile)
                                            for i in n.get_subscriptions_info_by_topic(self.topic[RESET.name])]
-        return [cf.publishers_clause(pubs, n.count_subscribers(force), self.ns), cf.qos_clause(rel)]
+        return [cf.publishers_clause(pubs, n.count_subscribers(force), self.ns, self.iface.command.name),
+                cf.qos_clause(rel)]
 
     def _reset_supported(self) -> bool:
-        return self.node.count_subscribers(self.topic[RESET.name]) > 0
+        return self.iface.reset is not None and self.node.count_subscribers(self.topic[RESET.name]) > 0
+
+    def _position_or_joint(self, js_x: np.ndarray, pos: np.ndarray, resets: int = 0) -> Clause:
+        """``position`` against ``joint_states`` on the msd face; our joint in every row otherwise."""
+        if self.iface.position is None:
+            return cf.joint_clause(len(self.rec.stamps), self.missing_joint, self.iface.joint, self.names)
+        return cf.position_clause(js_x, pos, self.limits, resets=resets)
 
     # --- real time ---------------------------------------------------------------------------
 
@@ -295,8 +322,8 @@ class RigChecker:
         stamps = np.asarray(self.rec.stamps, dtype=np.int64)
         timing = [cf.rate_clause(arr, stamps, lim), cf.stamps_clause(stamps, lim),
                   cf.interarrival_clause(arr, lim)]
-        pos = cf.position_clause(np.asarray(self.rec.x), np.asarray(self.rec.pos), lim,
-                                 resets=int(self._reset_supported()))
+        pos = self._position_or_joint(np.asarray(self.rec.x), np.asarray(self.rec.pos),
+                                      resets=int(self._reset_supported()))
         return [*timing, pos, step, sat, nonfinite, watchdog, reset]
 
     def _settle_rows(self, resp: cf.StepResponse) -> int:
@@ -400,8 +427,8 @@ class RigChecker:
         stamps = np.asarray(self.rec.stamps[start:idle_from], dtype=np.int64)
         steps = cf.lockstep_steps_clause([c[0] for c in counts], [c[1] for c in counts], idle, stamps, lim.dt)
         clock = self._clock_clause()
-        pos = cf.position_clause(np.asarray(self.rec.x[start:]), np.asarray(self.rec.pos[self._pos_start:]),
-                                 lim)
+        pos = self._position_or_joint(np.asarray(self.rec.x[start:]),
+                                      np.asarray(self.rec.pos[self._pos_start:]))
         watchdog = Clause("watchdog", True, "not applicable in lock-step: without a command the node "
                                             "does not step (asserted by the steps clause)")
         return [steps, clock, pos, step, sat, nonfinite, watchdog, reset]

@@ -210,3 +210,13 @@ def test_reset_realtime_and_lockstep() -> None:
     assert not cf.reset_lockstep_clause(True, [0.0], 1, 0, 0.0).passed  # stepped on reset
     assert not cf.reset_lockstep_clause(True, [0.0], 0, 10_000_000, 0.0).passed  # not sample 0
     assert cf.reset_lockstep_clause(False, [], 0, None, None).passed
+
+
+def test_joint_clause_names_the_joint_and_its_entry() -> None:
+    from msd_bench.core.conformance import joint_clause
+
+    ok = joint_clause(300, 0, "slider_to_cart", ["pole_joint", "slider_to_cart"])
+    assert ok.passed and "entry 2 of 2" in ok.figure
+    missing = joint_clause(300, 12, "cart", ["pole_joint", "slider_to_cart"])
+    assert not missing.passed and "12 of 300 rows lack joint 'cart'" in missing.figure
+    assert not joint_clause(0, 0, "cart", []).passed
