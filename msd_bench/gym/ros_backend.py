@@ -12,9 +12,11 @@ sample that arrives after it (which may still have been computed with the
 previous force: a real rig's one-sample latency; the agent must be quicker
 than the node's watchdog between steps). An episode starts from rest: with
 ``reset`` the node is sent 0 N and reset; without one (real hardware cannot
-teleport) the backend holds 0 N until the mass is still — every position
-difference below ``still_tol`` for ``still_samples`` samples — and the episode
-starts wherever it came to rest (x_0 is read, never assumed 0).
+teleport) the backend holds 0 N until the mass is still, judged exactly as
+``bench.py --plant-ns`` judges it (:class:`msd_bench.core.rest.RestDetector`:
+spread and drift over a window, so a noisy sensor at rest counts as still),
+and the episode starts wherever it came to rest: x_0 is the detector's mean of
+the last positions, read, never assumed 0.
 
 The backend owns a private rclpy context and executor and spins them only
 while it waits for an answer, so it lives happily in a training loop that
@@ -44,6 +46,7 @@ from std_msgs.msg import Empty, Float64
 
 from msd_bench.core.errors import InterfaceError, MsdBenchError
 from msd_bench.core.plant import DT, PlantParams
+from msd_bench.core.rest import RestConfig, RestDetector
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 from msd_msgs_py.ros import command, msg_class, qos
 
@@ -60,12 +63,11 @@ class RosBackend:
 
     def __init__(self, namespace: str = "/msd", timeout_s: float = 5.0, match_timeout_s: float = 15.0,
                  dt: float = DT, x_max: float = 0.5 * PlantParams().L, *, lockstep: bool = True,
-                 still_tol: float = 1e-4, still_samples: int = 50, rest_timeout_s: float = 60.0,
-                 interface: PlantInterface = MSD_INTERFACE) -> None:
+                 rest: RestConfig | None = None, interface: PlantInterface = MSD_INTERFACE) -> None:
         """``dt`` and ``x_max`` are the node's sample time and half stroke (the topics do not carry them).
 
-        ``still_tol`` (m per sample), ``still_samples`` and ``rest_timeout_s``
-        say when a real-time node without ``reset`` counts as at rest.
+        ``rest`` says when a real-time node without ``reset`` counts as at rest
+        (the bench's own rule by default).
         """
         if not namespace.startswith("/"):
             raise RosBackendError(f"ROS namespace must be absolute (start with '/'), got {namespace!r}")
@@ -78,7 +80,7 @@ class RosBackend:
         self.x_max = float(x_max)
         self.timeout_s = float(timeout_s)
         self.lockstep = lockstep
-        self.still_tol, self.still_samples, self.rest_timeout_s = still_tol, still_samples, rest_timeout_s
+        self.rest = rest or RestConfig()
         self._positions: deque[float] = deque()
         self._ctx = Context()
         rclpy.init(args=[], context=self._ctx)
@@ -171,21 +173,20 @@ class RosBackend:
         return self._answer("reset")
 
     def _come_to_rest(self) -> float:
-        """Hold 0 N until the position stops changing; the rest position (read, not assumed)."""
-        deadline = time.monotonic() + self.rest_timeout_s
+        """Hold 0 N until the position is still; the rest position (read, not assumed)."""
+        deadline = time.monotonic() + self.rest.timeout
         self._positions.clear()
-        last = self._answer("zero force")
-        still = 0
-        while still < self.still_samples:
+        detector = RestDetector(self.rest)
+        detector.push(self._answer("zero force"))
+        while not detector.still:
             if time.monotonic() > deadline:
                 raise RosBackendError(
-                    f"{self.namespace}: not at rest after {self.rest_timeout_s:g} s of 0 N "
-                    f"(position still changes by more than {self.still_tol:g} m per sample)")
+                    f"{self.namespace}: not at rest after {self.rest.timeout:g} s of 0 N "
+                    f"(position spread {1000 * detector.spread():.1f} mm over the last "
+                    f"{self.rest.window} samples, limit {1000 * self.rest.threshold:g} mm)")
             self._publish(0.0)  # keeps the node's watchdog fed with a safe command
-            x = self._answer("zero force")
-            still = still + 1 if abs(x - last) < self.still_tol else 0
-            last = x
-        return last
+            detector.push(self._answer("zero force"))
+        return detector.x0
 
     def step(self, u: float) -> float:
         """Send one force and wait for the position that follows it."""

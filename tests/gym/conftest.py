@@ -33,6 +33,39 @@ def realtime_plant(request: pytest.FixtureRequest) -> Iterator[str]:
     yield from _served_plant(lockstep=False, with_reset=bool(request.param))
 
 
+@pytest.fixture
+def rig_emulator() -> Iterator[str]:
+    """The rig emulator with its realistic defaults (2 mm noise, delay, lag, friction, no reset)."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.parameter import Parameter
+
+    from msd_bench.nodes.rig_node import RigNode
+
+    ns = f"/gymrig{os.getpid()}_{next(_names)}"
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    node = RigNode(namespace=ns, context=ctx, parameter_overrides=[Parameter("duplicate_check", value=0.0)])
+    yield from _spin(node, ctx, ns)
+
+
+def _spin(node: object, ctx: object, ns: str) -> Iterator[str]:
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    executor = SingleThreadedExecutor(context=ctx)  # type: ignore[arg-type]
+    executor.add_node(node)  # type: ignore[arg-type]
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    thread.start()
+    try:
+        yield ns
+    finally:
+        executor.shutdown()
+        thread.join(timeout=5.0)
+        node.destroy_node()  # type: ignore[attr-defined]
+        rclpy.try_shutdown(context=ctx)  # type: ignore[arg-type]
+
+
 def _served_plant(lockstep: bool, with_reset: bool) -> Iterator[str]:
     import rclpy
     from rclpy.context import Context
