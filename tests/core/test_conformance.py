@@ -105,6 +105,14 @@ def test_lockstep_steps_and_clock() -> None:
     assert not cf.clock_clause(["/msd/plant"], "/msd/plant", [int(v) for v in s], expected).passed
 
 
+def test_a_position_count_shortfall_fails_strictly_and_is_a_timing_matter_when_lenient() -> None:
+    x = np.cumsum(RNG.normal(0, 0.01, 600))
+    short = x[:450]  # 150 fewer position messages than rows: a subscriber starved at the end
+    assert not cf.position_clause(x, short, LIM).passed
+    assert cf.position_clause(x, short, Limits(timing_tolerance=10.0)).passed
+    assert not cf.position_clause(x, x[590:], Limits(timing_tolerance=10.0)).passed  # too few to align
+
+
 def test_position_agrees_with_joint_states_at_any_subscription_offset() -> None:
     x = np.cumsum(RNG.normal(0, 0.01, 300))
     assert cf.position_clause(x[:-1], x[4:], LIM).passed  # position is x_{k+1}; streams start 3 apart
