@@ -69,7 +69,6 @@ def _spin(node: object, ctx: object, ns: str) -> Iterator[str]:
 def _served_plant(lockstep: bool, with_reset: bool) -> Iterator[str]:
     import rclpy
     from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
 
     from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
 
@@ -82,14 +81,4 @@ def _served_plant(lockstep: bool, with_reset: bool) -> Iterator[str]:
         for sub in list(node.subscriptions):
             if sub.topic_name.endswith("/reset"):
                 node.destroy_subscription(sub)
-    executor = SingleThreadedExecutor(context=ctx)
-    executor.add_node(node)
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
-    try:
-        yield ns
-    finally:
-        executor.shutdown()
-        thread.join(timeout=5.0)
-        node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
+    yield from _spin(node, ctx, ns)
