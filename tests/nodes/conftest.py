@@ -24,19 +24,20 @@ with warnings.catch_warnings():
 def shutdown_context(context: Context) -> None:
     """Destroy the nodes still alive in ``context``, then shut it down.
 
-    Why: Kilted's rclpy destroys a context's nodes when it shuts down; Jazzy's only
-    shuts the context down, so its nodes — and their DDS participant, with every
-    publisher and subscription — stay in the graph until garbage collection. The
-    next test's plant then refuses to start ("already has a publisher"), and its
-    publishers see the old subscriptions as matched and send before the new node
-    listens. Nodes a test forgot (or whose ``__init__`` raised) are found by scanning
-    the heap: only on an rclpy without ``Context.track_node`` (Jazzy), ~0.1 s.
+    Why: neither distro's context shutdown can be trusted to take its nodes with
+    it. Jazzy's only shuts the context down; Kilted's destroys its tracked nodes
+    while iterating the very list each ``destroy_node`` removes itself from, so
+    every second node survives. A surviving node — and its DDS participant, with
+    every publisher and subscription — stays in the graph until garbage
+    collection: the next test's plant refuses to start ("already has a
+    publisher"), a census counts a second ``/clock`` publisher, and publishers see
+    the old subscriptions as matched and send before the new node listens. Nodes a
+    test forgot (or whose ``__init__`` raised) are found by scanning the heap (~0.1 s).
     """
-    if not hasattr(context, "track_node"):
-        for obj in gc.get_objects():
-            if issubclass(type(obj), Node) and obj.context is context:  # type(): no proxy __class__
-                with contextlib.suppress(AttributeError):  # Node.__init__ failed before its rcl node
-                    obj.destroy_node()  # a second destroy (test already did) is a no-op
+    for obj in gc.get_objects():
+        if issubclass(type(obj), Node) and obj.context is context:  # type(): no proxy __class__
+            with contextlib.suppress(AttributeError):  # Node.__init__ failed before its rcl node
+                obj.destroy_node()  # a second destroy (test already did) is a no-op
     rclpy.try_shutdown(context=context)
 
 
