@@ -19,6 +19,15 @@ import pytest
 from msd_bench.core import excitation as exc
 from msd_bench.core.actuation import held_commands
 from msd_bench.core.plant import PlantParams, simulate
+from msd_bench.core.plm import PLM_BIASES
+from msd_bench.core.registry import MODEL_KINDS
+
+KINDS = tuple(MODEL_KINDS)
+"""Every registered model kind."""
+FREE_RUN_DIVERGES = ("nlarx-paper",)
+"""Its free-run simulation diverges on this plant whatever the face (fit < 0 %, as in the paper's
+Table 1 reproduction): a point of simulation fit means nothing there, so the faces are compared on
+its one-step fit, which every kind must match within a point (docs/ros2-control.md §Force)."""
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bag_writer import write_experiment, write_interface_experiment
 from msd_bench.io.errors import BagError
@@ -164,32 +173,49 @@ def test_msd_face_with_a_measured_effort_rebuilds_from_force(tmp_path: Path) -> 
     assert np.array_equal(exp.u, rec["held"]) and src.topic == "/rig/force"
 
 
+def _both_faces(root: Path, name: str, u: np.ndarray, seed: int) -> None:
+    """One run of the plant behind the actuator, recorded through each face."""
+    rec = _recording(u, seed)
+    _r2c_bag(root / "r2c" / name, u, rec)
+    write_experiment(root / "msd" / name, rec["t"], rec["applied"], rec["x"], rec["v"],
+                     params={}, namespace="/rig")
+
+
 def test_identification_through_ros2_control_equals_the_msd_face(tmp_path: Path) -> None:
-    """The same experiment, recorded through each face, gives each model the same simulation fit."""
-    cfg = exc.MultilevelConfig(n_samples=3000)
+    """The same experiments, recorded through each face, give every model kind the same simulation fit.
+
+    The paper's plan, shortened: one PRBS bag per PLM bias (settle samples kept in
+    the bag and dropped by ``settle_samples``, as a rig's own bags would have them),
+    a broad multilevel bag and a validation bag.
+    """
+    settle = 300
+    for i, bias in enumerate(PLM_BIASES):
+        prbs = exc.PrbsConfig(bias=bias, n_samples=2500, settle=settle)
+        _both_faces(tmp_path, f"bias_{i}", exc.prbs(prbs, 10 + i), 10 + i)
     for name, seed in (("broad", 1), ("val", 2)):
-        u = exc.multilevel(cfg, seed)
-        rec = _recording(u, seed)
-        _r2c_bag(tmp_path / "r2c" / name, u, rec)
-        write_experiment(tmp_path / "msd" / name, rec["t"], rec["applied"], rec["x"], rec["v"],
-                         params={}, namespace="/rig")
+        _both_faces(tmp_path, name, exc.multilevel(exc.MultilevelConfig(n_samples=4000), seed), seed)
     fits = {}
     for face, iface in (("msd", make()), ("r2c", R2C)):
         d = tmp_path / face
-        ident = IdentifierConfig(broad_bag=str(d / "broad"), validation_bag=str(d / "val"),
-                                 models=("glm", "greybox"), namespace="/rig",
-                                 out_dir=str(tmp_path / f"out_{face}"))
+        ident = IdentifierConfig(bias_bags=tuple(f"{b:g}={d / f'bias_{i}'}" for i, b in enumerate(PLM_BIASES)),
+                                 broad_bag=str(d / "broad"), validation_bag=str(d / "val"),
+                                 settle_samples=settle, models=KINDS, namespace="/rig",
+                                 nlarx_scale=0.5, out_dir=str(tmp_path / f"out_{face}"))
         report = identify_from_bags(ident, iface)
-        fits[face] = {m: report[m]["sim_fit"] for m in ("glm", "greybox")}
-    for model in ("glm", "greybox"):
-        assert fits["msd"][model] > 50.0
-        assert abs(fits["r2c"][model] - fits["msd"][model]) <= 1.0, fits
+        fits[face] = {m: (report[m]["sim_fit"], report[m]["one_step_fit"]) for m in KINDS}
+    for model in KINDS:
+        (sim_msd, step_msd), (sim_r2c, step_r2c) = fits["msd"][model], fits["r2c"][model]
+        assert abs(step_r2c - step_msd) <= 1.0 and step_msd > 99.0, fits
+        if model in FREE_RUN_DIVERGES:
+            assert sim_msd < 50.0 and sim_r2c < 50.0, fits  # still no free run worth a point
+        else:
+            assert sim_msd > 50.0 and abs(sim_r2c - sim_msd) <= 1.0, fits
     inputs = json.loads((tmp_path / "out_r2c" / "inputs.json").read_text())
     assert inputs["interface"]["interface"] == "ros2_control"
-    assert [b["source"] for b in inputs["bags"]] == ["applied", "applied"]
-    assert inputs["bags"][0]["agreement"]["delay_samples"] == 1
+    assert {b["source"] for b in inputs["bags"]} == {"applied"} and len(inputs["bags"]) == 7
+    assert all(b["agreement"]["delay_samples"] == 1 for b in inputs["bags"])
     msd_inputs = json.loads((tmp_path / "out_msd" / "inputs.json").read_text())
-    assert [b["source"] for b in msd_inputs["bags"]] == ["effort", "effort"]
+    assert {b["source"] for b in msd_inputs["bags"]} == {"effort"}
 
 
 def test_an_unknown_force_input_is_one_line(tmp_path: Path) -> None:
