@@ -92,6 +92,8 @@ class RigChecker:
         self.executor = SingleThreadedExecutor(context=node.context)
         self.executor.add_node(node)
         self._hold: float | None = None
+        self._moves = True
+        """Whether the effort step moved the applied effort (else the settle waits are skipped)."""
         self._on_row: Callable[[], None] | None = None
         self.topic = {s.name: s.resolve(self.ns) for s in (JOINT_STATES, POSITION, FORCE, RESET,
                                                              TRUTH_JOINT_STATES)}
@@ -290,6 +292,8 @@ class RigChecker:
         change = 0.02 * self.limits.force_limit
 
         def steady() -> bool:  # and, if the command changed, the effort has moved (not stuck before it)
+            if not self._moves:  # the step never moved it: waiting for a settled effort is minutes lost
+                return len(self.rec.effort) >= first + 5
             tail = self.rec.effort[-5:]
             moved = abs(hold - before) <= change or abs(tail[-1] - before) > change
             return len(self.rec.effort) >= first + 5 and max(tail) - min(tail) <= band and moved
@@ -304,6 +308,7 @@ class RigChecker:
         before = self.rec.effort[-1] if self.rec.effort else 0.0
         first = self._rows(a, round((lim.reach_within + 0.3) / lim.dt))
         resp = cf.step_response(self.rec.efforts(), first, before, a, lim)
+        self._moves = resp.delay >= 0
         step = cf.effort_step_clause(resp, a, lim)
         settle = self._settle_rows(resp)
         sat_cmd = -self.script.saturation_factor * F  # back toward the origin

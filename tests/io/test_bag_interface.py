@@ -21,13 +21,6 @@ from msd_bench.core.actuation import held_commands
 from msd_bench.core.plant import PlantParams, simulate
 from msd_bench.core.plm import PLM_BIASES
 from msd_bench.core.registry import MODEL_KINDS
-
-KINDS = tuple(MODEL_KINDS)
-"""Every registered model kind."""
-FREE_RUN_DIVERGES = ("nlarx-paper",)
-"""Its free-run simulation diverges on this plant whatever the face (fit < 0 %, as in the paper's
-Table 1 reproduction): a point of simulation fit means nothing there, so the faces are compared on
-its one-step fit, which every kind must match within a point (docs/ros2-control.md §Force)."""
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bag_writer import write_experiment, write_interface_experiment
 from msd_bench.io.errors import BagError
@@ -38,6 +31,12 @@ DT_NS = 10_000_000
 T0 = 1_700_000_000 * 10**9  # a wall-clock start, as a real-time recorder logs
 R2C = make("ros2_control", controller_joints=["pole", "slider_to_cart"])
 TAU_S = 0.03
+KINDS = tuple(MODEL_KINDS)
+"""Every registered model kind."""
+FREE_RUN_DIVERGES = ("nlarx-paper",)
+"""Its free-run simulation diverges on this plant whatever the face (fit < 0 %, as in the paper's
+Table 1 reproduction): a point of simulation fit means nothing there, so the faces are compared on
+its one-step fit, which every kind must match within a point (docs/ros2-control.md §Force)."""
 
 
 def _actuator(u: np.ndarray) -> np.ndarray:
@@ -197,7 +196,8 @@ def test_identification_through_ros2_control_equals_the_msd_face(tmp_path: Path)
     fits = {}
     for face, iface in (("msd", make()), ("r2c", R2C)):
         d = tmp_path / face
-        ident = IdentifierConfig(bias_bags=tuple(f"{b:g}={d / f'bias_{i}'}" for i, b in enumerate(PLM_BIASES)),
+        bias_bags = tuple(f"{b:g}={d / f'bias_{i}'}" for i, b in enumerate(PLM_BIASES))
+        ident = IdentifierConfig(bias_bags=bias_bags,
                                  broad_bag=str(d / "broad"), validation_bag=str(d / "val"),
                                  settle_samples=settle, models=KINDS, namespace="/rig",
                                  nlarx_scale=0.5, out_dir=str(tmp_path / f"out_{face}"))
