@@ -6,40 +6,20 @@ from __future__ import annotations
 import json
 import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
-from msd_bench.app.plant_ns import QUICK_LOOK
-from msd_bench.graph import launch
 from msd_bench.io.bags import read_experiment
+from tests.e2e.realtime_runs import PLANT_NS, Run
 
 pytestmark = pytest.mark.e2e
-REPO = Path(__file__).resolve().parents[2]
-NS = "/fakerig"
-TARGET = os.environ.get("MSD_PLANT_NS_TARGET", "plant")
-"""``plant`` (our plant node, real time, under NS) or the path of another plant-like launch script,
-e.g. ``launch_scripts/rig.py`` (started with ``-r __ns:=NS``)."""
-
-
-def _target_args() -> tuple[str, list[str]]:
-    if TARGET == "plant":
-        return "plant.py", ["-p", "lockstep:=false", "-r", f"__ns:={NS}"]
-    return str(REPO / TARGET), ["-r", f"__ns:={NS}"]
+NS = PLANT_NS
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subprocess.CompletedProcess[str]]:
-    out = tmp_path_factory.mktemp("plant_ns") / "run"
-    script, args = _target_args()
-    with launch.process_group() as procs:
-        node = procs.start(script, args, name="target")
-        node.wait_for_line(r"ready", timeout=60.0)
-        argv = [sys.executable, "launch_scripts/bench.py", "--plant-ns", NS, "--out", str(out), *QUICK_LOOK]
-        env = {**os.environ}  # the caller's ROS_DOMAIN_ID and discovery range (the test suite's)
-        proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True, timeout=1500, env=env)
-    return out, proc
+def run(realtime_runs: dict[str, Run]) -> tuple[Path, subprocess.CompletedProcess[str]]:
+    return realtime_runs["plant"].out, realtime_runs["plant"].proc
 
 
 def test_completes_without_a_traceback_and_says_what_it_does(run) -> None:  # type: ignore[no-untyped-def]

@@ -9,36 +9,23 @@ the report. No msd topic of the rig is ever used: it has none.
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
-from msd_bench.app.plant_ns import QUICK_LOOK
-from msd_bench.graph import launch
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bags import bag_info
 from msd_msgs_py.interface import make
+from tests.e2e.realtime_runs import R2C_NS, Run
 
 pytestmark = pytest.mark.e2e
-REPO = Path(__file__).resolve().parents[2]
-NS = "/r2crig"
-FACE = ["--interface", "ros2_control", "--controller", "effort_controller", "--joint", "slider_to_cart"]
+NS = R2C_NS
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, subprocess.CompletedProcess[str]]:
-    out = tmp_path_factory.mktemp("r2c") / "run"
-    with launch.process_group() as procs:
-        rig = procs.start("rig.py", ["-p", "interface:=ros2_control", "-r", f"__ns:={NS}"], name="rig")
-        rig.wait_for_line(r"ready", timeout=60.0)
-        argv = [sys.executable, "launch_scripts/bench.py", "--plant-ns", NS, *FACE, "--out", str(out),
-                *QUICK_LOOK]
-        proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True, timeout=1500,
-                              env={**os.environ})
-    return out, proc
+def run(realtime_runs: dict[str, Run]) -> tuple[Path, subprocess.CompletedProcess[str]]:
+    return realtime_runs["r2c"].out, realtime_runs["r2c"].proc
 
 
 def test_completes_through_the_ros2_control_face(run) -> None:  # type: ignore[no-untyped-def]
