@@ -61,16 +61,20 @@ def candidates() -> list[tuple[str, QConfig]]:
     Round 1 (L in {0.05, 0.1, 0.2} × training noise {0, 6 mm} × training delay {0, 1}, and an α-β
     tracker) chose L = 0.05, share 1, training delay 0..1. Round 2 (training delay 0..3, an assumed
     delay, a drift correction, velocity shares 0.1..1, L = 0.1) chose share 0.5. Round 3, with the
-    refined PLM as a stand-in and the two load conditions: L in {0.05, 0.1} × share {0.2, 0.5} × a
-    force-bias state (``obs_bias_gain``, N/m; 0 = none) at gains inside each pair's stable range
-    (qconfig's docstring) × training delay 0..1, and training delay 0..0 for the share 0.5 pair at L = 0.05.
+    refined PLM as a stand-in and the two load conditions: a force-bias state (``obs_bias_gain``, N/m;
+    0 = none) at gains inside each (L, share) pair's stable range (qconfig's docstring), around the
+    round-2 choice: L in {0.03, 0.05, 0.1} × share in {0.3, 0.5, 0.7} (not every pair) × gain, training
+    delay 0..1, and training delays 0..0 and 0..2 at L = 0.05, share 0.5.
     """
     out = [("improved", improved_config())]
-    grid = ((0.05, 0.5, 0.0, 1), (0.05, 0.5, 2.0, 1), (0.05, 0.5, 4.0, 1), (0.05, 0.5, 8.0, 1),
-            (0.05, 0.5, 0.0, 0), (0.05, 0.5, 4.0, 0),
-            (0.05, 0.2, 0.0, 1), (0.05, 0.2, 1.0, 1), (0.05, 0.2, 2.0, 1),
-            (0.1, 0.5, 0.0, 1), (0.1, 0.5, 5.0, 1), (0.1, 0.5, 15.0, 1),
-            (0.1, 0.2, 0.0, 1), (0.1, 0.2, 5.0, 1))
+    grid = (*((0.05, 0.5, k, 1) for k in (0.0, 1.0, 2.0, 4.0, 8.0)),
+            *((0.05, 0.3, k, 1) for k in (0.0, 1.0, 2.0, 4.0)),
+            *((0.05, 0.7, k, 1) for k in (0.0, 2.0, 4.0, 8.0)),
+            *((0.05, 0.5, k, 0) for k in (0.0, 2.0, 4.0)),
+            *((0.05, 0.5, k, 2) for k in (2.0, 4.0)),
+            *((0.1, 0.3, k, 1) for k in (0.0, 4.0, 8.0)),
+            *((0.1, 0.5, k, 1) for k in (0.0, 4.0, 8.0, 16.0)),
+            *((0.03, 0.5, k, 1) for k in (0.0, 1.0, 2.0)))
     for gain, share, bias, delay in grid:
         name = f"model L={gain},share={share},bias gain={bias},train delay=0..{delay}"
         out.append((name, improved_config(observer="model", obs_gain=gain, obs_velocity_share=share,
