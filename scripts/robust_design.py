@@ -64,7 +64,9 @@ def candidates() -> list[tuple[str, QConfig]]:
     refined PLM as a stand-in and the two load conditions: a force-bias state (``obs_bias_gain``, N/m;
     0 = none) at gains inside each (L, share) pair's stable range (qconfig's docstring), around the
     round-2 choice: L in {0.03, 0.05, 0.1} × share in {0.3, 0.5, 0.7} (not every pair) × gain, training
-    delay 0..1, and training delays 0..0 and 0..2 at L = 0.05, share 0.5.
+    delay 0..1, and training delays 0..0 and 0..2 at L = 0.05, share 0.5. A first pass of that grid
+    chose its edge (L = 0.03, gain 1), so the grid was extended around it (L = 0.02 and 0.04, gains
+    between) and the whole table rerun under the same rule.
     """
     out = [("improved", improved_config())]
     grid = (*((0.05, 0.5, k, 1) for k in (0.0, 1.0, 2.0, 4.0, 8.0)),
@@ -74,7 +76,12 @@ def candidates() -> list[tuple[str, QConfig]]:
             *((0.05, 0.5, k, 2) for k in (2.0, 4.0)),
             *((0.1, 0.3, k, 1) for k in (0.0, 4.0, 8.0)),
             *((0.1, 0.5, k, 1) for k in (0.0, 4.0, 8.0, 16.0)),
-            *((0.03, 0.5, k, 1) for k in (0.0, 1.0, 2.0)))
+            *((0.03, 0.5, k, 1) for k in (0.0, 1.0, 2.0)),
+            # Added after a first pass of the rows above chose L = 0.03, gain 1 — the grid's edge:
+            *((0.03, 0.5, k, 1) for k in (0.5, 1.5)), (0.03, 0.5, 1.0, 0),
+            *((0.03, 0.3, k, 1) for k in (0.0, 0.5)),
+            *((0.02, 0.5, k, 1) for k in (0.0, 0.25, 0.5)),
+            *((0.04, 0.5, k, 1) for k in (1.0, 1.5, 2.0)))
     for gain, share, bias, delay in grid:
         name = f"model L={gain},share={share},bias gain={bias},train delay=0..{delay}"
         out.append((name, improved_config(observer="model", obs_gain=gain, obs_velocity_share=share,
