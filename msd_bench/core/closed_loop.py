@@ -4,7 +4,8 @@ One compiled loop serves the nominal validation of observed agents and every
 scenario of the suite (:mod:`msd_bench.core.scenarios`): the agent sees the
 plant through the sensor (noise drawn outside, then quantisation), its
 commands act ``delay`` samples late, a load force may push from a given time
-on, and Coulomb friction may hold the mass. Metrics are computed by the
+on (on a plant-kind model in its force balance, on an ARX-type surrogate on
+its input), and Coulomb friction may hold the mass (plant kind only). Metrics are computed by the
 caller on the *true* positions this returns.
 """
 
@@ -35,7 +36,7 @@ class Conditions(NamedTuple):
     delay: int
     """Actuator delay, samples."""
     load: float
-    """Force added after saturation from ``load_step`` on, N (plant kind only)."""
+    """Force added after saturation from ``load_step`` on, N (an ARX-type model takes it on its input)."""
     load_step: int
     """First sample the load acts on."""
     friction: float
@@ -52,12 +53,19 @@ def quantise(y: float, step: float) -> float:
 
 @numba.njit(cache=True)
 def _advance(model: Kernel, state: FloatArray, u: float, load: float, friction: float) -> float:
+    """One step of the loop's plant: a load acts on every kind, friction on the plant kind only.
+
+    A load on an ARX-type model enters its input (:func:`kernels.advance_loaded`): that is what
+    lets a surrogate stand in for the plant under a load in the robust agent's design loop.
+    """
     if model.kind == KIND_PLANT and (load != 0.0 or friction != 0.0):
         x, v = kernels.plant_step_loaded(kernels.plant_of(model.params), state[0], state[1], u, load,
                                          friction)
         state[0] = x
         state[1] = v
         return x
+    if load != 0.0:
+        return kernels.advance_loaded(model, state, u, load)
     return kernels.advance(model, state, u)
 
 

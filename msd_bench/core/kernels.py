@@ -319,12 +319,36 @@ def advance(model: Kernel, s: FloatArray, u: float) -> float:
     ``s`` changes); an unknown kind raises rather than running another kind's maths.
     """
     u = saturate(u, model.force_limit)
-    kind, p = model.kind, model.params
-    if kind == KIND_PLANT:
-        x, v = plant_step(plant_of(p), s[0], s[1], u)
+    if model.kind == KIND_PLANT:
+        x, v = plant_step(plant_of(model.params), s[0], s[1], u)
         s[0] = x
         s[1] = v
         return x
+    return _arx_step(model, s, u)
+
+
+@numba.njit(cache=True)
+def advance_loaded(model: Kernel, s: FloatArray, u: float, load: float) -> float:
+    """:func:`advance` with an external ``load`` force (N) added after the actuator saturates.
+
+    A load is outside the actuator, so it is not clipped to ±F. A plant-kind
+    model takes it into its force balance (:func:`plant_step_loaded`); an
+    ARX-type model takes it on its input (the total force is what its
+    regressors see, so its input memory holds the sum). Beyond ±F an ARX
+    model extrapolates: it was identified on saturated commands only.
+    """
+    if model.kind == KIND_PLANT:
+        x, v = plant_step_loaded(plant_of(model.params), s[0], s[1], u, load, 0.0)
+        s[0] = x
+        s[1] = v
+        return x
+    return _arx_step(model, s, saturate(u, model.force_limit) + load)
+
+
+@numba.njit(cache=True)
+def _arx_step(model: Kernel, s: FloatArray, u: float) -> float:
+    """One step of an ARX-type model (linear, PLM, NLARX) under the acting force ``u``."""
+    kind, p = model.kind, model.params
     if kind == KIND_LINEAR:
         y = _local(p, 1, s, u)
     elif kind == KIND_PLM:

@@ -132,6 +132,13 @@ class QConfig:
     """Model observer: predict with the force commanded ``obs_delay`` samples ago — the actuator delay the
     observer assumes. A real actuator's delay is unknown; assuming the middle of a range halves the worst
     mismatch (docs/decisions.md §Robust)."""
+    obs_bias_gain: float = 0.0
+    """Model observer: gain (N per m of innovation) of its force-bias state — an estimate of a constant
+    force the model does not know (a load, a wrong equilibrium force), added to the force the predictor
+    is driven with and updated from the innovation each sample: the observer's integral action. 0 = off.
+    In the double-integrator approximation (dt²/m = 1e-4 m/N per sample) its error dynamics are stable
+    up to a gain of about 13 at L = 0.05 and share 0.5 (fastest near 4.5; share 0.2: up to 5), up to
+    about 55 at L = 0.1 and share 0.5 (fastest near 17)."""
     train_noise: float = 0.0
     """Training on the surrogate: each episode draws a sensor noise σ uniformly in [0, train_noise] m."""
     train_delay: int = 0
@@ -170,6 +177,9 @@ class QConfig:
         _require(0.0 <= self.obs_drift_gain <= 1.0
                  and (self.obs_drift_gain == 0.0 or self.observer == "model"),
                  "obs_drift_gain must be in [0, 1], and only a model observer has one")
+        _require(math.isfinite(self.obs_bias_gain) and 0.0 <= self.obs_bias_gain <= 1000.0
+                 and (self.obs_bias_gain == 0.0 or self.observer == "model"),
+                 "obs_bias_gain must be in [0, 1000] N/m, and only a model observer has one")
         _require(0 <= self.obs_delay <= 10 and (self.obs_delay == 0 or self.observer == "model"),
                  "obs_delay must be in 0..10 samples, and only a model observer assumes one")
         _require(self.state != "paper" or not self.observed,
@@ -266,6 +276,8 @@ class Learner(NamedTuple):
     """Model observer's integral gain on the innovation (a per-sample drift estimate)."""
     obs_delay: int
     """Actuator delay the model observer assumes, samples."""
+    obs_bias_gain: float
+    """Model observer's gain on its force-bias state, N per m of innovation (0 = no bias state)."""
 
 
 def encoding(cfg: QConfig) -> Encoding:
@@ -291,7 +303,7 @@ def packed(cfg: QConfig) -> Learner:
                    _phi_table(_error_side(cfg, enc), actions, cfg.shaping), actions, cfg.observed,
                    OBSERVERS.index(cfg.observer), cfg.obs_gain, cfg.obs_velocity_gain, cfg.train_noise,
                    cfg.train_delay, cfg.obs_velocity_share,
-                   cfg.obs_drift_gain, cfg.obs_delay)
+                   cfg.obs_drift_gain, cfg.obs_delay, cfg.obs_bias_gain)
 
 
 def _error_side(cfg: QConfig, enc: Encoding) -> NDArray[np.int64]:

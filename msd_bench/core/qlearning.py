@@ -317,8 +317,9 @@ def normal(state: rng.U64Array, i: int) -> float:
 
 @numba.njit(cache=True)
 def observer_state(lr: Learner) -> FloatArray:
-    """A zeroed observer state: the model's four slots, then the ``obs_delay`` last commanded forces."""
-    return np.zeros(4 + lr.obs_delay)
+    """A zeroed observer state: the model's four slots, the ``obs_delay`` last commanded forces, then
+    the force-bias estimate (last slot)."""
+    return np.zeros(5 + lr.obs_delay)
 
 
 @numba.njit(cache=True)
@@ -349,7 +350,8 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
     ``u`` as a predictor and correct it by the innovation — a fixed-gain
     Kalman-style observer; it does not differentiate raw samples, so it does
     not multiply the sensor noise, and its prediction follows the force —
-    the one commanded ``obs_delay`` samples ago (:func:`assumed_force`).
+    the one commanded ``obs_delay`` samples ago (:func:`assumed_force`), plus
+    the force-bias estimate when ``obs_bias_gain`` > 0 (its integral action).
     """
     if first:
         ost[:] = 0.0
@@ -364,10 +366,22 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
         return pred + lr.obs_gain * innovation, dh + lr.obs_velocity_gain * innovation
     # ost[3] (free in every kind's state) holds the drift estimate: added to each prediction, it
     # integrates the innovation, so a steady model mismatch leaves no steady bias.
-    pred = kernels.advance(obs, ost, assumed_force(lr, ost, u)) + ost[3]
+    acting = assumed_force(lr, ost, u)
+    bias = ost.size - 1
+    if lr.obs_bias_gain > 0.0:
+        # The force-bias state: a constant force the model does not know, driving the predictor
+        # beside the commanded one (outside the actuator's saturation, like a load).
+        pred = kernels.advance_loaded(obs, ost, acting, ost[bias]) + ost[3]
+    else:
+        pred = kernels.advance(obs, ost, acting) + ost[3]
     innovation = y - pred
     ost[0] = pred + lr.obs_gain * innovation
     ost[3] += lr.obs_drift_gain * innovation
+    if lr.obs_bias_gain > 0.0:
+        # Integral action on the force; held within ±F (a larger load could not be held anyway), so a
+        # hard stop's large innovations cannot wind it up.
+        f_max = lr.actions[lr.actions.size - 1]
+        ost[bias] = min(f_max, max(-f_max, ost[bias] + lr.obs_bias_gain * innovation))
     share = lr.obs_velocity_share
     if obs.kind == kernels.KIND_PLANT:
         # Moving x by L·r moves an ARX model's implied displacement (x_k - x_{k-1}) by L·r too; the

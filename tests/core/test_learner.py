@@ -36,12 +36,15 @@ ROBUST = improved_config(episodes=4, steps=400, observer="model", obs_gain=0.3, 
 DAMPED = improved_config(episodes=4, steps=400, observer="model", obs_gain=0.3, obs_velocity_share=0.2,
                          obs_drift_gain=0.002, obs_delay=1, train_noise=0.004, train_delay=2)
 """Every model-observer option away from its default (the delay history, the share, the drift)."""
+BIASED = improved_config(episodes=4, steps=400, observer="model", obs_gain=0.1, obs_velocity_share=0.5,
+                         obs_bias_gain=20.0, obs_delay=1, train_noise=0.004, train_delay=2)
+"""The force-bias state on top of the delay history (its slot sits behind it) and training noise."""
 ALPHA_BETA = improved_config(episodes=4, steps=400, observer="alpha-beta", obs_gain=0.3,
                              obs_velocity_gain=0.05, train_noise=0.004)
 
 
 @pytest.mark.parametrize("cfg", [QConfig(episodes=3, steps=400), improved_config(episodes=3, steps=400),
-                                 ROBUST, DAMPED, ALPHA_BETA])
+                                 ROBUST, DAMPED, BIASED, ALPHA_BETA])
 @pytest.mark.parametrize("model", [PLANT, ARX], ids=["plant", "arx"])
 def test_stepwise_equals_compiled_training(cfg: QConfig, model: StepModel) -> None:
     batch = train(model, cfg, [11])
@@ -60,7 +63,8 @@ def test_stepwise_with_planning_equals_dyna_q() -> None:
 
 
 @pytest.mark.parametrize("cfg", [improved_config(episodes=5, steps=500), replace(ROBUST, episodes=5),
-                                 replace(DAMPED, episodes=5), replace(ALPHA_BETA, episodes=5)])
+                                 replace(DAMPED, episodes=5), replace(BIASED, episodes=5),
+                                 replace(ALPHA_BETA, episodes=5)])
 @pytest.mark.parametrize("model", [PLANT, ARX], ids=["plant", "arx"])
 def test_greedy_policy_equals_greedy_rollouts(cfg: QConfig, model: StepModel) -> None:
     q = train(model, cfg, [3]).q

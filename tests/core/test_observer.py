@@ -1,4 +1,5 @@
-"""The robust agent's model observer, by hand: assumed actuator delay, velocity share, drift correction."""
+"""The robust agent's model observer, by hand: assumed actuator delay, velocity share, drift correction,
+force bias."""
 
 from __future__ import annotations
 
@@ -63,7 +64,51 @@ def test_drift_correction_removes_a_steady_model_bias() -> None:
     assert drift[-1][0] == pytest.approx(0.2, abs=1e-9)
 
 
-@pytest.mark.parametrize("kwargs", [{"obs_delay": 1}, {"obs_drift_gain": 0.01}, {"obs_velocity_share": 0.5},
+@pytest.mark.parametrize("model", [PLANT, ARX], ids=["plant", "arx"])
+def test_force_bias_state_learns_an_unmodelled_load_and_removes_the_bias(model: StepModel) -> None:
+    # The measured system is the observer's own model plus a constant -2 N load from rest, under a
+    # steady +3 N: without a bias state the estimate stays off; with one, the bias estimate converges
+    # to the load and the position estimate to the measurement.
+    load, u = -2.0, 3.0
+    state = model.initial_state()
+    ys = [0.0] + [kernels.advance_loaded(model.kernel, state, u, load) for _ in range(6000)]
+    us = [u] * 6000
+    plain = _observe_run(model, ys, us, obs_gain=0.05, obs_velocity_share=0.5)
+    assert abs(plain[-1][0] - ys[-1]) > 1e-3
+    lr = packed(improved_config(observer="model", obs_gain=0.05, obs_velocity_share=0.5, obs_bias_gain=4.0))
+    ost = qlearning.observer_state(lr)
+    xh, dh = qlearning.observe(lr, model.kernel, ost, 0.0, ys[0], 0.0, 0.0, True)
+    for y in ys[1:]:
+        xh, dh = qlearning.observe(lr, model.kernel, ost, u, y, xh, dh, False)
+    assert ost[-1] == pytest.approx(load, abs=1e-6)
+    assert xh == pytest.approx(ys[-1], abs=1e-9) and abs(dh) < 1e-9
+
+
+def test_force_bias_estimate_is_held_within_the_actuators_limit() -> None:
+    # A measurement stuck far from anything the model can reach would wind an unbounded integrator up.
+    ys, us = [0.0] + [2.0] * 3000, [0.0] * 3000
+    lr = packed(improved_config(observer="model", obs_gain=0.05, obs_bias_gain=50.0))
+    ost = qlearning.observer_state(lr)
+    xh, dh = qlearning.observe(lr, STATIC.kernel, ost, 0.0, ys[0], 0.0, 0.0, True)
+    for u, y in zip(us, ys[1:], strict=True):
+        xh, dh = qlearning.observe(lr, STATIC.kernel, ost, u, y, xh, dh, False)
+    assert ost[-1] == lr.actions[-1]
+
+
+def test_a_zero_bias_gain_is_the_observer_without_a_bias_state() -> None:
+    us = list(np.random.default_rng(5).choice([-10.0, 0.0, 10.0], size=400))
+    state = ARX.initial_state()
+    ys = [0.0] + [kernels.advance_loaded(ARX.kernel, state, u, 1.5) for u in us]
+    base = _observe_run(ARX, ys, us, obs_gain=0.05, obs_velocity_share=0.5)
+    biased = _observe_run(ARX, ys, us, obs_gain=0.05, obs_velocity_share=0.5, obs_bias_gain=4.0)
+    assert base == _observe_run(ARX, ys, us, obs_gain=0.05, obs_velocity_share=0.5, obs_bias_gain=0.0)
+    assert base != biased
+
+
+@pytest.mark.parametrize("kwargs", [{"obs_bias_gain": 1.0}, {"observer": "model", "obs_gain": 0.1,
+                                                             "obs_bias_gain": -1.0},
+                                    {"observer": "model", "obs_gain": 0.1, "obs_bias_gain": float("nan")},
+                                    {"obs_delay": 1}, {"obs_drift_gain": 0.01}, {"obs_velocity_share": 0.5},
                                     {"observer": "model", "obs_gain": 0.1, "obs_velocity_share": 1.5},
                                     {"observer": "model", "obs_gain": 0.1, "obs_delay": 11},
                                     {"observer": "alpha-beta", "obs_gain": 0.1, "obs_delay": 1}])

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core import robustness
+from msd_bench.core import kernels, robustness
 from msd_bench.core.closed_loop import Conditions, greedy_under
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.metrics import compute
-from msd_bench.core.model import plant_model
+from msd_bench.core.model import StepModel, plant_model
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.qconfig import QConfig, improved_config, packed
 from msd_bench.core.qtrain import greedy_rollouts, train
@@ -76,6 +76,26 @@ def test_delay_shifts_the_applied_command_and_load_and_friction_act_on_the_plant
     stuck, _ = greedy_under(model, lr, _hold(2), base._replace(load=3.0, friction=3.5), np.zeros((1, 40)),
                             model)
     assert np.all(stuck == 0.0)  # friction beyond the load holds the mass
+
+
+def test_a_load_enters_an_arx_models_input_after_saturation():
+    # An ARX-type surrogate standing in for the plant: a load of -2 N from sample 10 on is what the model
+    # does under (saturated command - 2 N) from then on, and it is not clipped with the command.
+    arx = StepModel(kernels.KIND_LINEAR, np.array([5.0, 5e-5, 5e-5, -1.975, 0.9802, 0.0, 0.0]), "arx")
+    lr = packed(QConfig())
+    cond = Conditions(1.0, 0.0, 0, -2.0, 10, 0.0)
+    loaded, us = greedy_under(arx.kernel, lr, _hold(4), cond, np.zeros((1, 60)), arx.kernel)
+    assert np.all(us == 10.0)
+    forces = np.where(np.arange(60) >= 10, 8.0, 10.0)
+    state = arx.initial_state()
+    expected = [0.0] + [arx.step(state, f) for f in forces[:-1]]
+    assert np.array_equal(loaded[0], expected)
+    free, _ = greedy_under(arx.kernel, lr, _hold(4), cond._replace(load=0.0), np.zeros((1, 60)), arx.kernel)
+    assert np.array_equal(free[0, :11], loaded[0, :11]) and np.all(free[0, 11:] > loaded[0, 11:])
+    state = arx.initial_state()
+    beyond = [kernels.advance_loaded(arx.kernel, state, 10.0, 2.0) for _ in range(5)]  # 12 N acts
+    state = arx.initial_state()
+    assert beyond[-1] == pytest.approx(1.2 * [arx.step(state, 10.0) for _ in range(5)][-1], rel=1e-12)
 
 
 def test_quantisation_is_applied_to_what_the_agent_sees():
