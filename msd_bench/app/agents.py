@@ -30,8 +30,9 @@ def robust_config() -> QConfig:
     return improved_config(**ROBUST)
 
 
-ROBUST: dict[str, object] = {"observer": "model", "obs_gain": 0.05, "obs_velocity_gain": 0.0,
-                             "obs_velocity_share": 0.5, "train_noise": 0.0, "train_delay": 1}
+ROBUST: dict[str, object] = {"observer": "model", "obs_gain": 0.03, "obs_bias_gain": 1.0,
+                             "obs_velocity_gain": 0.0, "obs_velocity_share": 0.5, "train_noise": 0.0,
+                             "train_delay": 1}
 """The robust agent's observer gains and training perturbations (chosen on surrogates only,
 ``scripts/robust_design.py``; docs/decisions.md §Robust)."""
 
