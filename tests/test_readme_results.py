@@ -44,3 +44,24 @@ def test_performance_view_marks_each_floor_and_what_was_not_measured():
     assert rows["`bench.py` default run, seconds"].endswith("| 120.00 | <= 90 | **no** |")
     assert rows["`bench.py` over the same kinds in-process"].endswith("| yes |")
     assert "not measured" in rows["batched training, agent-steps/s"]
+
+
+def _cell(k: int, n: int) -> dict[str, int]:
+    return {"n": n, "n_success": k}
+
+
+def test_robust_floors_view_judges_counts_and_the_interval_rule():
+    """Count floors at their n (180 of 192 nominal: 179 fails), the interval rule elsewhere."""
+    robust = {"nominal": _cell(179, 192), "delay=1": _cell(173, 192), "disturbance=-2@15": _cell(150, 192),
+              "setpoint=1.5": _cell(170, 192)}
+    improved = {"nominal": _cell(185, 192), "delay=1": _cell(183, 192),
+                "disturbance=-2@15": _cell(175, 192), "setpoint=1.5": _cell(175, 192)}
+    doc = {"command": "c", "commit": "abc", "machine": {"cpu": "c", "cores": 2}, "seconds": 1,
+           "robustness": {"scenarios": list(robust), "agents": [
+               {"kind": "plm+improved", "cells": improved}, {"kind": "plm+robust", "cells": robust}]}}
+    rows = {ln.split(" | ")[1].strip("`"): ln for ln in
+            readme_results.view_robust_floors(doc, "x").splitlines() if ln.startswith("| `plm+robust`")}
+    assert rows["nominal"].endswith("| ≥ 180/192 | **no** |")
+    assert rows["delay=1"].endswith("| ≥ 173/192 | yes |")
+    assert rows["disturbance=-2@15"].endswith("| **no** |")  # 72-83 % against 85-94 %
+    assert rows["setpoint=1.5"].endswith("| yes |")  # 83-92 % overlaps 86-94 %
