@@ -21,15 +21,18 @@ silently run with the default) and a params file that is not a YAML mapping
 from __future__ import annotations
 
 import ast
+import contextlib
 import dataclasses
 import difflib
 import functools
+import gc
 import inspect
 import itertools
 import math
 import textwrap
+import threading
 import typing
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -58,14 +61,37 @@ _ARRAYS: dict[type, Parameter.Type] = {
 }
 
 
+_AST_LOCK = threading.Lock()
+"""Serialises our ``ast.parse`` calls (see :func:`_parsing_alone`)."""
+
+
+@contextlib.contextmanager
+def _parsing_alone() -> Iterator[None]:
+    """Parse with no other parse able to start inside: CPython 3.11 keeps the AST-to-object
+    conversion's recursion depth in state shared by every parse, so a parse nested in another one
+    fails the outer with "AST constructor recursion depth mismatch". Nesting happens when a garbage
+    collection inside the conversion runs a finalizer that formats a traceback (3.11's traceback
+    module parses the source line) — seen when building a node after check-rig tests — or when
+    another thread parses. Hence a lock and no collection while parsing."""
+    with _AST_LOCK:
+        enabled = gc.isenabled()
+        gc.disable()
+        try:
+            yield
+        finally:
+            if enabled:
+                gc.enable()
+
+
 @functools.cache
 def field_docs(cls: type) -> dict[str, str]:
     """Docstrings written under the fields of a dataclass, read from its source with ``ast``."""
-    try:
-        source = textwrap.dedent(inspect.getsource(cls))
-    except (OSError, TypeError):
-        return {}
-    body = ast.parse(source).body[0]
+    with _parsing_alone():  # inspect.getsource parses the whole module with ast as well
+        try:
+            source = textwrap.dedent(inspect.getsource(cls))
+        except (OSError, TypeError):
+            return {}
+        body = ast.parse(source).body[0]
     docs: dict[str, str] = {}
     stmts = getattr(body, "body", [])
     for stmt, nxt in itertools.pairwise(stmts):
