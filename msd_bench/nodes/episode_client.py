@@ -37,6 +37,7 @@ from typing import Any, Protocol
 
 from rclpy.node import Node
 from rclpy.publisher import Publisher
+from rclpy.subscription import Subscription
 from std_msgs.msg import Empty, Float64
 
 from msd_bench.core.errors import InterfaceError, MsdBenchError
@@ -90,15 +91,31 @@ class _Endpoint:
         self.ns = ns
         self.iface = iface
         self.needs_reset = client.reset
+        self._node, self._client = node, client
         cmd = iface.command
         self.force: Publisher[Any] = node.create_publisher(msg_class(cmd), cmd.resolve(ns), qos(cmd))
         self.reset = (None if iface.reset is None else
                       node.create_publisher(Empty, iface.reset.resolve(ns), qos(iface.reset)))
         self.pos = None if iface.position is None else node.create_subscription(
             Float64, iface.position.resolve(ns), lambda m: client.on_position(ns, m.data), qos(POSITION))
-        self.js = node.create_subscription(
-            msg_class(JOINT_STATES), JOINT_STATES.resolve(ns), lambda m: self._on_row(client, m),
-            qos(JOINT_STATES))
+        self.js: Subscription[Any] | None = None
+        if self.pos is None:  # a face without position answers in joint_states
+            self.want_rows()
+
+    def want_rows(self) -> bool:
+        """Subscribe to ``joint_states`` (once): for recorded episodes, or as the only answer.
+        Return whether the subscription is new (so its match has yet to be seen).
+
+        Why not always: training episodes on a surrogate record nothing, and a
+        JointState deserialised and dropped on every step costs the ROS training
+        path time per step for nothing.
+        """
+        if self.js is not None:
+            return False
+        self.js = self._node.create_subscription(
+            msg_class(JOINT_STATES), JOINT_STATES.resolve(self.ns),
+            lambda m: self._on_row(self._client, m), qos(JOINT_STATES))
+        return True
 
     def _on_row(self, client: EpisodeClient, msg: Any) -> None:
         try:
@@ -119,7 +136,7 @@ class _Endpoint:
                                             and self.reset.get_subscription_count() > 0)
         return (self.force.get_subscription_count() > 0 and reset_ok
                 and (self.pos is None or self.pos.get_publisher_count() > 0)
-                and self.js.get_publisher_count() > 0)
+                and (self.js is None or self.js.get_publisher_count() > 0))
 
 
 class EpisodeClient:
@@ -162,7 +179,9 @@ class EpisodeClient:
 
     def submit(self, episode: Episode) -> None:
         """Queue an episode; it starts once its node is matched."""
-        self.endpoint(episode.namespace)
+        end = self.endpoint(episode.namespace)
+        if episode.record and end.want_rows():
+            self._matched_at.pop(episode.namespace, None)  # a new subscription: wait for its match
         self._queue.append(episode)
 
     @property
