@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import itertools
 import os
-import threading
 from collections.abc import Iterator
 
 import gymnasium
@@ -14,6 +13,7 @@ import pytest
 import msd_bench.gym  # noqa: F401  (registers MsdBench-v0)
 from msd_bench.gym.ros_backend import RosBackendError
 from msd_msgs_py.interface import make
+from tests.gym.conftest import _spin
 
 pytestmark = pytest.mark.ros
 _names = itertools.count()
@@ -25,7 +25,6 @@ def r2c_rig() -> Iterator[str]:
     """A rig emulator with the ros2_control face (no sensor noise), served from a thread; yields its NS."""
     import rclpy
     from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
 
     from msd_bench.nodes.rig_node import RigNode
@@ -37,17 +36,7 @@ def r2c_rig() -> Iterator[str]:
               "controller_joints": ["wheel", "slider_to_cart"]}
     node = RigNode(namespace=ns, context=ctx,
                    parameter_overrides=[Parameter(k, value=v) for k, v in values.items()])
-    executor = SingleThreadedExecutor(context=ctx)
-    executor.add_node(node)
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
-    try:
-        yield ns
-    finally:
-        executor.shutdown()
-        thread.join(timeout=5.0)
-        node.destroy_node()
-        rclpy.try_shutdown(context=ctx)
+    yield from _spin(node, ctx, ns)
 
 
 def test_episodes_over_the_ros2_control_face(r2c_rig: str) -> None:
