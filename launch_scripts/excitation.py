@@ -17,4 +17,4 @@ from msd_bench.nodes.excitation_node import ExcitationNode
 from msd_bench.nodes.spin import run
 
 if __name__ == "__main__":
-    run(lambda: ExcitationNode())
+    run(ExcitationNode)

@@ -7,7 +7,7 @@ the run directory, so a run can be resumed or re-reported):
              write one bag per experiment under ``excitation/``;
 ``identify`` the identifier process fits GLM / PLM / NLARX from those bags
              into ``models/`` (or from ``--bags DIR``);
-``agents``   one agent process per agent kind trains (in-process on the model
+``agents``   one agent node per agent kind (all in one served process) trains (in-process on the model
              artifact by default, over a surrogate node with ``--via-ros``, or
              Dyna-Q against the plant node) and validates every seed on the
              plant topics, writing ``agents/<kind>/`` (Q-tables, bags, result);
@@ -34,6 +34,7 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.plant_ns import hardware_scenario
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.registry import needs_bias_records
+from msd_bench.graph.jobs import JobServer
 from msd_bench.graph.launch import NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, paper_plan, record_experiments
 from msd_msgs_py.contract import PLANT_NAMESPACE, surrogate_namespace
@@ -224,29 +225,34 @@ def surrogate_args(cfg: BenchConfig, name: str) -> list[str]:
 
 
 def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[int, int, str], None]) -> None:
-    """One agent process per kind, one after another (they share the plant)."""
+    """Every agent kind, one after another (they share the plant), as nodes of one served process."""
     if cfg.via_ros:
         for name in cfg.run.surrogates_needed():
             p = procs.start("surrogate.py", surrogate_args(cfg, name), name=f"surrogate-{name}")
             p.wait_for_line(r"ready \(", timeout=60.0)
     agents = cfg.run.agents
+    server = JobServer(procs, "agent.py", "agent").ready()  # one process, one node per kind
     for i, kind in enumerate(agents):
         bar(i, len(agents), kind)
-        proc = procs.start("agent.py", agent_args(cfg, kind), name=f"agent-{kind}")
-        _run_to_end(proc, timeout=3600.0 if cfg.plant_ns is None else 4 * 3600.0)
-        say(_last_line(proc, "agent done") or f"agent {kind} done")
+        job = server.submit(agent_args(cfg, kind), name=f"agent-{kind}")
+        status = job.wait(3600.0 if cfg.plant_ns is None else 4 * 3600.0)
+        if status != 0:
+            raise StageError(f"{job.name} failed (exit {status}): {_last_line(job.lines) or 'no output'}")
+        say(_last_line(job.lines, "agent done") or f"agent {kind} done")
+    server.close()
     bar(len(agents), len(agents), "done")
 
 
 def _run_to_end(proc: NodeProcess, timeout: float) -> None:
     status = proc.wait(timeout)
     if status != 0:
-        raise StageError(f"{proc.name} failed (exit {status}): {_last_line(proc) or 'no output'}")
+        raise StageError(f"{proc.name} failed (exit {status}): {_last_line(proc.lines) or 'no output'}")
 
 
-def _last_line(proc: NodeProcess, contains: str = "") -> str:
-    lines = [ln for ln in proc.lines if contains in ln and ln.strip()]
-    return lines[-1].strip() if lines else ""
+def _last_line(lines: Sequence[str], contains: str = "") -> str:
+    """The last non-empty output line containing ``contains`` (the served process's own lines aside)."""
+    kept = [ln for ln in lines if contains in ln and ln.strip() and not ln.startswith("[serve]")]
+    return kept[-1].strip() if kept else ""
 
 
 def write_run_facts(cfg: BenchConfig, extra: dict[str, Any]) -> Path:

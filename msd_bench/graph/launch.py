@@ -14,6 +14,7 @@ cannot unlink its shared-memory segments, so :func:`stop` removes the
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 import os
@@ -61,11 +62,12 @@ class NodeProcess:
         """Everything the process printed so far."""
         return "\n".join(self.lines)
 
-    def wait_for_line(self, pattern: str, timeout: float) -> str:
-        """The first output line matching ``pattern`` (regex); LaunchError on timeout or exit."""
+    def wait_for_line(self, pattern: str, timeout: float, since: int = 0) -> str:
+        """The first output line from line ``since`` on matching ``pattern`` (regex); LaunchError on
+        timeout or exit."""
         rx = re.compile(pattern)
         deadline = time.monotonic() + timeout
-        seen = 0
+        seen = since
         while time.monotonic() < deadline:
             for line in self.lines[seen:]:
                 if rx.search(line):
@@ -75,6 +77,22 @@ class NodeProcess:
                 raise LaunchError(f"{self.name} exited ({self.popen.returncode}) before {pattern!r}")
             time.sleep(0.02)
         raise LaunchError(f"{self.name}: no line matching {pattern!r} within {timeout} s")
+
+    def send(self, line: str) -> None:
+        """Write one line to the process's stdin (started with ``stdin=True``); LaunchError if it is gone."""
+        if self.popen.stdin is None:
+            raise LaunchError(f"{self.name} was not started with a stdin pipe")
+        try:
+            self.popen.stdin.write(line + "\n")
+            self.popen.stdin.flush()
+        except (BrokenPipeError, ValueError):
+            raise LaunchError(f"{self.name} exited ({self.popen.poll()}); it takes no more input") from None
+
+    def end_input(self) -> None:
+        """Close the process's stdin (a served process then ends after its running node)."""
+        if self.popen.stdin is not None and not self.popen.stdin.closed:
+            with contextlib.suppress(BrokenPipeError):  # it has ended: nothing left to tell it
+                self.popen.stdin.close()
 
     def wait(self, timeout: float) -> int:
         """Exit status once the process ends; LaunchError if it is still running."""
@@ -86,7 +104,8 @@ class NodeProcess:
         return status
 
     def close_output(self) -> None:
-        """Collect the last lines and close the pipe (the process has ended)."""
+        """Collect the last lines and close the pipes (the process has ended)."""
+        self.end_input()
         if self.reader is not None:
             self.reader.join(timeout=2.0)
         if self.popen.stdout is not None and not self.popen.stdout.closed:
@@ -137,8 +156,11 @@ def start(
     script_args: Sequence[str] = (),
     domain_id: int | None = None,
     env: dict[str, str] | None = None,
+    stdin: bool = False,
 ) -> NodeProcess:
-    """Start ``launch_scripts/<script>`` (or a path) with ``--ros-args`` in a new process group."""
+    """Start ``launch_scripts/<script>`` (or a path) with ``--ros-args`` in a new process group.
+
+    ``stdin``: give it a pipe to write lines to (:meth:`NodeProcess.send`; a served process)."""
     path = Path(script)
     if not path.is_absolute() and not path.exists():
         path = SCRIPTS / path
@@ -147,7 +169,8 @@ def start(
         argv += ["--ros-args", *ros_args]
     popen = subprocess.Popen(
         argv, cwd=REPO_ROOT, env=_confined(env) if env else ros_env(domain_id), text=True,
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True,
+        stdin=subprocess.PIPE if stdin else None, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+        start_new_session=True,
         preexec_fn=functools.partial(_child_setup, os.getpid(), path.resolve().parent == SCRIPTS),
     )
     proc = NodeProcess(name or path.stem, popen)

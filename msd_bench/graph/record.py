@@ -44,7 +44,8 @@ import numpy as np
 from msd_bench.app import plan
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet, stop
+from msd_bench.graph.jobs import Job, JobServer
+from msd_bench.graph.launch import LaunchError, ProcessSet
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bags import bag_info, read_topic
 from msd_msgs_py.contract import JOINT_STATES, PLANT_NAMESPACE, TRUTH_JOINT_STATES, TopicSpec
@@ -182,44 +183,73 @@ def record_experiments(
         raise ConfigError(f"experiment names must be unique, got {names}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    servers = RecordServers.start(procs)
     bags = []
-    for i, spec in enumerate(specs):
-        try:
-            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth, rest,
-                             iface)
-        except SampleLossError as err:
-            print(f"warning: {err}; recording it again", file=sys.stderr, flush=True)
-            shutil.rmtree(out / spec.name)
-            bag = record_one(spec, out / spec.name, procs, namespace, lockstep, force_limit, dt, truth, rest,
-                             iface)
-        bags.append(bag)
-        if progress is not None:
-            progress(i + 1, len(specs), spec.name)
+    try:
+        for i, spec in enumerate(specs):
+            try:
+                bag = record_one(spec, out / spec.name, servers, namespace, lockstep, force_limit, dt, truth,
+                                 rest, iface)
+            except SampleLossError as err:
+                print(f"warning: {err}; recording it again", file=sys.stderr, flush=True)
+                shutil.rmtree(out / spec.name)
+                bag = record_one(spec, out / spec.name, servers, namespace, lockstep, force_limit, dt, truth,
+                                 rest, iface)
+            bags.append(bag)
+            if progress is not None:
+                progress(i + 1, len(specs), spec.name)
+    finally:
+        servers.close()
     return bags
 
 
+@dataclass(frozen=True)
+class RecordServers:
+    """One served recorder and one served excitation process for every experiment of a stage.
+
+    Why served (:mod:`msd_bench.nodes.serve`): as two fresh processes per
+    experiment, start-up and discovery took longer than the samples did.
+    """
+
+    recorder: JobServer
+    excitation: JobServer
+
+    @classmethod
+    def start(cls, procs: ProcessSet) -> RecordServers:
+        """Start both (their imports overlap) and wait until they take jobs."""
+        servers = cls(JobServer(procs, "recorder.py", "recorder"),
+                      JobServer(procs, "excitation.py", "excitation"))
+        servers.recorder.ready()
+        servers.excitation.ready()
+        return servers
+
+    def close(self) -> None:
+        """No more experiments: both processes end."""
+        for server in (self.excitation, self.recorder):
+            server.close()
+
+
 def record_one(
-    spec: ExperimentSpec, bag: Path, procs: ProcessSet, namespace: str, lockstep: bool,
+    spec: ExperimentSpec, bag: Path, servers: RecordServers, namespace: str, lockstep: bool,
     force_limit: float, dt: float, truth: bool = False, rest: bool = False,
     iface: PlantInterface = MSD_INTERFACE,
 ) -> Path:
-    """Record one experiment through a recorder and an excitation process; verify the bag."""
+    """Record one experiment through a recorder and an excitation node; verify the bag."""
     if bag.exists():
         raise RecordError(f"experiment {spec.name}: bag {bag} already exists; refusing to overwrite")
     u = spec.force()
     t0 = time.monotonic()
-    # Both start at once (process start-up dominates a short experiment); the excitation
-    # waits until the recorder's reader is in the graph, then settles before playing.
+    # Both start at once; the excitation waits until the recorder's reader is in the graph,
+    # then settles before playing.
     topics = recorded_topics(truth)
     if not iface.effort_is_commanded:
         topics = (*topics, iface.command)  # a measured effort: the applied force is rebuilt from these
-    rec = procs.start("recorder.py",
-                      [*_recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
-                       *iface.ros_args()],
-                      name=f"recorder[{spec.name}]")
-    ex = procs.start("excitation.py", [*_excitation_args(spec, bag, namespace, lockstep, dt, rest),
-                                       *iface.ros_args()],
-                     name=f"excitation[{spec.name}]")
+    rec = servers.recorder.submit(
+        [*_recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
+         *iface.ros_args()], name=f"recorder[{spec.name}]")
+    ex = servers.excitation.submit(
+        [*_excitation_args(spec, bag, namespace, lockstep, dt, rest), *iface.ros_args()],
+        name=f"excitation[{spec.name}]")
     try:
         _wait_playing(spec, ex, rec, 40.0 + (REST_TIMEOUT if rest else 0.0))
         startup = time.monotonic() - t0
@@ -229,8 +259,8 @@ def record_one(
             raise RecordError(f"experiment {spec.name}: excitation exited {status}: {_last(ex)}")
         _finish_recorder(rec, lockstep)
     finally:
-        for proc in (ex, rec):
-            stop(proc)
+        for job in (ex, rec):
+            job.stop()
     _verify(spec, bag, namespace, np.clip(u, -force_limit, force_limit), None if lockstep else dt, topics,
             iface, force_limit)
     TIMINGS.append(RecordTiming(spec.name, int(u.size), startup, time.monotonic() - t0))
@@ -254,18 +284,18 @@ def _excitation_args(spec: ExperimentSpec, bag: Path, namespace: str, lockstep: 
             "-r", f"__ns:={namespace}"]
 
 
-def _wait_playing(spec: ExperimentSpec, ex: NodeProcess, rec: NodeProcess, timeout: float) -> None:
-    """Wait for the excitation to start playing; fail at once if the recorder died meanwhile."""
+def _wait_playing(spec: ExperimentSpec, ex: Job, rec: Job, timeout: float) -> None:
+    """Wait for the excitation to start playing; fail at once if the recorder ended meanwhile."""
     deadline = time.monotonic() + timeout
     while True:
-        if rec.popen.poll() is not None:
-            raise RecordError(f"experiment {spec.name}: {rec.name} exited ({rec.popen.returncode}) "
+        if rec.finished():
+            raise RecordError(f"experiment {spec.name}: {rec.name} ended ({rec.wait(5.0)}) "
                               f"before recording: {_last(rec)}")
         try:
             ex.wait_for_line(r"plant matched: playing", min(0.5, max(0.01, deadline - time.monotonic())))
             return
         except LaunchError as err:
-            if time.monotonic() >= deadline or ex.popen.poll() is not None:
+            if time.monotonic() >= deadline or ex.finished():
                 raise RecordError(f"experiment {spec.name}: {err}") from None
 
 
@@ -277,19 +307,19 @@ def _expect(spec: ExperimentSpec, wait: Callable[..., Any], *args: Any) -> Any:
         raise RecordError(f"experiment {spec.name}: {err}") from None
 
 
-def _finish_recorder(rec: NodeProcess, lockstep: bool) -> None:
-    """Let a lock-step recorder reach ``max_messages`` by itself; else close it with SIGINT."""
+def _finish_recorder(rec: Job, lockstep: bool) -> None:
+    """Let a lock-step recorder reach ``max_messages`` by itself; else close it (as Ctrl-C would)."""
     if lockstep:
         try:
             rec.wait(10.0)
             return
         except LaunchError:
             pass  # a message was lost: stop it cleanly, the check below names what is missing
-    stop(rec)
+    rec.stop()
 
 
-def _last(proc: NodeProcess) -> str:
-    lines = [ln for ln in proc.lines if ln.strip()]
+def _last(job: Job) -> str:
+    lines = [ln for ln in job.lines if ln.strip() and not ln.startswith("[serve]")]
     return lines[-1].strip() if lines else "no output"
 
 

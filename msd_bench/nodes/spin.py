@@ -202,6 +202,10 @@ def _close(node: Node, status: int) -> int:
     return status
 
 
-def run(build: Callable[[], Node]) -> None:
-    """``sys.exit(main(build))`` for launch scripts."""
+def run(build: Callable[..., Node]) -> None:
+    """``sys.exit(main(build))`` for launch scripts; with ``--serve``, node after node (:mod:`.serve`)."""
+    from msd_bench.nodes import serve  # imports this module
+
+    if serve.wants_serving(sys.argv):
+        sys.exit(serve.serve(build, sys.argv))
     sys.exit(main(build))

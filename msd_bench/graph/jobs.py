@@ -1,0 +1,111 @@
+"""The launcher's side of a served node process (:mod:`msd_bench.nodes.serve`).
+
+A :class:`JobServer` is one long-lived launch script started with
+``--serve``; each :meth:`JobServer.submit` runs one node in it and returns a
+:class:`Job`, which answers the questions a launcher asks of a node process
+(its output lines, a line it waits for, its exit status, stop it) for that
+node alone. So a stage written against one process per node runs unchanged
+against one process for all of them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet, stop
+from msd_bench.nodes.serve_protocol import READY_LINE, SERVE_FLAG, STOP_LINE, exit_pattern
+
+READY_TIMEOUT = 60.0
+"""Seconds a served process gets to import and join the graph."""
+
+
+@dataclass
+class Job:
+    """One node run by a :class:`JobServer`: its own lines, exit status and stop."""
+
+    server: JobServer
+    index: int
+    since: int
+    """Index of the first output line that can belong to this job."""
+    name: str
+    status: int | None = None
+
+    @property
+    def lines(self) -> list[str]:
+        """The server's output since this job was submitted."""
+        return self.server.proc.lines[self.since:]
+
+    def wait_for_line(self, pattern: str, timeout: float) -> str:
+        """The first line of this job matching ``pattern``; LaunchError on timeout or if the server died."""
+        try:
+            return self.server.proc.wait_for_line(pattern, timeout, self.since)
+        except LaunchError as err:
+            raise LaunchError(str(err).replace(self.server.proc.name, self.name, 1)) from None
+
+    def finished(self) -> bool:
+        """Whether this job has ended (or its server has)."""
+        if self.status is not None or self.server.proc.popen.poll() is not None:
+            return True
+        rx = re.compile(self._exit_pattern)
+        return any(rx.search(line) for line in self.lines)
+
+    def wait(self, timeout: float) -> int:
+        """The job's exit status once it ends; LaunchError if it is still running after ``timeout``."""
+        if self.status is None:
+            line = self.wait_for_line(self._exit_pattern, timeout)
+            self.status = int(line.rsplit(" ", 1)[-1])
+        return self.status
+
+    def stop(self, timeout: float = 15.0) -> int:
+        """End the job as Ctrl-C ends a node (a recorder completes its bag); its exit status.
+
+        A server that does not answer in ``timeout`` is stopped as a process.
+        """
+        if self.status is not None:
+            return self.status
+        if self.server.proc.popen.poll() is None and not self.finished():
+            with contextlib.suppress(LaunchError):  # it ended meanwhile: the wait below says how
+                self.server.proc.send(STOP_LINE)
+        try:
+            return self.wait(timeout)
+        except LaunchError:
+            self.status = stop(self.server.proc)
+            return self.status
+
+    @property
+    def _exit_pattern(self) -> str:
+        return exit_pattern(self.index)
+
+
+class JobServer:
+    """One launch script run with ``--serve``: nodes one after another in a single process."""
+
+    def __init__(self, procs: ProcessSet, script: str, name: str) -> None:
+        """Start it (do not wait: start several, then :meth:`ready` each)."""
+        self.name = name
+        self.proc: NodeProcess = procs.start(script, script_args=[SERVE_FLAG], name=name, stdin=True)
+        self.submitted = 0
+
+    def ready(self, timeout: float = READY_TIMEOUT) -> JobServer:
+        """Wait until the process can take jobs."""
+        self.proc.wait_for_line("^" + re.escape(READY_LINE) + "$", timeout)
+        return self
+
+    def submit(self, ros_args: Sequence[str], name: str) -> Job:
+        """Run one node with these ROS arguments (what would follow ``--ros-args``)."""
+        job = Job(self, self.submitted, len(self.proc.lines), name)
+        self.proc.send(json.dumps(list(ros_args)))
+        self.submitted += 1
+        return job
+
+    def close(self, timeout: float = 15.0) -> int:
+        """No more jobs: the process ends after its running node; its exit status."""
+        self.proc.end_input()
+        try:
+            return self.proc.wait(timeout)
+        except LaunchError:
+            return stop(self.proc)

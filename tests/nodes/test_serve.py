@@ -1,0 +1,70 @@
+"""A served launch script (``--serve``): node after node in one process, each with its own arguments."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from msd_bench.core.errors import ConfigError
+from msd_bench.graph.jobs import JobServer
+from msd_bench.graph.launch import process_group, stop
+from msd_bench.io.bags import bag_info
+from msd_bench.nodes.serve import job_args, wants_serving
+
+pytestmark = pytest.mark.ros
+
+
+def test_serving_is_asked_for_before_the_ros_arguments_only() -> None:
+    assert wants_serving(["recorder.py", "--serve"])
+    assert not wants_serving(["recorder.py"])
+    assert not wants_serving(["recorder.py", "--ros-args", "-p", "x:=--serve"])
+
+
+@pytest.mark.parametrize("line", ["not json", '{"a": 1}', '["-p", 3]'])
+def test_a_job_line_must_be_a_json_list_of_strings(line: str) -> None:
+    with pytest.raises(ConfigError, match="JSON list of ROS arguments"):
+        job_args(line)
+
+
+def _recorder_args(bag: Path, **extra: str) -> list[str]:
+    args = ["-p", f"bag_path:={bag}", "-p", "topics:=[position]", "-p", "namespace:=/serve_test"]
+    for key, value in extra.items():
+        args += ["-p", f"{key}:={value}"]
+    return args
+
+
+def test_each_job_is_its_own_node_and_a_mistake_ends_only_its_job(tmp_path: Path) -> None:
+    """Bad lines and bad parameters fail their job in one line; the next jobs still run and a
+    ``stop`` closes a recorder with a complete bag, as Ctrl-C closes its process."""
+    with process_group() as procs:
+        server = JobServer(procs, "recorder.py", "recorder").ready()
+        bad_line = server.submit([], name="empty")  # no bag_path: the node refuses to start
+        assert bad_line.wait(30.0) == 2
+        assert any("bag_path is required" in ln for ln in bad_line.lines)
+        typo = server.submit([*_recorder_args(tmp_path / "typo"), "-p", "max_mesages:=3"], name="typo")
+        assert typo.wait(30.0) == 2
+        assert any("did you mean max_messages" in ln for ln in typo.lines)
+        bags = []
+        for k in range(2):  # two recorders in turn: each writes its own bag with its own parameters
+            bag = tmp_path / f"bag{k}"
+            job = server.submit(_recorder_args(bag, params_json=f"'{json.dumps({'k': k})}'"), name=f"rec{k}")
+            job.wait_for_line(r"running", 30.0)
+            assert job.stop() == 0
+            bags.append(bag)
+        server.proc.send("not json")
+        assert server.close() == 0
+    assert [bag_info(b).params["k"] for b in bags] == [0, 1]
+    assert "job 4 exit 2" in server.proc.output()  # the malformed line was a job that failed alone
+
+
+def test_a_stopped_server_closes_its_running_node(tmp_path: Path) -> None:
+    """SIGINT to a served recorder mid-job: the bag is complete and the process exits 0."""
+    bag = tmp_path / "mid"
+    with process_group() as procs:
+        server = JobServer(procs, "recorder.py", "recorder").ready()
+        server.submit(_recorder_args(bag), name="mid").wait_for_line(r"running", 30.0)
+        assert stop(server.proc) == 0
+    assert bag_info(bag).params == {}
+    assert (bag / "metadata.yaml").is_file()
