@@ -1,11 +1,12 @@
 """Wall time of the main job, ``python launch_scripts/bench.py``, and of each of its stages.
 
-Runs bench.py with its defaults (lock-step, 3 seeds, every agent kind, paper
-budgets except Dyna-Q's reduced 5 episodes) as a subprocess into a temporary
-run directory, then reads the stage timings bench.py records in ``run.json``.
-Baseline in the same run: ``msd-bench paper`` with the same seeds, agents and
-budgets in-process (no ROS), so ``bench_over_inprocess`` shows what running
-every stage through node processes and DDS costs. Floors: ``seconds`` <= 90 and
+Runs bench.py with its defaults (lock-step, 3 seeds, its default agent kinds,
+paper budgets except Dyna-Q's reduced 5 episodes and 2,000-sample validation
+records) as a subprocess into a temporary run directory, then reads the stage
+timings and the agent kinds bench.py records in ``run.json``. Baseline in the
+same run: ``msd-bench paper`` with the same seeds, agent kinds and budgets
+in-process (no ROS), so ``bench_over_inprocess`` shows what running every
+stage through node processes and DDS costs. Floors: ``seconds`` <= 90 and
 ``bench_over_inprocess`` <= 4.
 
     .venv/bin/python benchmarks/bench_bench.py [--seeds 3]
@@ -44,10 +45,12 @@ def main() -> None:
         run = Path(tmp) / "run"
         bench_s = timed([sys.executable, "launch_scripts/bench.py", "--seeds", str(args.seeds),
                          "--out", str(run)])
-        stages = json.loads((run / "run.json").read_text())["timings"]
+        facts = json.loads((run / "run.json").read_text())
+        stages, kinds = facts["timings"], facts["run"]["agents"]
         table = json.loads((run / "report" / "table1.json").read_text())
         paper_s = timed([sys.executable, "-m", "msd_bench.cli", "paper", "--seeds", str(args.seeds),
-                         "--dyna-episodes", "5", "--val-samples", "2000", "--out", str(Path(tmp) / "p")])
+                         "--agents", ",".join(kinds), "--dyna-episodes", "5", "--val-samples", "2000",
+                         "--out", str(Path(tmp) / "p")])
     print(json.dumps({
         "seconds": round(bench_s, 1),
         "stage_seconds": stages,
@@ -56,6 +59,7 @@ def main() -> None:
         "bench_over_inprocess": round(bench_s / paper_s, 2),
         "ratio_floor": RATIO_FLOOR,
         "meets_floor": bench_s <= FLOOR_S and bench_s / paper_s <= RATIO_FLOOR,
+        "agents": kinds,
         "success_rate": {a["kind"]: a["success_rate"] for a in table["agents"]},
     }, indent=2))
 

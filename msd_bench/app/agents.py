@@ -89,6 +89,12 @@ DEFAULT_AGENTS: tuple[str, ...] = tuple(
 """What a run does unless ``--agents`` says otherwise: every surrogate under every design, and the
 paper's on-plant baselines; the ``@`` readings and our agents on the true plant are opt-in."""
 
+BENCH_AGENTS: tuple[str, ...] = ("glm", "plm", "nlarx-paper", "dyna-q", "plm+improved", "plm+robust")
+"""bench.py's default kinds: the paper's Table 1 (GLM, PLM, NLARX, Dyna-Q) and our two agents on its
+best surrogate. Every kind validates over DDS in lock-step, so each costs the graph what the paper's
+Table 1 costs in-process many times over; the full matrix is ``msd-bench paper``'s default and one
+``--agents`` away here (docs/decisions.md §Main job)."""
+
 
 def agent_kind(name: str) -> AgentKind:
     """The agent kind ``name``; a one-line ConfigError listing the kinds otherwise."""
@@ -106,11 +112,17 @@ def check_agents(agents: Sequence[str]) -> None:
         raise ConfigError(f"agent kinds must be given once each, got {list(agents)}")
 
 
+MATRIX = "matrix"
+"""``--agents matrix``: :data:`DEFAULT_AGENTS`, the full matrix (bench.py runs fewer by default)."""
+
+
 def parse_agents(text: str) -> tuple[str, ...]:
-    """``"plm, plm+improved"`` → ``("plm", "plm+improved")``, checked."""
-    agents = tuple(a.strip() for a in text.split(",") if a.strip())
-    check_agents(agents)
-    return agents
+    """``"plm, plm+improved"`` → ``("plm", "plm+improved")``, checked; ``matrix`` names every default kind."""
+    agents: list[str] = []
+    for name in (a.strip() for a in text.split(",") if a.strip()):
+        agents += [k for k in DEFAULT_AGENTS if k not in agents] if name == MATRIX else [name]
+    check_agents(agents)  # a kind named twice is a mistake; "matrix,plm+robust" adds to the matrix
+    return tuple(agents)
 
 
 def surrogates_of(agents: Sequence[str]) -> list[str]:

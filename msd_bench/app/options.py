@@ -27,7 +27,8 @@ def add_run_arguments(p: argparse.ArgumentParser, **defaults: Any) -> None:
                    help="first identification seed (0)")
     p.add_argument("--preset", default=base["preset"], help="plant preset: default or mild")
     p.add_argument("--agents", default=",".join(str(a) for a in base["agents"]),
-                   help=f"comma-separated agent kinds (default: all): {kinds}")
+                   help=f"comma-separated agent kinds (default {','.join(base['agents'])}; 'matrix' = every "
+                        f"surrogate under every design and the on-plant baselines): {kinds}")
     p.add_argument("--episodes", type=int, default=base["episodes"],
                    help=f"training episodes ({base['episodes']})")
     p.add_argument("--steps", type=int, default=base["steps"], help=f"steps per episode ({base['steps']})")

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from msd_bench.app import plant_ns
-from msd_bench.app.agents import agent_kind
+from msd_bench.app.agents import BENCH_AGENTS, agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.app.options import add_run_arguments, run_config_from_args
 from msd_bench.core.errors import ConfigError, MsdBenchError
@@ -38,7 +38,7 @@ from msd_bench.progress import StageProgress
 from msd_msgs_py.interface import add_cli_options, from_cli
 
 REPO = Path(__file__).resolve().parents[2]
-BENCH_DEFAULTS: dict[str, Any] = {"seeds": 3, "dyna_episodes": 5, "val_samples": 2_000}
+BENCH_DEFAULTS: dict[str, Any] = {"seeds": 3, "dyna_episodes": 5, "val_samples": 2_000, "agents": BENCH_AGENTS}
 """bench.py's defaults where they differ from the paper's budgets (every stage is a process)."""
 
 

@@ -124,3 +124,21 @@ def test_agent_report_and_cli_processes_never_import_torch():
             "print('torch' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_matrix_names_every_default_kind_and_bench_runs_a_subset_of_it() -> None:
+    from msd_bench.app.agents import BENCH_AGENTS, DEFAULT_AGENTS, parse_agents
+
+    assert parse_agents("matrix") == DEFAULT_AGENTS
+    assert parse_agents("matrix, plant+robust") == (*DEFAULT_AGENTS, "plant+robust")
+    assert set(BENCH_AGENTS) < set(DEFAULT_AGENTS)
+    with pytest.raises(ConfigError, match="once each"):
+        parse_agents("matrix,plm")
+
+
+def test_bench_runs_its_own_default_kinds_and_the_matrix_on_request() -> None:
+    from msd_bench.app.agents import BENCH_AGENTS, DEFAULT_AGENTS
+    from msd_bench.graph.main import config, parse
+
+    assert config(parse(["--out", "/tmp/x"])).run.agents == BENCH_AGENTS
+    assert config(parse(["--out", "/tmp/x", "--agents", "matrix"])).run.agents == DEFAULT_AGENTS
