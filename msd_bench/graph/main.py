@@ -38,8 +38,9 @@ from msd_bench.progress import StageProgress
 from msd_msgs_py.interface import add_cli_options, from_cli
 
 REPO = Path(__file__).resolve().parents[2]
-BENCH_DEFAULTS: dict[str, Any] = {"seeds": 3, "dyna_episodes": 5, "val_samples": 2_000, "agents": BENCH_AGENTS}
-"""bench.py's defaults where they differ from the paper's budgets (every stage is a process)."""
+BENCH_DEFAULTS: dict[str, Any] = {"seeds": 3, "dyna_episodes": 5, "val_samples": 2_000,
+                                  "agents": BENCH_AGENTS}
+"""bench.py's defaults where they differ from ``msd-bench paper``'s (every step goes over DDS)."""
 
 
 def _wants_plant_ns(argv: list[str]) -> bool:
