@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
 FLOOR_S = 90.0
 RATIO_FLOOR = 4.0
 
@@ -36,6 +37,35 @@ def timed(argv: list[str]) -> float:
     return time.perf_counter() - t0
 
 
+def round_trips(run: Path) -> int:
+    """Lock-step round trips the run made: one per recorded sample, plus Dyna-Q's real steps."""
+    from msd_bench.io.bags import bag_info
+
+    bags = [p.parent for p in run.glob("**/metadata.yaml")]
+    samples = sum(n for b in bags for t, (_, n) in bag_info(b).topics.items() if t.endswith("/joint_states")
+                  and not t.endswith("truth/joint_states"))
+    results = run.glob("agents/*/result.json")
+    dyna = sum(json.loads(p.read_text()).get("real_interactions", 0) for p in results)
+    return int(samples + dyna)
+
+
+def pingpong_rate(steps: int = 5000) -> float:
+    """Bare rclpy round trips per second against an echo process (``bench_lockstep.py``'s)."""
+    import os
+    import random
+
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import bench_lockstep
+
+    from msd_bench.graph import launch
+
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(101, 200)))
+    with launch.process_group() as procs:
+        echo = procs.start(REPO / "benchmarks" / "bench_lockstep.py", name="echo", script_args=["--echo"])
+        return float(bench_lockstep.measure(echo, bench_lockstep.PINGPONG_NS, steps))
+
+
 def main() -> None:
     """Run both, print one JSON object."""
     ap = argparse.ArgumentParser(description=__doc__)
@@ -45,12 +75,14 @@ def main() -> None:
         run = Path(tmp) / "run"
         bench_s = timed([sys.executable, "launch_scripts/bench.py", "--seeds", str(args.seeds),
                          "--out", str(run)])
+        trips = round_trips(run)
         facts = json.loads((run / "run.json").read_text())
         stages, kinds = facts["timings"], facts["run"]["agents"]
         table = json.loads((run / "report" / "table1.json").read_text())
         paper_s = timed([sys.executable, "-m", "msd_bench.cli", "paper", "--seeds", str(args.seeds),
                          "--agents", ",".join(kinds), "--dyna-episodes", "5", "--val-samples", "2000",
                          "--out", str(Path(tmp) / "p")])
+    rate = pingpong_rate()
     print(json.dumps({
         "seconds": round(bench_s, 1),
         "stage_seconds": stages,
@@ -59,6 +91,9 @@ def main() -> None:
         "bench_over_inprocess": round(bench_s / paper_s, 2),
         "ratio_floor": RATIO_FLOOR,
         "meets_floor": bench_s <= FLOOR_S and bench_s / paper_s <= RATIO_FLOOR,
+        "round_trips": trips,
+        "pingpong_roundtrips_per_s": round(rate, 1),
+        "round_trip_bound_s": round(trips / rate, 1),
         "agents": kinds,
         "success_rate": {a["kind"]: a["success_rate"] for a in table["agents"]},
     }, indent=2))
