@@ -203,7 +203,7 @@ def view_performance(doc: dict[str, Any], name: str) -> str:
     for bench, key, op, floor, what in PERFORMANCE_FLOORS:
         value = doc["benchmarks"].get(bench, {}).get(key)
         if value is None:
-            lines.append(f"| {what} | not measured | {op or ''} {_cell(floor)} | **no** |")
+            lines.append(f"| {what} | not measured | {op or ''} {_cell(floor)} | {'**no**' if op else '—'} |")
             continue
         shown = f"{value:,.0f}" if abs(value) >= 1000 else _cell(float(value))
         limit = "—" if floor is None else (f"{op} {floor:,.0f}" if floor >= 1000 else f"{op} {floor:g}")
