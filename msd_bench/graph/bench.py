@@ -36,7 +36,7 @@ from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.registry import needs_bias_records
 from msd_bench.graph.jobs import JobServer
 from msd_bench.graph.launch import NodeProcess, ProcessSet
-from msd_bench.graph.record import ExperimentSpec, paper_plan, record_experiments
+from msd_bench.graph.record import ExperimentSpec, RecordServers, paper_plan, record_experiments
 from msd_msgs_py.contract import PLANT_NAMESPACE, surrogate_namespace
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
@@ -167,12 +167,13 @@ def record_plan(cfg: BenchConfig) -> list[ExperimentSpec]:
     return [s for s in specs if s.params.get("bias") is None]
 
 
-def stage_record(cfg: BenchConfig, procs: ProcessSet, bar: Callable[[int, int, str], None]) -> list[Path]:
+def stage_record(cfg: BenchConfig, procs: ProcessSet, bar: Callable[[int, int, str], None],
+                 servers: RecordServers | None = None) -> list[Path]:
     """Record the run's experiments through the recorder and excitation processes (and its sensor)."""
     return record_experiments(record_plan(cfg), cfg.excitation_dir, procs, cfg.namespace, not cfg.realtime,
                               bar, force_limit=cfg.run.plant.F, dt=cfg.run.plant.dt,
                               truth=cfg.run.sensor is not None, rest=cfg.plant_ns is not None,
-                              iface=cfg.interface)
+                              iface=cfg.interface, servers=servers)
 
 
 def stage_identify(cfg: BenchConfig, procs: ProcessSet) -> dict[str, Any]:
@@ -224,14 +225,16 @@ def surrogate_args(cfg: BenchConfig, name: str) -> list[str]:
             "-p", "lockstep:=true", "-r", f"__ns:={surrogate_namespace(name)}"]
 
 
-def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[int, int, str], None]) -> None:
-    """Every agent kind, one after another (they share the plant), as nodes of one served process."""
+def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[int, int, str], None],
+                 server: JobServer | None = None) -> None:
+    """Every agent kind, one after another (they share the plant), as nodes of one served process
+    (``server`` if the caller launched it early, so its start-up overlapped identification)."""
     if cfg.via_ros:
         for name in cfg.run.surrogates_needed():
             p = procs.start("surrogate.py", surrogate_args(cfg, name), name=f"surrogate-{name}")
             p.wait_for_line(r"ready \(", timeout=60.0)
     agents = cfg.run.agents
-    server = JobServer(procs, "agent.py", "agent").ready()  # one process, one node per kind
+    server = (server or JobServer(procs, "agent.py", "agent")).ready()  # one process, one node per kind
     for i, kind in enumerate(agents):
         bar(i, len(agents), kind)
         job = server.submit(agent_args(cfg, kind), name=f"agent-{kind}")

@@ -31,7 +31,9 @@ from msd_bench.graph.bench import (
     write_run_facts,
 )
 from msd_bench.graph.domains import claim_domain
+from msd_bench.graph.jobs import JobServer
 from msd_bench.graph.launch import caller_env, process_group, stop
+from msd_bench.graph.record import RecordServers
 from msd_bench.io.bag_records import roles_from_dir
 from msd_bench.io.paths import writable_dir
 from msd_bench.progress import StageProgress
@@ -132,12 +134,16 @@ def run_graph_stages(cfg: BenchConfig) -> None:
     recording = "record" in cfg.stages and cfg.bags is None
     sensor = recording and cfg.run.sensor is not None
     with process_group(env=caller_env() if cfg.plant_ns is not None else None) as procs:
+        # served processes start first: their imports overlap the plant's start and identification
+        servers = RecordServers.launch(procs) if recording else None
+        agent_server = JobServer(procs, "agent.py", "agent") if "agents" in cfg.stages else None
         plant = None
         if ("record" in cfg.stages or "agents" in cfg.stages) and cfg.plant_ns is None:
             plant = timed(cfg, "plant_start", lambda: start_plant(procs, cfg, sensor))
         if recording:
             with StageProgress("record") as bar:
-                timed(cfg, "record", lambda: stage_record(cfg, procs, lambda d, t, n: bar.update(n, d, t)))
+                timed(cfg, "record", lambda: stage_record(cfg, procs, lambda d, t, n: bar.update(n, d, t),
+                                                          servers))
         if "identify" in cfg.stages:
             say("identifying surrogates (identifier node)")
             fits = timed(cfg, "identify", lambda: stage_identify(cfg, procs))
@@ -155,7 +161,7 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                 def agents_bar(done: int, total: int, name: str) -> None:
                     bar.update(name, done, total)
 
-                timed(cfg, "agents", lambda: stage_agents(cfg, procs, say, agents_bar))
+                timed(cfg, "agents", lambda: stage_agents(cfg, procs, say, agents_bar, agent_server))
 
 
 def expected_duration(cfg: BenchConfig) -> plant_ns.Duration:

@@ -167,9 +167,12 @@ def record_experiments(
     truth: bool = False,
     rest: bool = False,
     iface: PlantInterface = MSD_INTERFACE,
+    servers: RecordServers | None = None,
 ) -> list[Path]:
     """Record every spec into ``out_dir/<name>`` from the running plant under ``namespace``.
 
+    ``servers``: the recorder and excitation processes, if the caller launched them early (their
+    start-up then overlaps the plant's); they are closed at the end either way.
     ``truth``: the plant measures through a sensor and publishes ``truth/joint_states`` (recorded too).
     ``rest``: the node has no ``reset`` (a rig, real time): each experiment starts by zero force
     until the position is still, from wherever the mass rests.
@@ -183,7 +186,7 @@ def record_experiments(
         raise ConfigError(f"experiment names must be unique, got {names}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    servers = RecordServers.start(procs)
+    servers = (servers or RecordServers.launch(procs)).ready()
     bags = []
     try:
         for i, spec in enumerate(specs):
@@ -215,13 +218,16 @@ class RecordServers:
     excitation: JobServer
 
     @classmethod
-    def start(cls, procs: ProcessSet) -> RecordServers:
-        """Start both (their imports overlap) and wait until they take jobs."""
-        servers = cls(JobServer(procs, "recorder.py", "recorder"),
-                      JobServer(procs, "excitation.py", "excitation"))
-        servers.recorder.ready()
-        servers.excitation.ready()
-        return servers
+    def launch(cls, procs: ProcessSet) -> RecordServers:
+        """Start both without waiting (their start-up overlaps whatever comes next)."""
+        return cls(JobServer(procs, "recorder.py", "recorder"),
+                   JobServer(procs, "excitation.py", "excitation"))
+
+    def ready(self) -> RecordServers:
+        """Wait until both take jobs."""
+        self.recorder.ready()
+        self.excitation.ready()
+        return self
 
     def close(self) -> None:
         """No more experiments: both processes end."""
