@@ -34,7 +34,7 @@ from msd_bench.core.data import Experiment
 from msd_bench.core.errors import InterfaceError, MsdBenchError
 from msd_bench.io.bag_timing import READ, TimingPolicy, check_timing
 from msd_bench.io.bag_writer import typestore
-from msd_bench.io.bags import _open_bag, _params, _topic_list, read_experiment
+from msd_bench.io.bags import _open_bag, _params, _topic_list, decode_joint_state, read_experiment
 from msd_bench.io.errors import BagError
 from msd_msgs_py.contract import PLANT_NAMESPACE
 from msd_msgs_py.interface import MSD, MSD_INTERFACE, PlantInterface
@@ -150,12 +150,12 @@ def _state_rows(path: Path, reader: Any, iface: PlantInterface, topic: str) -> _
     store = typestore()
     stamps, logs, xs, efforts = [], [], [], []
     for _, log_ns, raw in reader.messages(connections=conns):
-        msg: Any = store.deserialize_cdr(raw, iface.state.ros_type)
+        msg = decode_joint_state(store, raw)
         try:
-            s = iface.pick(list(msg.name), msg.position, msg.velocity, msg.effort)
+            s = iface.pick(msg.name, msg.position, msg.velocity, msg.effort)
         except InterfaceError as exc:
             raise BagError(f"bag {path}: topic {topic}: {exc}") from None
-        stamps.append(int(msg.header.stamp.sec) * 10**9 + int(msg.header.stamp.nanosec))
+        stamps.append(msg.stamp_ns)
         logs.append(int(log_ns))
         xs.append(s.position)
         efforts.append(s.effort)

@@ -25,6 +25,7 @@ from rosbags.typesys.store import Typestore
 
 from msd_bench.core.data import Experiment
 from msd_bench.core.errors import MsdBenchError
+from msd_bench.io import cdr
 from msd_bench.io.bag_timing import READ, TimingPolicy, check_timing
 from msd_bench.io.bag_writer import (  # noqa: F401  (re-exported: one module for callers)
     PARAMS_KEY,
@@ -33,6 +34,7 @@ from msd_bench.io.bag_writer import (  # noqa: F401  (re-exported: one module fo
     typestore,
     write_experiment,
 )
+from msd_bench.io.cdr import JointStateRow
 from msd_bench.io.errors import BagError
 from msd_msgs_py.contract import JOINT_NAME, JOINT_STATES, PLANT_NAMESPACE, TRUTH_JOINT_STATES, TopicSpec
 
@@ -193,15 +195,24 @@ def _with_truth(
         raise BagError(f"bag {path}: topic {topic}: {exc}") from None
 
 
+def decode_joint_state(store: Typestore, raw: bytes) -> JointStateRow:
+    """One serialized JointState's stamp, names and arrays: read directly (:mod:`.cdr`), or by rosbags
+    for anything that reader declines (rosbags' error then says what is wrong)."""
+    row = cdr.joint_state(raw)
+    if row is not None:
+        return row
+    msg: Any = store.deserialize_cdr(raw, JOINT_STATES.ros_type)
+    return JointStateRow(int(msg.header.stamp.sec) * 10**9 + int(msg.header.stamp.nanosec), list(msg.name),
+                         tuple(msg.position), tuple(msg.velocity), tuple(msg.effort))
+
+
 def _sample(path: Path, topic: str, store: Typestore, raw: bytes) -> tuple[int, float, float]:
     """(stamp ns, position, effort) of the slider joint in one JointState."""
-    msg: Any = store.deserialize_cdr(raw, JOINT_STATES.ros_type)
-    names = list(msg.name)
-    idx = names.index(JOINT_NAME) if JOINT_NAME in names else 0
+    msg = decode_joint_state(store, raw)
+    idx = msg.name.index(JOINT_NAME) if JOINT_NAME in msg.name else 0
     if len(msg.position) <= idx or len(msg.effort) <= idx:
         raise BagError(f"bag {path}: topic {topic}: a message lacks position or effort")
-    stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-    return int(stamp), float(msg.position[idx]), float(msg.effort[idx])
+    return msg.stamp_ns, float(msg.position[idx]), float(msg.effort[idx])
 
 
 @dataclass(frozen=True)
