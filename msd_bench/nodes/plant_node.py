@@ -109,8 +109,8 @@ class PlantNodeConfig:
     """How a plant-like node runs (not what it simulates)."""
 
     lockstep: bool = False
-    """Advance one step per received command (and publish /clock if ``publish_clock``), instead of a
-    100 Hz timer."""
+    """Advance one step per received command (and publish /clock if ``publish_clock``), instead of
+    the 100 Hz sample thread."""
     publish_clock: bool = True
     """Lock-step only: publish sim time on /clock. One node of a graph owns /clock: the emulated plant
     by default; surrogate nodes default to false (two publishers would make sim time jump)."""
