@@ -19,7 +19,7 @@ OK, WARN = DiagnosticStatus.OK, DiagnosticStatus.WARN
 
 @dataclass
 class StallTracker:
-    """Gaps between real-time timer ticks longer than one sample beyond the period."""
+    """Gaps between real-time sample wake-ups longer than one sample beyond the period."""
 
     period: float
     """The sample time, s."""

@@ -15,12 +15,18 @@ Sample alignment (both modes). Each step k the node
    the clock (``publish_clock``: true for the emulated plant, false by default
    for a surrogate, so a graph has one /clock publisher).
 
-Real-time: a 100 Hz steady-clock timer runs the step with the latest command
-(zero-order hold) against absolute deadlines (:class:`DeadlinePacer`: a stall
-is caught up by a burst, so the mean rate stays 1/dt); stamps are the
-scheduled sample times (ROS time at start + k·dt). A watchdog uses 0 N once the last command is older than
-``watchdog_timeout``. A non-finite command is rejected (counted, throttled
-warning) and the last safe force is kept.
+Real-time: a thread of the node's own (:class:`DeadlineThread`) sleeps to
+absolute monotonic deadlines 1/dt apart and runs the step with the latest
+command (zero-order hold) and publishes from there (:class:`DeadlinePacer`: a
+stall is caught up by a burst, so the mean rate stays 1/dt); the executor only
+serves subscriptions, services and the 1 Hz timers, so its wake-ups no longer
+decide when a sample goes out (its Python still shares the GIL). Stamps are the
+scheduled sample times (ROS time at start + k·dt). A lock orders the thread's
+steps with the executor's command and reset callbacks: a command is applied
+from the next step on. The thread stops in :meth:`close` / ``destroy_node`` and
+when the context shuts down (a signal). A watchdog uses 0 N once the last
+command is older than ``watchdog_timeout``. A non-finite command is rejected
+(counted, throttled warning) and the last safe force is kept.
 
 Lock-step: one step per received command, stamps ``k·dt``; deterministic. A
 non-finite command is rejected and does *not* step (sim time never advances on
@@ -48,8 +54,10 @@ is a function of its seed and of the commands it has stepped.
 
 from __future__ import annotations
 
+import gc
 import math
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -71,7 +79,7 @@ from msd_bench.core.sensor import SensorModel, VelocityEstimator, sensor_rng
 from msd_bench.nodes import plant_claim
 from msd_bench.nodes.health import StallTracker, diagnostic_array
 from msd_bench.nodes.params import declare_from_dataclass, reject_unknown_parameters
-from msd_bench.nodes.spin import DeadlinePacer, stops_deferred
+from msd_bench.nodes.spin import DeadlinePacer, DeadlineThread, stops_deferred
 from msd_msgs_py.contract import (
     CLOCK,
     DIAGNOSTICS,
@@ -92,6 +100,8 @@ class GraphConflictError(MsdBenchError):
 
 EXIT_CONFLICT = 2
 """Exit status of a plant-like node that gave its namespace to an earlier one."""
+EXIT_TICK_FAILED = 1
+"""Exit status of a real-time node whose sample thread raised (the traceback is printed)."""
 
 
 @dataclass(frozen=True)
@@ -99,8 +109,8 @@ class PlantNodeConfig:
     """How a plant-like node runs (not what it simulates)."""
 
     lockstep: bool = False
-    """Advance one step per received command (and publish /clock if ``publish_clock``), instead of a
-    100 Hz timer."""
+    """Advance one step per received command (and publish /clock if ``publish_clock``), instead of
+    the 100 Hz sample thread."""
     publish_clock: bool = True
     """Lock-step only: publish sim time on /clock. One node of a graph owns /clock: the emulated plant
     by default; surrogate nodes default to false (two publishers would make sim time jump)."""
@@ -209,6 +219,9 @@ class PlantNode(Node):
         self._is_plant = self.spec.model.kind == kernels.KIND_PLANT
         self._dt_ns = round(self.spec.dt * 1e9)
         self.counters = {"steps": 0, "rejected": 0, "saturated": 0, "watchdog": 0}
+        self._lock = threading.Lock()
+        """Held by each real-time step and by the command and reset callbacks (two threads)."""
+        self._ticker: DeadlineThread | None = None
         reject_unknown_parameters(self)
         self.done: Future[int] = Future()
         """Completes with :data:`EXIT_CONFLICT` when an earlier plant claims the namespace."""
@@ -228,7 +241,8 @@ class PlantNode(Node):
         if self.SERVES_RESET:
             self.create_subscription(Empty, RESET.name, self._on_reset_msg, qos(RESET))
         self._on_reset(None)
-        self._pacer = DeadlinePacer(self.spec.dt)
+        self._pacer = DeadlinePacer(self.spec.dt, lead=0.0)  # the sample thread sleeps to each deadline
+        self._reanchors_seen = 0
         self._ros0 = self.get_clock().now().nanoseconds
         self._mono0 = time.monotonic()
         steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -239,7 +253,9 @@ class PlantNode(Node):
         self._last_counters = dict(self.counters)
         self.create_timer(1.0, self._on_diagnostics, clock=steady)
         if not self.config.lockstep:
-            self.create_timer(self.spec.dt, self._on_timer, clock=steady)
+            self._ticker = DeadlineThread(self._pacer, self._on_due, alive=self.context.ok,
+                                          on_error=self._on_tick_error, name=f"{node_name} samples")
+            self._start_timer = self.create_timer(0.0, self._start_ticker, clock=steady)
         mode = "lock-step" if self.config.lockstep else f"real-time {1 / self.spec.dt:g} Hz"
         self.get_logger().info(f"plant-like node {self.spec.model.name or 'model'} ready ({mode}"
                                f"{', ' + self._sensor_text() if self._sensor else ''})")
@@ -333,7 +349,9 @@ class PlantNode(Node):
             self.done.set_result(EXIT_CONFLICT)
 
     def destroy_node(self) -> None:
-        """Release the claim first: a node destroyed a moment ago is never taken for a live one."""
+        """Stop the sample thread, then release the claim (a node destroyed a moment ago is never
+        taken for a live one)."""
+        self._stop_ticker()
         claim = getattr(self, "_claim", None)
         if claim is not None:
             plant_claim.release(claim)
@@ -348,9 +366,10 @@ class PlantNode(Node):
         self._t_cmd: float | None = None
 
     def _on_reset_msg(self, msg: Empty) -> None:
-        self._on_reset(msg)
-        if self.config.lockstep and self._pub_x is not None:
-            self._pub_x.publish(float64(self._y))
+        with self._lock:
+            self._on_reset(msg)
+            if self.config.lockstep and self._pub_x is not None:
+                self._pub_x.publish(float64(self._y))
 
     def _accept(self, u: float) -> float | None:
         """The force to apply, or None if the command must be rejected."""
@@ -368,31 +387,60 @@ class PlantNode(Node):
         return u
 
     def _on_force(self, msg: Float64) -> None:
-        u = self._accept(msg.data)
-        if u is None:
-            return
-        if self.config.lockstep:
-            self._step(u, self._k * self._dt_ns)
-        else:
-            self._u = u
-            self._t_cmd = time.monotonic()
+        with self._lock:
+            u = self._accept(msg.data)
+            if u is None:
+                return
+            if self.config.lockstep:
+                self._step(u, self._k * self._dt_ns)
+            else:
+                self._u = u
+                self._t_cmd = time.monotonic()
 
-    def _on_timer(self) -> None:
-        """Run every step whose slot has begun (one, or a burst after a stall)."""
-        now = time.monotonic()
-        reanchors = self._pacer.reanchors
-        due = self._pacer.due(now)
+    def _on_due(self, now: float, due: list[float]) -> None:
+        """Sample thread: run every step whose slot has begun (one, or a burst after a stall)."""
+        with self._lock:
+            for t_sched in due:
+                self._tick(t_sched)
+        self._report_stall(now, len(due))
+
+    def _report_stall(self, now: float, caught_up: int) -> None:
+        """Log a gap between wake-ups longer than two samples (after the samples went out)."""
         gap = self._stalls.tick(now)
         if gap is not None:
-            lost = self._pacer.reanchors > reanchors
-            what = "stamps skip the gap (re-anchored)" if lost else f"caught up {len(due)} samples"
+            lost = self._pacer.reanchors > self._reanchors_seen
+            self._reanchors_seen = self._pacer.reanchors
+            what = "stamps skip the gap (re-anchored)" if lost else f"caught up {caught_up} samples"
             text = f"stall: no timer tick for {gap:.3f} s; {what}"
             if gap > 0.1 or lost:  # long stalls always; short ones (load jitter) once a second
                 self.get_logger().warning(text)
             else:
                 self.get_logger().warning(text, throttle_duration_sec=1.0)
-        for t_sched in due:
-            self._tick(t_sched)
+
+    def _on_tick_error(self, _exc: BaseException) -> None:
+        """The sample thread raised (traceback printed): end the node's spin with a failure status."""
+        if not self.done.done():
+            self.done.set_result(EXIT_TICK_FAILED)
+
+    def _start_ticker(self) -> None:
+        """First spin of the executor: start the sample thread (a node built but never spun — or
+        still finishing its start-up — publishes nothing, as with the timer it replaces).
+
+        A full garbage collection first: start-up (numba, rclpy) leaves enough debt that the
+        first automatic one is a full pass over ~150,000 objects (~150 ms here) a few seconds
+        into the run, i.e. a stall. Afterwards a step allocates nothing that outlives it, so
+        the collector stays quiet (none in 20 s measured).
+        """
+        self.destroy_timer(self._start_timer)
+        if self._ticker is not None and not self._ticker.started:
+            gc.collect()
+            self._ticker.start()
+
+    def _stop_ticker(self) -> None:
+        """Stop and join the sample thread (idempotent; nothing to do in lock-step)."""
+        ticker = getattr(self, "_ticker", None)
+        if ticker is not None:
+            ticker.stop()
 
     def _tick(self, t_sched: float) -> None:
         """One real-time sample, scheduled at monotonic time ``t_sched`` (s)."""
@@ -463,7 +511,8 @@ class PlantNode(Node):
             self._pub_clock.publish(clock(self._k * self._dt_ns))
 
     def close(self) -> None:
-        """Log the counters once, at shutdown."""
+        """Stop the sample thread, then log the counters once, at shutdown."""
+        self._stop_ticker()
         c = self.counters
         print(
             f"[{self.get_fully_qualified_name()}] shutdown: steps={c['steps']} "

@@ -6,11 +6,12 @@ It speaks the plant's topic contract under ``/rig`` — ``force`` in,
 hardware: real time only (no lock-step, never ``/clock``) and **no** ``reset``
 subscription (a rig cannot teleport; bringing it to rest is the bench's job).
 
-What it inherits unchanged from the plant node: the 100 Hz steady timer paced
-by absolute deadlines (:class:`~msd_bench.nodes.spin.DeadlinePacer`, so the mean
-rate is exactly 1/dt), zero-order hold of the latest command, saturation to ±F
-(counted), rejection of non-finite commands (counted, throttled warning, the
-last safe force kept), the watchdog, the counters and diagnostics.
+What it inherits unchanged from the plant node: the 100 Hz sample thread
+sleeping to absolute deadlines (:class:`~msd_bench.nodes.spin.DeadlineThread`,
+so the mean rate is exactly 1/dt; the jitter delay below is slept there too),
+zero-order hold of the latest command, saturation to ±F (counted), rejection of
+non-finite commands (counted, throttled warning, the last safe force kept), the
+watchdog, the counters and diagnostics.
 
 What it changes, per sample (:meth:`RigNode._tick`): the command goes through
 the rig's actuator (delay, lag) and friction; ``joint_states`` carries the

@@ -16,6 +16,9 @@ from __future__ import annotations
 
 import signal
 import sys
+import threading
+import time
+import traceback
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -40,21 +43,32 @@ EXIT_USAGE = 2
 
 @dataclass
 class DeadlinePacer:
-    """Absolute-deadline schedule for a periodic timer callback (no drift, bounded catch-up).
+    """Absolute-deadline schedule of a periodic step (no drift, bounded catch-up).
 
     Why: rcl skips timer periods the process missed (a stall under load), so the
-    mean rate falls below 1/period. The timer instead asks ``due(now)`` which
+    mean rate falls below 1/period. The caller instead asks ``due(now)``, which
     returns the scheduled times of every step whose slot has begun — usually
     one, several after a stall — so the long-run rate stays exactly 1/period.
-    A slot counts as begun half a period before its deadline, so jitter never
-    makes a callback miss its own step. After a stall longer than ``max_lag``
-    the schedule re-anchors at ``now`` (counted in ``reanchors``).
+    After a stall longer than ``max_lag`` the schedule re-anchors at ``now``
+    (counted in ``reanchors``).
+
+    ``lead`` (periods): a slot counts as begun that long before its deadline.
+    0 suits a caller that sleeps to :attr:`next_deadline` itself
+    (:class:`DeadlineThread`): a step runs at its deadline, never before. A
+    caller woken on a grid of its own (an rcl timer) needs a lead, since its
+    grid sits at an arbitrary phase against the schedule (wherever its first
+    tick fell); but then a tick only ``1 - lead`` periods minus that phase late
+    — as little as nothing — runs two steps and leaves the next tick empty: a
+    gap of up to two periods where the timer itself was a little late. That is
+    why the plant node no longer runs its steps from a timer.
     """
 
     period: float
     """Seconds between steps."""
     max_lag: float = 1.0
     """Longest stall (s) that is caught up by a burst of steps."""
+    lead: float = 0.5
+    """Fraction of a period before its deadline at which a slot counts as begun."""
     reanchors: int = 0
     """How many times the schedule gave up catching up."""
     _next: float | None = field(default=None, repr=False)
@@ -65,10 +79,87 @@ class DeadlinePacer:
             self.reanchors += self._next is not None
             self._next = now
         out = []
-        while self._next - 0.5 * self.period <= now:
+        while self._next - self.lead * self.period <= now:
             out.append(self._next)
             self._next += self.period
         return out
+
+
+    @property
+    def next_deadline(self) -> float | None:
+        """Scheduled time (monotonic s) of the next step not yet run (None before the first)."""
+        return self._next
+
+
+class DeadlineThread:
+    """Call ``on_due(now, due)`` at the pacer's absolute deadlines, from a thread of its own.
+
+    Why not an rcl timer on the node's executor: the executor wakes for every
+    entity of the node (subscriptions, services, other timers), rebuilds its
+    wait set in Python each time and runs one callback after another, so a
+    tick that falls due while it is busy waits — measured as the plant's p99
+    inter-arrival above a bare timer's (benchmarks/bench_plant_rate.py). This
+    thread does nothing but sleep to the next deadline (a timed wait on a
+    monotonic clock, released GIL) and run the steps whose slots have begun,
+    so its lateness is the kernel's wake-up plus the step itself. The schedule
+    is the pacer's: absolute, no drift, a stall caught up by running the missed
+    slots at once (their samples are already late), a long one re-anchored.
+
+    The thread ends on :meth:`stop`, when ``alive()`` turns false (the context
+    shut down under it: a signal), or when ``on_due`` raises — then the error is
+    printed and ``on_error`` told, unless ``alive()`` is false by then (a
+    publisher refusing to publish on a context a signal shut down is a stop).
+    SIGINT/SIGTERM are blocked in it so they always reach the main thread.
+    """
+
+    def __init__(self, pacer: DeadlinePacer, on_due: Callable[[float, list[float]], None], *,
+                 alive: Callable[[], bool], on_error: Callable[[BaseException], None],
+                 name: str = "deadline") -> None:
+        self.pacer = pacer
+        self._on_due = on_due
+        self._alive = alive
+        self._on_error = on_error
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+
+    def start(self) -> None:
+        """Run the first step now and the rest at their deadlines (not after :meth:`stop`)."""
+        if not self._stop.is_set():
+            self._thread.start()
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Ask the thread to end and wait for it (a step in progress finishes first); a thread
+        not started yet never will be."""
+        self._stop.set()
+        if self._thread.is_alive() and self._thread is not threading.current_thread():
+            self._thread.join(timeout)
+
+    @property
+    def started(self) -> bool:
+        """Whether :meth:`start` ran (the thread may have ended since)."""
+        return self._thread.ident is not None
+
+    @property
+    def running(self) -> bool:
+        """Whether the thread is still alive."""
+        return self._thread.is_alive()
+
+    def _run(self) -> None:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+        try:
+            while not self._stop.is_set() and self._alive():
+                now = time.monotonic()
+                due = self.pacer.due(now)
+                if due:
+                    self._on_due(now, due)
+                deadline = self.pacer.next_deadline
+                wait = 0.0 if deadline is None else deadline - time.monotonic()
+                self._stop.wait(max(wait, 0.0))
+        except Exception as exc:  # reported below unless it is part of a stop
+            if self._stop.is_set() or not self._alive():
+                return
+            traceback.print_exc()
+            self._on_error(exc)
 
 
 @contextmanager

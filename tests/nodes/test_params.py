@@ -76,3 +76,12 @@ def test_pacer_runs_one_step_per_period_and_catches_up_a_stall():
     assert len(pacer.due(100.0702)) == 5  # a 50 ms stall: the missed slots run as a burst
     assert pacer.due(100.0705) == []
     assert pacer.due(102.0) == [102.0] and pacer.reanchors == 1  # too long: re-anchor
+
+
+def test_pacer_without_lead_runs_a_step_at_its_deadline_never_before():
+    pacer = DeadlinePacer(0.01, lead=0.0)
+    assert pacer.due(100.0) == [100.0] and pacer.next_deadline == pytest.approx(100.01)
+    assert pacer.due(100.0099) == []  # 0.1 ms early: not yet
+    assert pacer.due(100.0101) == [pytest.approx(100.01)]
+    assert pacer.due(100.0299) == [pytest.approx(100.02)]  # 9.9 ms late: still one step, no burst
+    assert pacer.due(100.0301) == [pytest.approx(100.03)]

@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import itertools
 import math
+import threading
+import time
 
 import numpy as np
 import pytest
+import rclpy
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -16,6 +19,7 @@ from msd_bench.core import kernels
 from msd_bench.core.model import StepModel
 from msd_bench.core.plant import preset, simulate
 from msd_bench.nodes.plant_node import (
+    EXIT_TICK_FAILED,
     GraphConflictError,
     ModelSpec,
     PlantNode,
@@ -170,3 +174,47 @@ def test_second_plant_on_same_namespace_refuses_to_start(ctx, executor):
     other = PlantNode(true_plant_spec(), config=PlantNodeConfig(duplicate_check=0.2),
                       namespace="/other", context=ctx)
     other.destroy_node()
+
+
+REALTIME = PlantNodeConfig(duplicate_check=0.0)
+
+
+def _sample_threads() -> list[threading.Thread]:
+    return [t for t in threading.enumerate() if t.name == "plant samples"]
+
+
+def test_realtime_sample_thread_starts_on_the_first_spin_and_ends_with_the_node(ctx, executor):
+    plant = make_plant(ctx, executor, config=REALTIME)
+    time.sleep(0.1)
+    assert plant.counters["steps"] == 0 and not _sample_threads()  # built, not spun: silent
+    assert spin_until(executor, lambda: plant.counters["steps"] >= 5)
+    assert len(_sample_threads()) == 1
+    plant.close()  # what a stopped process does first: the counters it logs are final
+    steps = plant.counters["steps"]
+    assert not _sample_threads()
+    time.sleep(0.05)
+    assert plant.counters["steps"] == steps
+    plant.destroy_node()  # a second stop is a no-op
+
+
+def test_realtime_sample_thread_ends_when_the_context_shuts_down(ctx, executor):
+    make_plant(ctx, executor, config=REALTIME)
+    assert spin_until(executor, lambda: len(_sample_threads()) == 1)
+    rclpy.try_shutdown(context=ctx)  # a signal's path: the context goes first, nodes later
+    deadline = time.monotonic() + 2.0
+    while _sample_threads() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert not _sample_threads()
+
+
+def test_realtime_step_that_raises_ends_the_node_with_a_failure_status(ctx, executor, capfd):
+    plant = make_plant(ctx, executor, config=REALTIME)
+
+    def broken(_t_sched: float) -> None:
+        raise RuntimeError("step exploded")
+
+    plant._tick = broken  # type: ignore[method-assign]
+    assert spin_until(executor, plant.done.done)
+    assert plant.done.result() == EXIT_TICK_FAILED
+    assert "RuntimeError: step exploded" in capfd.readouterr().err
+    assert not _sample_threads()
