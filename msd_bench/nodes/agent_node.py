@@ -39,7 +39,7 @@ from std_msgs.msg import Float64
 from msd_bench.app.agents import SHAPINGS, agent_kind, learner_config
 from msd_bench.app.plant_ns import hardware_scenario
 from msd_bench.app.scoring import metric_row
-from msd_bench.core.errors import ConfigError
+from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.learner import GreedyPolicy, StepwiseLearner
 from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import QConfig
@@ -184,7 +184,17 @@ class _Greedy:
 
 
 class AgentNode(Node):
-    """Train, validate on the plant, write the results, finish (``done`` holds the exit status)."""
+    """Train, validate on the plant, write the results, finish (``done`` holds the exit status).
+
+    Every callback of the node (its own and its episode client's) ends the node
+    through ``done`` when it raises a :class:`MsdBenchError`: the process then
+    prints that one line (:func:`msd_bench.nodes.spin.spin_node`) whichever
+    executor dispatched the callback (the events executor would otherwise log
+    the error and its stack before passing it on).
+    """
+
+    events_executor = True
+    """One lock-step exchange per training step: run on the events executor (:mod:`.spin`)."""
 
     def __init__(self, config: AgentNodeConfig | None = None, **node_kwargs: Any) -> None:
         super().__init__("agent", **node_kwargs)
@@ -207,10 +217,16 @@ class AgentNode(Node):
             rest=RestConfig(threshold=self.config.rest_threshold, timeout=self.config.rest_timeout),
             interfaces={self.config.plant_ns: self.interface})
         self._client.log = self._warn
+        self._client.on_error = self._fail
         self._reference = self.create_publisher(
             Float64, REFERENCE.resolve(self.config.plant_ns), qos(REFERENCE))
         self._source = self._check_inputs()
-        self._start_timer = self.create_timer(0.01, self._start)
+        self._start_timer = self.create_timer(0.01, self._client.guarded_timer(self._start))
+
+    def _fail(self, exc: MsdBenchError) -> None:
+        """End the node with a user error (printed as one line by :func:`msd_bench.nodes.spin.spin_node`)."""
+        if not self.done.done():
+            self.done.set_exception(exc)
 
     def _warn(self, line: str) -> None:
         self.get_logger().warning(line)

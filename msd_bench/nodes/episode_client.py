@@ -97,7 +97,8 @@ class _Endpoint:
         self.reset = (None if iface.reset is None else
                       node.create_publisher(Empty, iface.reset.resolve(ns), qos(iface.reset)))
         self.pos = None if iface.position is None else node.create_subscription(
-            Float64, iface.position.resolve(ns), lambda m: client.on_position(ns, m.data), qos(POSITION))
+            Float64, iface.position.resolve(ns), client.guarded(lambda m: client.on_position(ns, m.data)),
+            qos(POSITION))
         self.js: Subscription[Any] | None = None
         if self.pos is None:  # a face without position answers in joint_states
             self.want_rows()
@@ -114,7 +115,7 @@ class _Endpoint:
             return False
         self.js = self._node.create_subscription(
             msg_class(JOINT_STATES), JOINT_STATES.resolve(self.ns),
-            lambda m: self._on_row(self._client, m), qos(JOINT_STATES))
+            self._client.guarded(lambda m: self._on_row(self._client, m)), qos(JOINT_STATES))
         return True
 
     def _on_row(self, client: EpisodeClient, msg: Any) -> None:
@@ -160,13 +161,41 @@ class EpisodeClient:
         self.settle_s = settle_s
         self.match_timeout_s = match_timeout_s
         self.on_idle: Callable[[], None] | None = None
+        self.on_error: Callable[[MsdBenchError], None] | None = None
+        """Where a user error raised in a callback goes (None: raised to the executor)."""
         self._endpoints: dict[str, _Endpoint] = {}
         self._queue: deque[Episode] = deque()
         self._ep: Episode | None = None
         self._phase = "idle"
         self._since = 0.0
         self._matched_at: dict[str, float] = {}
-        node.create_timer(0.05, self._on_tick)
+        node.create_timer(0.05, self.guarded_timer(self._on_tick))
+
+    def guarded(self, callback: Callable[[Any], None]) -> Callable[[Any], None]:
+        """Subscription ``callback`` with its :class:`MsdBenchError` handed to ``on_error`` (if set).
+
+        Why: an executor that meets an exception in a callback may log it with
+        its stack (rclpy's events executor does) before passing it on; the
+        node instead ends with the error's one line.
+        """
+        def run(msg: Any) -> None:
+            self._run_guarded(callback, msg)
+        return run
+
+    def guarded_timer(self, callback: Callable[[], None]) -> Callable[[], None]:
+        """Timer ``callback`` guarded as :meth:`guarded` (no argument: rclpy passes timer info to
+        a callback that takes one)."""
+        def run() -> None:
+            self._run_guarded(callback)
+        return run
+
+    def _run_guarded(self, callback: Callable[..., None], *args: Any) -> None:
+        try:
+            callback(*args)
+        except MsdBenchError as exc:
+            if self.on_error is None:
+                raise
+            self.on_error(exc)
 
     def endpoint(self, ns: str) -> _Endpoint:
         """Create (once) the publishers and subscriptions for namespace ``ns``, through its interface."""

@@ -260,6 +260,12 @@ class PlantNode(Node):
         self.get_logger().info(f"plant-like node {self.spec.model.name or 'model'} ready ({mode}"
                                f"{', ' + self._sensor_text() if self._sensor else ''})")
 
+    @property
+    def events_executor(self) -> bool:
+        """Lock-step: one exchange per command, so run on the events executor (:mod:`.spin`); real-time
+        keeps rclpy's default executor (its 100 Hz timer is paced by :class:`DeadlinePacer`)."""
+        return self.config.lockstep
+
     def _declare_config(self) -> PlantNodeConfig:
         """Declare the node's own parameters and return how it runs."""
         defaults = PlantNodeConfig(publish_clock=self._clock_owner)  # a surrogate leaves /clock to the plant

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import rclpy
 from rclpy._rclpy_pybind11 import RCLError, UnknownROSArgsError
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
@@ -191,20 +192,59 @@ def ros_session(args: Sequence[str] | None = None) -> Iterator[None]:
         rclpy.try_shutdown()
 
 
-def make_executor(context: rclpy.context.Context | None = None) -> Executor:
-    """The executor nodes run on: the single-threaded one (see benchmarks/bench_lockstep.py)."""
+def make_executor(context: rclpy.context.Context | None = None, events: bool = False) -> Executor:
+    """The executor a node runs on: rclpy's events executor if ``events``, else the single-threaded one.
+
+    Why two: rclpy's SingleThreadedExecutor rebuilds a wait set over every
+    entity of the node (parameter services, timers, QoS event handlers, ...)
+    in Python for each message it dispatches, which costs a lock-step exchange
+    more than the middleware round trip itself; the events executor (C++,
+    rclpy >= 7.1, ``rclpy.experimental``) dispatches each message from its rmw
+    callback. Nodes whose speed is one message per step opt in
+    (:func:`wants_events_executor`); the rest keep the executor rclpy spins by
+    default (benchmarks/bench_lockstep.py measures both against a bare
+    ping-pong that uses that default).
+    """
+    if events:
+        return EventsExecutor(context=context)
     return SingleThreadedExecutor(context=context)
 
 
+def wants_events_executor(node: Node) -> bool:
+    """Whether ``node`` asks for the events executor (its ``events_executor`` attribute, default no)."""
+    return bool(getattr(node, "events_executor", False))
+
+
+EVENTS_SPIN_S = 0.5
+"""Longest single spin call on the events executor: this build's events executor never runs a
+callback when spun without a timeout (Kilted 9.1 and Jazzy 7.1 alike), so it is spun in bounded
+slices until the node is done or the context shuts down."""
+
+
 def spin_node(node: Node, executor: Executor) -> int:
-    """Spin until shutdown or until ``node.done`` completes; return the exit status."""
+    """Spin until shutdown or until ``node.done`` completes; return the exit status.
+
+    A ``done`` completed with an exception (a node that routes its one-line
+    errors through it) raises that exception here.
+    """
     executor.add_node(node)
     done = getattr(node, "done", None)
-    if done is None:
-        executor.spin()
-        return 0
-    executor.spin_until_future_complete(done)
-    return int(done.result()) if done.done() else 0
+    if not _is_events(executor):
+        if done is None:
+            executor.spin()
+            return 0
+        executor.spin_until_future_complete(done)
+    else:
+        while executor.context.ok() and (done is None or not done.done()):
+            if done is None:
+                executor.spin_once(timeout_sec=EVENTS_SPIN_S)
+            else:
+                executor.spin_until_future_complete(done, timeout_sec=EVENTS_SPIN_S)
+    return int(done.result()) if done is not None and done.done() else 0
+
+
+def _is_events(executor: Executor) -> bool:
+    return not isinstance(executor, SingleThreadedExecutor)
 
 
 def close_node(node: Node) -> None:
@@ -262,7 +302,8 @@ def _run_node(build: Callable[[], Node], argv: list[str]) -> int:
                               f"e.g. --ros-args -p name:=value")
         node = build()
         reject_unknown_parameters(node)
-        status = spin_node(node, make_executor())
+        executor = make_executor(events=wants_events_executor(node))  # alive until the node is closed
+        status = spin_node(node, executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         status = 0
     except MsdBenchError as exc:
