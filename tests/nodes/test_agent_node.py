@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from msd_bench.app.config import RunConfig
@@ -22,7 +23,9 @@ from msd_bench.io import artifacts
 from msd_bench.io.artifacts import ArtifactError
 from msd_bench.io.bags import read_experiment, read_topic
 from msd_bench.nodes.agent_node import AgentNode, AgentNodeConfig
+from msd_bench.nodes.episode_client import EpisodeError
 from msd_bench.nodes.plant_node import ModelSpec, PlantNode, PlantNodeConfig, true_plant_spec
+from msd_bench.nodes.spin import make_executor, wants_events_executor
 from msd_msgs_py.contract import PLANT_NAMESPACE, REFERENCE
 from msd_msgs_py.ros import msg_class, qos
 from tests.nodes.conftest import spin_until
@@ -111,3 +114,32 @@ def test_missing_model_fails_before_any_traffic(ctx, tmp_path):
     cfg = AgentNodeConfig(model_path=str(tmp_path / "nope.json"), out_dir=str(tmp_path))
     with pytest.raises(ArtifactError, match="no such artifact"):
         AgentNode(cfg, context=ctx)
+
+
+def test_ros_training_on_the_events_executor_is_bit_identical(ctx, glm_path, tmp_path):
+    """The executor launched agents and lock-step plant-like nodes spin on (:func:`make_executor`)."""
+    cfg = AgentNodeConfig(kind="glm", model_path=str(glm_path), seeds=(5,), episodes=2, steps=150,
+                          via_ros=True, surrogate_ns="/surrogate/glm", validation_steps=200,
+                          window=50, out_dir=str(tmp_path))
+    events = make_executor(context=ctx, events=True)
+    assert not isinstance(events, SingleThreadedExecutor)
+    try:
+        agent = _run(ctx, events, cfg, surrogate=artifacts.load_model(glm_path))
+        assert agent.done.result() == 0
+        assert np.array_equal(agent.q, train(artifacts.load_model(glm_path), cfg.qconfig(), cfg.seeds).q)
+    finally:
+        events.shutdown()
+
+
+def test_a_user_error_in_a_callback_ends_the_agent_through_done(ctx, executor, tmp_path, glm_path):
+    """No surrogate answers: the episode client's EpisodeError completes ``done`` (one line from the
+    process) instead of escaping into the executor."""
+    cfg = AgentNodeConfig(kind="glm", model_path=str(glm_path), seeds=(0,), episodes=1, steps=10,
+                          via_ros=True, surrogate_ns="/surrogate/nobody", out_dir=str(tmp_path))
+    agent = AgentNode(cfg, context=ctx)
+    agent._client.match_timeout_s = 0.3
+    executor.add_node(agent)
+    assert spin_until(executor, agent.done.done, timeout=20.0)
+    with pytest.raises(EpisodeError, match="no plant-like node answers under /surrogate/nobody"):
+        agent.done.result()
+    assert wants_events_executor(agent)
