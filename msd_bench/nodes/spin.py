@@ -235,12 +235,36 @@ def spin_node(node: Node, executor: Executor) -> int:
             return 0
         executor.spin_until_future_complete(done)
     else:
-        while executor.context.ok() and (done is None or not done.done()):
-            if done is None:
-                executor.spin_once(timeout_sec=EVENTS_SPIN_S)
-            else:
-                executor.spin_until_future_complete(done, timeout_sec=EVENTS_SPIN_S)
+        with stops_requested() as stopped:
+            while not stopped() and executor.context.ok() and (done is None or not done.done()):
+                if done is None:
+                    executor.spin_once(timeout_sec=EVENTS_SPIN_S)
+                else:
+                    executor.spin_until_future_complete(done, timeout_sec=EVENTS_SPIN_S)
+        if stopped():
+            raise KeyboardInterrupt
     return int(done.result()) if done is not None and done.done() else 0
+
+
+@contextmanager
+def stops_requested() -> Iterator[Callable[[], bool]]:
+    """SIGINT/SIGTERM only flag a stop (read through the yielded callable) while the block runs.
+
+    Why: the events executor calls Python callbacks from C++; a KeyboardInterrupt
+    raised inside one reaches the spin as a RuntimeError from pybind11 (a
+    traceback and exit 1 instead of a clean stop). The spin loop checks the
+    flag between slices and raises KeyboardInterrupt itself, outside any callback.
+    """
+    flagged: list[int] = []
+    held = (signal.SIGINT, signal.SIGTERM)
+    old = {sig: signal.getsignal(sig) for sig in held}
+    for sig in held:
+        signal.signal(sig, lambda signum, _frame: flagged.append(signum))
+    try:
+        yield lambda: bool(flagged)
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
 
 
 def _is_events(executor: Executor) -> bool:

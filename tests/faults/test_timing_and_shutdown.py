@@ -60,15 +60,39 @@ def test_bench_bags_with_a_killed_recording_points_at_recover(tmp_path: Path) ->
     assert (tmp_path / "run").is_dir() and not (REPO / "run").exists()  # relative to the caller
 
 
-@pytest.mark.parametrize("seed", [1, 2])
-def test_sigint_at_a_random_moment_exits_0(seed: int) -> None:
+@pytest.mark.parametrize(("seed", "lockstep"), [(1, False), (2, False), (3, True)])
+def test_sigint_at_a_random_moment_exits_0(seed: int, lockstep: bool) -> None:
+    """Real-time (rclpy's default executor) and lock-step (the events executor) alike."""
     delay = random.Random(seed).uniform(0.0, 3.0)
-    proc = launch.start("plant.py", ["-p", "duplicate_check:=0.0"])
+    mode = "true" if lockstep else "false"
+    proc = launch.start("plant.py", ["-p", "duplicate_check:=0.0", "-p", f"lockstep:={mode}"])
     time.sleep(delay)
     os.killpg(proc.pid, signal.SIGINT)
     status = proc.wait(20.0)
     assert status == 0, (delay, proc.output())
     assert "Traceback" not in proc.output() and "error:" not in proc.output()
+
+
+@pytest.mark.parametrize(("seed", "sig"), [(4, signal.SIGINT), (5, signal.SIGTERM)])
+def test_a_stop_during_ros_training_exits_0(seed: int, sig: signal.Signals, tmp_path: Path) -> None:
+    """The agent and the surrogate spin on the events executor: a stop that lands inside one of its
+    callbacks still ends both processes cleanly (not a RuntimeError out of pybind11)."""
+    model = REPO / "tests" / "data" / "pinned" / "plm.json"
+    with launch.process_group() as procs:
+        sur = procs.start("surrogate.py", ["-p", f"model_path:={model}", "-p", "lockstep:=true",
+                                           "-p", "duplicate_check:=0.0", "-r", "__ns:=/surrogate/plm"])
+        agent = procs.start("agent.py", [
+            "-p", "kind:=plm+improved", "-p", f"model_path:={model}", "-p", "episodes:=100",
+            "-p", "steps:=1000", "-p", "via_ros:=true", "-p", "surrogate_ns:=/surrogate/plm",
+            "-p", f"out_dir:={tmp_path / 'agent'}"])
+        agent.wait_for_line("training 1 seed", 60.0)
+        sur.wait_for_line("ready", 60.0)
+        time.sleep(random.Random(seed).uniform(1.0, 2.5))  # well inside training (100,000 steps)
+        for proc in (agent, sur):
+            os.killpg(proc.pid, sig)
+            assert proc.wait(20.0) == 0, proc.output()
+            assert "Traceback" not in proc.output() and "error" not in proc.output().lower()
+        assert "shutdown: steps=" in sur.output() and "trained" not in agent.output()
 
 
 def test_children_die_with_a_killed_bench(tmp_path: Path) -> None:
