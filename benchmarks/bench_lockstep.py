@@ -5,7 +5,10 @@ one reply back, so the ratio isolates what the plant node adds over the
 middleware round trip:
 
 * ``pingpong``: an echo node (subscribes ``/bench_pingpong/force``, republishes
-  the value on ``/bench_pingpong/position``) — the floor rclpy allows;
+  the value on ``/bench_pingpong/position``) on rclpy's default executor
+  (SingleThreadedExecutor), as bare rclpy spins a node; the lock-step plant, the
+  surrogate and the agent run on rclpy's events executor (msd_bench/nodes/spin.py),
+  so ratios above 1 are possible;
 * ``lockstep``: ``launch_scripts/plant.py -p lockstep:=true``; each force
   command yields joint_states, position and /clock, and the driver waits for
   ``position`` (x_{k+1});

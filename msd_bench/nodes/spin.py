@@ -216,9 +216,9 @@ def wants_events_executor(node: Node) -> bool:
 
 
 EVENTS_SPIN_S = 0.5
-"""Longest single spin call on the events executor: this build's events executor never runs a
-callback when spun without a timeout (Kilted 9.1 and Jazzy 7.1 alike), so it is spun in bounded
-slices until the node is done or the context shuts down."""
+"""Longest single spin call on the events executor. Spun without a timeout it ran no callback at all
+here (a 100 Hz timer never fired; rclpy 9.1.2 on Kilted and 7.1.5 on Jazzy alike, busy in the
+spin), so it is spun in bounded slices until the node is done, stopped or the context shuts down."""
 
 
 def spin_node(node: Node, executor: Executor) -> int:
