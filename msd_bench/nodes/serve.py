@@ -36,7 +36,7 @@ from typing import Any
 
 import rclpy
 from rclpy._rclpy_pybind11 import RCLError, UnknownROSArgsError
-from rclpy.executors import Executor, ExternalShutdownException
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
 from msd_bench.core.errors import ConfigError, MsdBenchError
@@ -47,7 +47,13 @@ from msd_bench.nodes.params import (
     wildcard_parameter_names,
 )
 from msd_bench.nodes.serve_protocol import READY_LINE, SERVE_FLAG, STOP_LINE, exit_line, running_line
-from msd_bench.nodes.spin import EXIT_USAGE, close_node, make_executor
+from msd_bench.nodes.spin import (
+    EXIT_USAGE,
+    close_node,
+    make_executor,
+    stops_requested,
+    wants_events_executor,
+)
 
 _POLL_S = 0.2
 """Longest time a ``stop`` waits for the executor to notice it."""
@@ -131,6 +137,8 @@ def run_job(build: Callable[..., Node], line: str, n: int, executor: Executor, s
         print(f"error: malformed ROS arguments: {str(exc).split(', at ')[0]}", file=sys.stderr, flush=True)
         return EXIT_USAGE
     status = 0
+    if wants_events_executor(node):  # this job's own events executor (msd_bench.nodes.spin.make_executor)
+        executor = make_executor(events=True)
     try:
         reject_unknown_parameters(node)
         executor.add_node(node)
@@ -149,8 +157,15 @@ def _spin_until_done(node: Node, executor: Executor, stop: threading.Event) -> i
     done: Any = getattr(node, "done", None)
     if done is None:
         raise ConfigError(f"{node.get_name()} never finishes by itself: it cannot be served")
-    while not done.done() and not stop.is_set():
-        executor.spin_until_future_complete(done, timeout_sec=_POLL_S)
+    if isinstance(executor, SingleThreadedExecutor):
+        while not done.done() and not stop.is_set():
+            executor.spin_until_future_complete(done, timeout_sec=_POLL_S)
+    else:  # events executor: a stop signal must not be raised inside a callback it calls from C++
+        with stops_requested() as stopped:
+            while not done.done() and not stop.is_set() and not stopped() and executor.context.ok():
+                executor.spin_until_future_complete(done, timeout_sec=_POLL_S)
+        if stopped():
+            raise KeyboardInterrupt
     return int(done.result()) if done.done() else 0
 
 

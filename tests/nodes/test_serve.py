@@ -3,14 +3,19 @@
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from msd_bench.core.errors import ConfigError
+from msd_bench.core.qtrain import train
 from msd_bench.graph.jobs import JobServer
 from msd_bench.graph.launch import process_group, stop
+from msd_bench.io import artifacts
 from msd_bench.io.bags import bag_info
+from msd_bench.nodes.agent_node import AgentNodeConfig
 from msd_bench.nodes.serve import job_args, wants_serving
 
 pytestmark = pytest.mark.ros
@@ -68,3 +73,30 @@ def test_a_stopped_server_closes_its_running_node(tmp_path: Path) -> None:
         assert stop(server.proc) == 0
     assert bag_info(bag).params == {}
     assert (bag / "metadata.yaml").is_file()
+
+
+def test_a_served_agent_trains_over_ros_on_its_own_events_executor(tmp_path: Path) -> None:
+    """Agent jobs spin on a per-job events executor: the Q-table is the in-process one bit for bit,
+    and SIGINT in the middle of ROS training still closes the server with status 0."""
+    model = Path(__file__).resolve().parents[1] / "data" / "pinned" / "plm.json"
+    agent_args = ["-p", "kind:=plm", "-p", f"model_path:={model}", "-p", "seeds:=[2]", "-p", "via_ros:=true",
+                  "-p", "surrogate_ns:=/surrogate/plm", "-p", "validation_steps:=200", "-p", "window:=50"]
+    with process_group() as procs:
+        procs.start("plant.py", ["-p", "lockstep:=true", "-p", "duplicate_check:=0.0"])
+        procs.start("surrogate.py", ["-p", f"model_path:={model}", "-p", "lockstep:=true",
+                                     "-p", "duplicate_check:=0.0", "-r", "__ns:=/surrogate/plm"])
+        server = JobServer(procs, "agent.py", "agent").ready()
+        short = server.submit([*agent_args, "-p", "episodes:=2", "-p", "steps:=200",
+                               "-p", f"out_dir:={tmp_path / 'short'}"], name="short")
+        assert short.wait(120.0) == 0
+        long = server.submit([*agent_args, "-p", "episodes:=200", "-p", "steps:=1000",
+                              "-p", f"out_dir:={tmp_path / 'long'}"], name="long")
+        long.wait_for_line(r"training 1 seed", 60.0)
+        time.sleep(1.5)
+        assert stop(server.proc) == 0
+        assert "Traceback" not in server.proc.output()
+    arrays, _ = artifacts.load_qtables(tmp_path / "short" / "qtables.npz")
+    cfg = AgentNodeConfig(kind="plm", model_path=str(model), seeds=(2,), episodes=2, steps=200,
+                          out_dir=str(tmp_path))
+    assert np.array_equal(arrays["q"], train(artifacts.load_model(model), cfg.qconfig(), cfg.seeds).q)
+    assert not (tmp_path / "long" / "qtables.npz").exists()
