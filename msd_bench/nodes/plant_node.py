@@ -263,7 +263,7 @@ class PlantNode(Node):
     @property
     def events_executor(self) -> bool:
         """Lock-step: one exchange per command, so run on the events executor (:mod:`.spin`); real-time
-        keeps rclpy's default executor (its 100 Hz timer is paced by :class:`DeadlinePacer`)."""
+        keeps rclpy's default executor (its samples come from the node's own sample thread)."""
         return self.config.lockstep
 
     def _declare_config(self) -> PlantNodeConfig:
