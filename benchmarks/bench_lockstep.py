@@ -130,9 +130,11 @@ def _log_time(line: str) -> float:
 def via_ros(procs: launch.ProcessSet, steps: int, tmp: Path) -> float:
     """Training steps per second of the agent node's ``via_ros`` path against a lock-step surrogate.
 
-    The agent process logs when it starts training over the surrogate's topics
-    and when training ends (before validation); the steps between the two log
-    stamps are the figure, so start-up, discovery and validation are excluded.
+    The agent process logs when its first training episode starts over the
+    surrogate's topics (once the surrogate is matched) and when training ends
+    (before validation); the steps between the two log stamps are the figure,
+    so start-up, discovery and validation are excluded (the resets between
+    episodes are not).
     """
     episodes = max(1, steps // 1000)
     plant = procs.start("plant.py", ["-p", "lockstep:=true", "-p", "duplicate_check:=0.0"])
@@ -143,7 +145,7 @@ def via_ros(procs: launch.ProcessSet, steps: int, tmp: Path) -> float:
         "-p", f"episodes:={episodes}", "-p", "steps:=1000", "-p", "via_ros:=true",
         "-p", "surrogate_ns:=/surrogate/plm", "-p", "validation_steps:=500", "-p", "window:=100",
         "-p", f"out_dir:={tmp / f'agent_{time.monotonic_ns()}'}"])
-    start = _log_time(agent.wait_for_line(r"training 1 seed", timeout=60.0))
+    start = _log_time(agent.wait_for_line(r"first training episode under way", timeout=60.0))
     end = _log_time(agent.wait_for_line(r"trained; validating", timeout=600.0))
     for proc in (agent, surrogate, plant):
         launch.stop(proc)

@@ -139,12 +139,15 @@ class AgentNodeConfig:
 
 
 class _Learn:
-    """Episode controller adapter for a :class:`StepwiseLearner`."""
+    """Episode controller adapter for a :class:`StepwiseLearner`; ``on_start`` runs as its episode starts."""
 
-    def __init__(self, learner: StepwiseLearner) -> None:
+    def __init__(self, learner: StepwiseLearner, on_start: Callable[[], None] | None = None) -> None:
         self.learner = learner
+        self.on_start = on_start
 
     def start(self, x0: float) -> None:
+        if self.on_start is not None:
+            self.on_start()
         self.learner.start_episode(x0)
 
     def act(self) -> float:
@@ -249,14 +252,22 @@ class AgentNode(Node):
             ns = cfg.plant_ns if cfg.dyna else cfg.surrogate_ns
             planning = cfg.planning_steps if cfg.dyna else 0
             self._learners = [StepwiseLearner(qc, s, planning, self._observer()) for s in cfg.seeds]
+            first = True
             for learner in self._learners:
                 for _ in range(qc.episodes):
-                    self._client.submit(Episode(_Learn(learner), ns, qc.steps))
+                    announce = functools.partial(self._first_step, ns) if first else None
+                    self._client.submit(Episode(_Learn(learner, announce), ns, qc.steps))
+                    first = False
             self._client.on_idle = self._trained_over_ros
             self.get_logger().info(f"training {len(cfg.seeds)} seed(s) over {ns}")
         else:
             result = train(self.model, qc, cfg.seeds)
             self._trained(result.q, result.snapshots[:, 0], result.snapshots[:, -1])
+
+    def _first_step(self, ns: str) -> None:
+        """Log when the first training step goes out: discovery and matching are over (a benchmark times
+        ROS training from this line, benchmarks/bench_lockstep.py)."""
+        self.get_logger().info(f"first training episode under way over {ns}")
 
     def _trained_over_ros(self) -> None:
         q = np.stack([lr.q for lr in self._learners])
