@@ -175,6 +175,12 @@ class ExcitationNode(Node):
         self._poll = self.create_timer(0.02, self._on_poll, clock=self._steady)
         self._timer: Timer | None = None
 
+    @property
+    def events_executor(self) -> bool:
+        """Lock-step: one exchange with the plant per command, so run on the events executor
+        (:mod:`.spin`); real time keeps rclpy's default executor and its steady timer."""
+        return self.config.lockstep
+
     def _declare_signal(self) -> np.ndarray:
         prbs = declare_from_dataclass(self, exc.PrbsConfig, "prbs.", ranges=SIGNAL_RANGES)
         multilevel = declare_from_dataclass(self, exc.MultilevelConfig, "multilevel.", ranges=SIGNAL_RANGES)

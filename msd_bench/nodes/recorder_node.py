@@ -153,6 +153,10 @@ class RecorderConfig:
 class RecorderNode(Node):
     """Records the configured topics until closed or a limit is reached."""
 
+    events_executor = True
+    """A lock-step experiment streams thousands of samples a second: the events executor (:mod:`.spin`)
+    hands each to its callback without rebuilding a wait set per message."""
+
     def __init__(self, **node_kwargs: Any) -> None:
         self._recorder: BagRecorder | None = None  # set first: destroy_node() may run on a failed init
         self._held: list[tuple[str, str, bytes, int]] = []
