@@ -9,6 +9,9 @@ middleware round trip:
   (SingleThreadedExecutor), as bare rclpy spins a node; the lock-step plant, the
   surrogate and the agent run on rclpy's events executor (msd_bench/nodes/spin.py),
   so ratios above 1 are possible;
+* ``pingpong_events``: the same echo on the events executor, the like-for-like
+  baseline: ``lockstep_over_pingpong_events`` says what the plant node adds
+  over the round trip on the executor it runs on (reported, no floor);
 * ``lockstep``: ``launch_scripts/plant.py -p lockstep:=true``; each force
   command yields joint_states, position and /clock, and the driver waits for
   ``position`` (x_{k+1});
@@ -62,6 +65,12 @@ class Echo(Node):
         super().__init__("echo", namespace=PINGPONG_NS)
         self._pub = self.create_publisher(Float64, POSITION.name, qos(POSITION))
         self.create_subscription(Float64, FORCE.name, lambda m: self._pub.publish(m), qos(FORCE))
+
+
+class EventsEcho(Echo):
+    """The echo on rclpy's events executor, as the plant, surrogate and agent nodes spin."""
+
+    events_executor = True
 
 
 class Driver(Node):
@@ -152,12 +161,15 @@ def via_ros(procs: launch.ProcessSet, steps: int, tmp: Path) -> float:
     return episodes * 1000 / (end - start)
 
 
-def one_round(procs: launch.ProcessSet, steps: int, tmp: Path) -> tuple[float, float, float]:
-    """Ping-pong, lock-step and ``--via-ros`` training, each against fresh processes."""
-    echo = procs.start(Path(__file__).resolve(), name="echo", script_args=["--echo"])
-    ping = measure(echo, PINGPONG_NS, steps)
+def one_round(procs: launch.ProcessSet, steps: int, tmp: Path) -> tuple[float, float, float, float]:
+    """Ping-pong (default and events executor), lock-step and ``--via-ros`` training, each against fresh
+    processes."""
+    me = Path(__file__).resolve()
+    ping = measure(procs.start(me, name="echo", script_args=["--echo"]), PINGPONG_NS, steps)
+    ping_events = measure(procs.start(me, name="echo-events", script_args=["--echo", "--events"]),
+                          PINGPONG_NS, steps)
     plant_proc = procs.start("plant.py", ["-p", "lockstep:=true", "-p", "duplicate_check:=0.0"])
-    return ping, measure(plant_proc, "/msd", steps), via_ros(procs, steps, tmp)
+    return ping, measure(plant_proc, "/msd", steps), via_ros(procs, steps, tmp), ping_events
 
 
 def main() -> None:
@@ -166,28 +178,32 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3,
                         help="interleaved ping-pong/lock-step pairs; the ratio is their median")
     parser.add_argument("--echo", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--events", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.echo:  # the ping-pong peer: this file is its own launch script
-        sys.exit(spin_main(Echo, args=[]))
+        sys.exit(spin_main(EventsEcho if args.events else Echo, args=[]))
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(101, 200)))
     with launch.process_group() as procs, tempfile.TemporaryDirectory() as tmp:
         rounds = [one_round(procs, args.steps, Path(tmp)) for _ in range(args.rounds)]
-    ratios = [plant / ping for ping, plant, _ in rounds]
-    via_ratios = [via / ping for ping, _, via in rounds]
+    ratios = [plant / ping for ping, plant, _, _ in rounds]
+    via_ratios = [via / ping for ping, _, via, _ in rounds]
+    like_for_like = [plant / ping_events for _, plant, _, ping_events in rounds]
     ratio = float(statistics.median(ratios))
-    plant = float(statistics.median(p for _, p, _ in rounds))
+    plant = float(statistics.median(p for _, p, _, _ in rounds))
     print(json.dumps({
         "benchmark": "lockstep",
         "steps": args.steps,
         "rounds": args.rounds,
         "loadavg_1min": os.getloadavg()[0],
-        "pingpong_roundtrips_per_s": [round(p, 1) for p, _, _ in rounds],
-        "lockstep_steps_per_s": [round(p, 1) for _, p, _ in rounds],
-        "via_ros_training_steps_per_s": [round(v, 1) for _, _, v in rounds],
+        "pingpong_roundtrips_per_s": [round(p, 1) for p, _, _, _ in rounds],
+        "pingpong_events_roundtrips_per_s": [round(p, 1) for _, _, _, p in rounds],
+        "lockstep_steps_per_s": [round(p, 1) for _, p, _, _ in rounds],
+        "via_ros_training_steps_per_s": [round(v, 1) for _, _, v, _ in rounds],
         "lockstep_over_pingpong_each": [round(r, 3) for r in ratios],
         "lockstep_over_pingpong": round(ratio, 3),
         "via_ros_over_pingpong": round(float(statistics.median(via_ratios)), 3),
+        "lockstep_over_pingpong_events": round(float(statistics.median(like_for_like)), 3),
         "ratio_floor": RATIO_FLOOR,
         "via_ros_ratio_floor": VIA_ROS_FLOOR,
         "floor_steps_per_s": FLOOR,

@@ -178,6 +178,8 @@ PERFORMANCE_FLOORS: tuple[tuple[str, str, str, float | None, str], ...] = (
      "`bench.py`'s lock-step round trips at bare ping-pong speed, seconds"),
     ("bench_lockstep", "lockstep_over_pingpong", ">=", 0.8, "lock-step steps over bare rclpy ping-pong"),
     ("bench_lockstep", "via_ros_over_pingpong", ">=", 0.7, "`--via-ros` training steps over ping-pong"),
+    ("bench_lockstep", "lockstep_over_pingpong_events", None, None,
+     "lock-step steps over a ping-pong on the events executor (the executor our nodes use)"),
     ("bench_training", "over_minimal_loop", "<=", 1.5, "paper-sized Q-learning over a minimal compiled loop"),
     ("bench_training", "speedup_vs_python", None, None, "paper-sized Q-learning, speed-up over plain Python"),
     ("bench_training", "batch64_agent_steps_per_s", ">=", 1e7, "batched training, agent-steps/s"),
