@@ -3,14 +3,15 @@
 Stages (``--stages`` picks a subset; each reads what the previous wrote under
 the run directory, so a run can be resumed or re-reported):
 
-``record``   plant (lock-step or real-time) + recorder + excitation processes
-             write one bag per experiment under ``excitation/``;
+``record``   plant (lock-step or real-time) + one served recorder and one served
+             excitation process write one bag per experiment under ``excitation/``;
 ``identify`` the identifier process fits GLM / PLM / NLARX from those bags
              into ``models/`` (or from ``--bags DIR``);
-``agents``   one agent node per agent kind (all in one served process) trains (in-process on the model
-             artifact by default, over a surrogate node with ``--via-ros``, or
-             Dyna-Q against the plant node) and validates every seed on the
-             plant topics, writing ``agents/<kind>/`` (Q-tables, bags, result);
+``agents``   one agent node per agent kind, all in one served process, trains
+             (in-process on the model artifact by default, over a surrogate
+             node with ``--via-ros``, or Dyna-Q against the plant node) and
+             validates every seed on the plant topics, writing
+             ``agents/<kind>/`` (Q-tables, bags, result);
 ``report``   Table 1 (Markdown, CSV, JSON) and the figures under ``report/``.
 
 With ``plant_ns`` (``--plant-ns NS``) no emulator is started: every stage runs
