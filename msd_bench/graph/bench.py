@@ -35,7 +35,7 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.plant_ns import hardware_scenario
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.registry import needs_bias_records
-from msd_bench.graph.jobs import JobServer
+from msd_bench.graph.jobs import JobServer, last_line
 from msd_bench.graph.launch import NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, RecordServers, paper_plan, record_experiments
 from msd_msgs_py.contract import PLANT_NAMESPACE, surrogate_namespace
@@ -241,8 +241,8 @@ def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[i
         job = server.submit(agent_args(cfg, kind), name=f"agent-{kind}")
         status = job.wait(3600.0 if cfg.plant_ns is None else 4 * 3600.0)
         if status != 0:
-            raise StageError(f"{job.name} failed (exit {status}): {_last_line(job.lines) or 'no output'}")
-        say(_last_line(job.lines, "agent done") or f"agent {kind} done")
+            raise StageError(f"{job.name} failed (exit {status}): {last_line(job.lines) or 'no output'}")
+        say(last_line(job.lines, "agent done") or f"agent {kind} done")
     server.close()
     bar(len(agents), len(agents), "done")
 
@@ -250,13 +250,8 @@ def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[i
 def _run_to_end(proc: NodeProcess, timeout: float) -> None:
     status = proc.wait(timeout)
     if status != 0:
-        raise StageError(f"{proc.name} failed (exit {status}): {_last_line(proc.lines) or 'no output'}")
+        raise StageError(f"{proc.name} failed (exit {status}): {last_line(proc.lines) or 'no output'}")
 
-
-def _last_line(lines: Sequence[str], contains: str = "") -> str:
-    """The last non-empty output line containing ``contains`` (the served process's own lines aside)."""
-    kept = [ln for ln in lines if contains in ln and ln.strip() and not ln.startswith("[serve]")]
-    return kept[-1].strip() if kept else ""
 
 
 def write_run_facts(cfg: BenchConfig, extra: dict[str, Any]) -> Path:

@@ -19,6 +19,14 @@ from dataclasses import dataclass
 from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet, stop
 from msd_bench.nodes.serve_protocol import READY_LINE, SERVE_FLAG, STOP_LINE, exit_pattern
 
+
+def last_line(lines: Sequence[str], contains: str = "") -> str:
+    """The last non-empty output line containing ``contains``, a served process's own lines aside
+    (what a stage quotes when a node fails or finishes)."""
+    kept = [ln for ln in lines if contains in ln and ln.strip() and not ln.startswith("[serve]")]
+    return kept[-1].strip() if kept else ""
+
+
 READY_TIMEOUT = 60.0
 """Seconds a served process gets to import and join the graph."""
 

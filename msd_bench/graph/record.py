@@ -44,7 +44,7 @@ import numpy as np
 from msd_bench.app import plan
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.graph.jobs import Job, JobServer
+from msd_bench.graph.jobs import Job, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, ProcessSet
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bags import bag_info, read_topic
@@ -262,7 +262,8 @@ def record_one(
         budget = 30.0 + u.size * (0.01 if lockstep else 1.5 * dt)
         status = _expect(spec, ex.wait, budget)
         if status != 0:
-            raise RecordError(f"experiment {spec.name}: excitation exited {status}: {_last(ex)}")
+            raise RecordError(f"experiment {spec.name}: excitation exited {status}: "
+                              f"{last_line(ex.lines) or 'no output'}")
         _finish_recorder(rec, lockstep)
     finally:
         for job in (ex, rec):
@@ -296,7 +297,7 @@ def _wait_playing(spec: ExperimentSpec, ex: Job, rec: Job, timeout: float) -> No
     while True:
         if rec.finished():
             raise RecordError(f"experiment {spec.name}: {rec.name} ended ({rec.wait(5.0)}) "
-                              f"before recording: {_last(rec)}")
+                              f"before recording: {last_line(rec.lines) or 'no output'}")
         try:
             ex.wait_for_line(r"plant matched: playing", min(0.5, max(0.01, deadline - time.monotonic())))
             return
@@ -323,10 +324,6 @@ def _finish_recorder(rec: Job, lockstep: bool) -> None:
             pass  # a message was lost: stop it cleanly, the check below names what is missing
     rec.stop()
 
-
-def _last(job: Job) -> str:
-    lines = [ln for ln in job.lines if ln.strip() and not ln.startswith("[serve]")]
-    return lines[-1].strip() if lines else "no output"
 
 
 def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: float | None,
