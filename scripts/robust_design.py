@@ -17,22 +17,25 @@ from 15 s on (disturbance=-2@15, where the second choice fell below, and its
 mirror), which an ARX-type stand-in takes on its input
 (:func:`msd_bench.core.kernels.advance_loaded`).
 
-Round 4 (this protocol) differs from round 3 only in the stand-ins: three
-design identification seeds instead of one, because the floors pool three
+Round 4 differs from round 3 only in the stand-ins: three design
+identification seeds instead of one, because the floors pool three
 identified PLMs (3 × 64 runs) and one id seed cannot show how the agent
-varies across them.
+varies across them. Round 5 keeps round 4's protocol and rule, runs 64
+learning seeds per id seed (192 runs per pooled cell, the floors' size), and
+varies which table the agent keeps (:func:`candidates`).
 
-Selection rule, fixed before the round-4 table was run: a cell is one
-(direction, condition) pair, its successes *pooled over the id seeds*
-(3 × 32 = 96 runs at the default ``--seeds 32``); the candidate with the most successes in its worst cell
-wins, ties go to the larger total. Pooled, not per id seed, because the
+Selection rule, fixed before the round-4 table was run and kept for round 5:
+a cell is one (direction, condition) pair, its successes *pooled over the id
+seeds* (3 × 32 = 96 runs in round 4, 3 × 64 = 192 in round 5); the candidate
+with the most successes in its worst cell wins, ties go to the larger total.
+Pooled, not per id seed, because the
 floors are pooled counts over three id seeds (what the rule should predict),
 and because the minimum over 48 cells of 32 runs would be dominated by the
 binomial tail of single cells — round 3 could not tell rows within about 4
 of 48 apart; pooling puts three id seeds' runs behind each cell. Per-id-seed counts
 are recorded in the table for reading, never for the choice.
 
-    python scripts/robust_design.py                 # prints rows, writes docs/results/robust_design.json
+    python scripts/robust_design.py                 # round 5's table: docs/results/robust_design.json
     python scripts/robust_design.py --first 2       # times the first two candidates, writes nothing
     python scripts/robust_design.py --id-seeds 90   # round 3's single stand-in pair
 """
@@ -74,34 +77,34 @@ DIRECTIONS = (("plm", "nlarx-improved"), ("nlarx-improved", "plm"))
 
 
 def candidates() -> list[tuple[str, QConfig]]:
-    """Round 3's choice first, then round 3's other leading rows and a few neighbours of its choice.
+    """Round 5: round 4's top three rows, each with and without rehearsal selection (``select_every``).
 
     Round 1 (L in {0.05, 0.1, 0.2} × training noise {0, 6 mm} × training delay {0, 1}, and an α-β
     tracker) chose L = 0.05, share 1, training delay 0..1. Round 2 (training delay 0..3, an assumed
     delay, a drift correction, velocity shares 0.1..1, L = 0.1) chose share 0.5. Round 3 (one design id
-    seed, the refined PLM, load conditions) searched a force-bias state (``obs_bias_gain``, N/m) over
-    L in {0.02 .. 0.1} × share {0.3, 0.5, 0.7} × gains and chose L = 0.03, share 0.5, gain 1, training
-    delay 0..1 (its table is in git history, commit 192546c's docs/results/robust_design.json).
+    seed, the refined PLM, load conditions) searched a force-bias state (``obs_bias_gain``, N/m) and
+    chose L = 0.03, share 0.5, gain 1, training delay 0..1 (its table: commit 192546c's
+    docs/results/robust_design.json). Round 4 (three design id seeds, ten of round 3's rows) chose
+    L = 0.1, share 0.3, gain 8, training delay 0..1 (its table: commit 308b0f3's JSON).
 
-    Round 4 prices a candidate at three id seeds: timed with ``--first 2`` under ``nice`` on two shared
-    cores, one candidate took 401 s at 48 seeds per id seed (identification of the three id seeds
-    118 s), so within the hour the budget allows the grid is pruned to round 3's ten best rows under its
-    own rule (worst cell 36 of 48 or more; round 3 could not tell rows within about 4 apart) and the
-    seeds to 32 per id seed (96 runs per pooled cell, twice round 3's 48). Left out: the improved agent
-    and every round-3 row with a worst cell below 36 (each failed 5 mm noise, delay 2 or the load
-    there), and untried neighbours of round 3's choice — the next round's to try if this one points
-    at them.
+    Round 5 varies one thing: which table the agent keeps. A diagnosis on these design seeds only (PLM
+    trained, 64 learning seeds per id seed) found that the final tables failing on the stand-in were
+    nearly all tables failing their own greedy run on the training surrogate, and that among each run's
+    snapshots every 10 episodes over the second half, the one rehearsing best on the surrogate
+    (:mod:`msd_bench.core.selection`) failed far less often. Candidates: round 4's three leading rows,
+    each as it was and with ``select_every`` = 10 — and the product's row also at 25 (fewer candidate
+    tables) to see whether the cadence matters.
     """
-    # (L, velocity share, bias gain N/m, training delay 0..d), in round 3's order under its rule.
-    grid = ((0.03, 0.5, 1.0, 1),  # round 3's choice, the product's ROBUST before round 4
-            (0.03, 0.5, 1.0, 0), (0.05, 0.5, 2.0, 0), (0.03, 0.3, 0.5, 1), (0.1, 0.3, 8.0, 1),
-            (0.05, 0.5, 2.0, 1), (0.04, 0.5, 1.5, 1), (0.05, 0.3, 4.0, 1), (0.1, 0.5, 0.0, 1),
-            (0.04, 0.5, 1.0, 1))
+    # (L, velocity share, bias gain N/m, training delay 0..d, select_every), round 4's order under its rule.
+    grid = ((0.1, 0.3, 8.0, 1, 0),  # round 4's choice, the product's ROBUST before round 5
+            (0.1, 0.3, 8.0, 1, 10), (0.1, 0.3, 8.0, 1, 25),
+            (0.1, 0.5, 0.0, 1, 0), (0.1, 0.5, 0.0, 1, 10),
+            (0.03, 0.3, 0.5, 1, 0), (0.03, 0.3, 0.5, 1, 10))
     out = []
-    for gain, share, bias, delay in grid:
-        name = f"model L={gain},share={share},bias gain={bias},train delay=0..{delay}"
+    for gain, share, bias, delay, every in grid:
+        name = f"model L={gain},share={share},bias gain={bias},train delay=0..{delay},select every={every}"
         out.append((name, improved_config(observer="model", obs_gain=gain, obs_velocity_share=share,
-                                          obs_bias_gain=bias, train_delay=delay)))
+                                          obs_bias_gain=bias, train_delay=delay, select_every=every)))
     return out
 
 
@@ -144,7 +147,7 @@ def evaluate(cfg: QConfig, models: dict[int, dict[str, StepModel]], n: int,
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--seeds", type=int, default=32, help="learning seeds per id seed and direction")
+    p.add_argument("--seeds", type=int, default=64, help="learning seeds per id seed and direction")
     p.add_argument("--id-seeds", default=",".join(map(str, DESIGN_ID_SEEDS)),
                    help="design identification seeds, comma-separated (default: round 4's)")
     p.add_argument("--first", type=int, default=0,

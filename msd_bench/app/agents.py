@@ -32,7 +32,7 @@ def robust_config() -> QConfig:
 
 ROBUST: dict[str, object] = {"observer": "model", "obs_gain": 0.1, "obs_bias_gain": 8.0,
                              "obs_velocity_gain": 0.0, "obs_velocity_share": 0.3, "train_noise": 0.0,
-                             "train_delay": 1}
+                             "train_delay": 1, "select_every": 0}
 """The robust agent's observer gains and training perturbations (round 4's choice, on surrogates of
 design id seeds 90-92 only, ``scripts/robust_design.py``; docs/decisions.md §Robust)."""
 
@@ -141,6 +141,8 @@ def learner_config(kind: str, episodes: int, steps: int, force: float, shaping: 
     base = LEARNERS[k.agent]()
     if k.agent == "paper":
         base = replace(base, shaping=k.shaping or shaping)
+    if k.surrogate == PLANT:  # a rehearsal on the plant would cost real samples: keep the final table
+        base = replace(base, select_every=0)
     return replace(base, episodes=episodes, steps=steps, force=force)
 
 

@@ -143,6 +143,10 @@ class QConfig:
     """Training on the surrogate: each episode draws a sensor noise σ uniformly in [0, train_noise] m."""
     train_delay: int = 0
     """Training on the surrogate: each episode draws an actuator delay in {0, …, train_delay} samples."""
+    select_every: int = 0
+    """Keep, instead of the final table, the best of the tables taken every ``select_every`` episodes over
+    the second half of training, judged by greedy rehearsals on the model trained on
+    (:mod:`msd_bench.core.selection`; docs/decisions.md §Robust, round 5). 0 = the final table."""
 
     def __post_init__(self) -> None:
         _require(self.episodes >= 1 and self.steps >= 1, "episodes and steps must be >= 1")
@@ -171,6 +175,7 @@ class QConfig:
         _require(math.isfinite(self.train_noise) and 0.0 <= self.train_noise <= 0.1,
                  "train_noise must be in [0, 0.1] m")
         _require(0 <= self.train_delay <= 10, "train_delay must be in 0..10 samples")
+        _require(0 <= self.select_every <= 100_000, "select_every must be in 0..100000 episodes")
         _require(0.0 <= self.obs_velocity_share <= 1.0
                  and (self.obs_velocity_share == 1.0 or self.observer == "model"),
                  "obs_velocity_share must be in [0, 1], and only a model observer has one")
@@ -191,9 +196,19 @@ class QConfig:
         return self.observer != "none" or self.train_noise > 0.0 or self.train_delay > 0
 
     def snapshots(self) -> tuple[int, ...]:
-        """Sorted episode counts at which a snapshot is taken (first and last included)."""
+        """Sorted episode counts at which a snapshot is taken (first, last and selection candidates)."""
         keep = {1, self.episodes} | {e for e in self.snapshot_episodes if e <= self.episodes}
-        return tuple(sorted(keep))
+        return tuple(sorted(keep | set(self.selection_episodes())))
+
+    def selection_episodes(self) -> tuple[int, ...]:
+        """Episode counts whose tables compete for the one kept (``select_every``), latest first.
+
+        Counted back from the final episode over the second half of training, so a
+        shortened run still selects among its own late tables; () when selection is off.
+        """
+        if self.select_every == 0:
+            return ()
+        return tuple(range(self.episodes, self.episodes // 2 - 1, -self.select_every))
 
     def actions(self) -> FloatArray:
         """The force alphabet {-F, -F/2, 0, F/2, F} in N."""

@@ -23,6 +23,7 @@ from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.kernels import Kernel
 from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import N_ACTIONS, Learner, QConfig, packed
+from msd_bench.core.selection import select_tables
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -33,7 +34,7 @@ class LearnedTables:
     """What any batch of tabular learners produces (Q-learning and Dyna-Q alike)."""
 
     q: FloatArray
-    """Final Q-tables, shape (n_agents, n_states, 5)."""
+    """The tables the agents keep, shape (n_agents, n_states, 5): the final ones unless selected."""
     snapshots: FloatArray
     """Q-tables after the episodes in ``snapshot_episodes``, shape (n_agents, n_snap, S, 5)."""
     snapshot_episodes: tuple[int, ...]
@@ -52,13 +53,22 @@ class TrainResult(LearnedTables):
     """The configuration trained with."""
     model_name: str
     """Name of the model trained on (provenance)."""
+    kept_episodes: IntArray | None = None
+    """With ``config.select_every``: the episode after which each kept table (``q``) was taken
+    (:mod:`msd_bench.core.selection`); None when ``q`` is the final table."""
 
 
 def train(model: StepModel, cfg: QConfig, seeds: Sequence[int]) -> TrainResult:
-    """Train one agent per seed on ``model`` (compiled; the batch spread over the cores)."""
+    """Train one agent per seed on ``model`` (compiled; the batch spread over the cores).
+
+    ``q`` is each agent's final table, or with ``cfg.select_every`` the table it keeps after
+    rehearsing its late snapshots on ``model`` (:func:`selection.select_tables`)."""
     seeds = tuple(int(s) for s in _check_seeds(seeds))
     q, snaps, returns, _ = run_batch(model.kernel, packed(cfg), budget(cfg, 0), rng.seed_states(seeds))
-    return TrainResult(q, snaps, cfg.snapshots(), returns, seeds, cfg, model.name)
+    if cfg.select_every == 0:
+        return TrainResult(q, snaps, cfg.snapshots(), returns, seeds, cfg, model.name)
+    kept = select_tables(model, cfg, snaps, cfg.snapshots())
+    return TrainResult(kept.q, snaps, cfg.snapshots(), returns, seeds, cfg, model.name, kept.episodes)
 
 
 def run_batch(model: Kernel, lr: Learner, plan: qlearning.Budget, stream: rng.U64Array,

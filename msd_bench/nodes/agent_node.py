@@ -48,6 +48,7 @@ from msd_bench.core.rest import RestConfig
 from msd_bench.core.results import per_seed_row
 from msd_bench.core.robustness import cell
 from msd_bench.core.scenarios import Scenario
+from msd_bench.core.selection import select_tables
 from msd_bench.io import artifacts
 from msd_bench.io.bag_writer import write_experiment
 from msd_bench.io.run_output import qtable_meta
@@ -274,7 +275,17 @@ class AgentNode(Node):
         first = np.stack([lr.snapshots[min(lr.snapshots)] for lr in self._learners])
         last = np.stack([lr.snapshots[max(lr.snapshots)] for lr in self._learners])
         self.real_steps = sum(lr.real_steps for lr in self._learners) if self.config.dyna else 0
-        self._trained(q, first, last)
+        self._trained(self._kept(q), first, last)
+
+    def _kept(self, final: np.ndarray) -> np.ndarray:
+        """The tables to validate: the final ones, or those the kind selects by rehearsing its late
+        snapshots on its model — the same choice :func:`msd_bench.core.qtrain.train` makes in-process."""
+        qc = self.config.qconfig()
+        if qc.select_every == 0 or self.model is None:
+            return final
+        episodes = tuple(sorted(self._learners[0].snapshots))
+        snaps = np.stack([np.stack([lr.snapshots[e] for e in episodes]) for lr in self._learners])
+        return select_tables(self.model, qc, snaps, episodes).q
 
     def _trained(self, q: np.ndarray, first: np.ndarray, last: np.ndarray) -> None:
         cfg = self.config
