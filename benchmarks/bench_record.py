@@ -1,9 +1,12 @@
 """Recording the paper's plan through node processes, beside the in-process baseline (same run).
 
 * ``processes``: a lock-step plant process, then :func:`record_experiments` on
-  :func:`paper_plan` (a recorder and an excitation process per experiment, each
-  bag verified bit for bit). Split into start-up (process start, discovery,
-  settle: recorder start until the first command) and sample time.
+  :func:`paper_plan` (one served recorder and one served excitation process,
+  a job per experiment, each bag verified bit for bit), with the stage's
+  window of commands in flight (``record.RECORD_WINDOW``). Split into start-up
+  (discovery, settle: job start until the first command) and sample time.
+* ``processes_window_1``: the same with one exchange per command, the baseline
+  of ``window_speedup`` (sample rates, same run).
 * ``in_process``: ``plant.simulate`` + ``write_experiment`` of the same signals,
   the floor that no middleware pays.
 
@@ -30,9 +33,10 @@ from msd_bench.graph import launch, record
 from msd_bench.io.bags import write_experiment
 
 
-def through_processes(plan: list[record.ExperimentSpec], out: Path) -> dict[str, float]:
+def through_processes(plan: list[record.ExperimentSpec], out: Path, window: int) -> dict[str, float]:
     """Wall time of recording ``plan`` from a lock-step plant process, split by phase."""
     record.TIMINGS.clear()
+    record.WINDOW = window
     with launch.process_group() as procs:
         t0 = time.perf_counter()
         plant = procs.start("plant.py", ["-p", "lockstep:=true"])
@@ -48,7 +52,7 @@ def through_processes(plan: list[record.ExperimentSpec], out: Path) -> dict[str,
         "startup_discovery_s": round(startup, 2), "samples_and_verify_s": round(body, 2),
         "experiments_recorded": len(record.TIMINGS), "samples": samples,
         "samples_per_s": round(samples / body, 1),
-        "startup_per_experiment_s": round(startup / len(record.TIMINGS), 2),
+        "startup_per_experiment_s": round(startup / len(record.TIMINGS), 2), "window": window,
     }
 
 
@@ -74,11 +78,13 @@ def main() -> None:
     args = ap.parse_args()
     plan = record.paper_plan(args.seed, round(12_000 * args.scale), round(4_000 * args.scale))
     with tempfile.TemporaryDirectory() as tmp:
-        procs = through_processes(plan, Path(tmp) / "processes")
+        one = through_processes(plan, Path(tmp) / "window_1", 1)
+        procs = through_processes(plan, Path(tmp) / "processes", record.RECORD_WINDOW)
         base = in_process(plan, Path(tmp) / "in_process")
     print(json.dumps({
         "plan": {"experiments": len(plan), "samples": int(sum(s.force().size for s in plan))},
-        "processes": procs, "in_process": base,
+        "processes": procs, "processes_window_1": one, "in_process": base,
+        "window_speedup": round(procs["samples_per_s"] / one["samples_per_s"], 2),
         "ratio_wall_processes_over_in_process": round(procs["wall_s"] / base["wall_s"], 1),
     }, indent=1))
 

@@ -78,6 +78,10 @@ TRUTH_JOINT_STATES = TopicSpec(
 FORCE = TopicSpec(
     "force", "std_msgs/msg/Float64", 1, "force command in N; non-finite rejected, saturated at ±F"
 )
+LOCKSTEP_COMMAND_DEPTH = 64
+"""Depth of a lock-step plant's command subscription (and of an open-loop excitation's publisher): the
+commands an excitation may have in flight before their samples come back. In real time only the
+latest command matters (depth 1); in lock-step each command is one step, so none may be dropped."""
 REFERENCE = TopicSpec("reference", "std_msgs/msg/Float64", 1, "set-point for the agent, m")
 RESET = TopicSpec(
     "reset", "std_msgs/msg/Empty", 1, "return the plant-like node to rest at the origin, sample 0"

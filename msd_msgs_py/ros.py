@@ -25,11 +25,13 @@ MESSAGE_CLASSES = {
 }
 
 
-def qos(spec: TopicSpec) -> QoSProfile:
-    """Reliable keep-last QoS of the topic's depth (transient-local if latched, else volatile)."""
+def qos(spec: TopicSpec, depth: int | None = None) -> QoSProfile:
+    """Reliable keep-last QoS of the topic's depth, or ``depth`` (transient-local if latched, else volatile).
+
+    A deeper history on one side stays compatible with the other side's: depth is not matched."""
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
-        depth=spec.depth,
+        depth=spec.depth if depth is None else depth,
         reliability=ReliabilityPolicy.RELIABLE,
         durability=DurabilityPolicy.TRANSIENT_LOCAL if spec.latched else DurabilityPolicy.VOLATILE,
     )

@@ -48,7 +48,13 @@ from msd_bench.graph.jobs import Job, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, ProcessSet
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bags import bag_info, read_topic
-from msd_msgs_py.contract import JOINT_STATES, PLANT_NAMESPACE, TRUTH_JOINT_STATES, TopicSpec
+from msd_msgs_py.contract import (
+    JOINT_STATES,
+    LOCKSTEP_COMMAND_DEPTH,
+    PLANT_NAMESPACE,
+    TRUTH_JOINT_STATES,
+    TopicSpec,
+)
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
 SignalConfig = exc.PrbsConfig | exc.MultilevelConfig | exc.StepsConfig
@@ -56,6 +62,12 @@ Progress = Callable[[int, int, str], None]
 _KINDS: dict[str, type] = {
     "prbs": exc.PrbsConfig, "multilevel": exc.MultilevelConfig, "steps": exc.StepsConfig,
 }
+RECORD_WINDOW = LOCKSTEP_COMMAND_DEPTH // 2
+"""Lock-step commands in flight while recording (the excitation's ``window``): the plant, the
+excitation and the recorder then work at once instead of taking turns (benchmarks/bench_record.py
+times it against one exchange per command). Half the plant's command history, for margin."""
+WINDOW: int = RECORD_WINDOW
+"""The window this process records with (a benchmark sets it to 1 for its baseline)."""
 REST_TIMEOUT = 30.0
 """Seconds of zero force a node without reset gets to come to rest before an experiment plays anyway."""
 _TOPICS = (JOINT_STATES,)
@@ -253,8 +265,9 @@ def record_one(
     rec = servers.recorder.submit(
         [*_recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
          *iface.ros_args()], name=f"recorder[{spec.name}]")
+    window = WINDOW if lockstep and iface.command.name == MSD_INTERFACE.command.name else 1
     ex = servers.excitation.submit(
-        [*_excitation_args(spec, bag, namespace, lockstep, dt, rest), *iface.ros_args()],
+        [*_excitation_args(spec, bag, namespace, lockstep, dt, rest, window), *iface.ros_args()],
         name=f"excitation[{spec.name}]")
     try:
         _wait_playing(spec, ex, rec, 40.0 + (REST_TIMEOUT if rest else 0.0))
@@ -283,11 +296,11 @@ def _recorder_args(spec: ExperimentSpec, bag: Path, namespace: str, max_messages
 
 
 def _excitation_args(spec: ExperimentSpec, bag: Path, namespace: str, lockstep: bool, dt: float,
-                     rest: bool = False) -> list[str]:
+                     rest: bool = False, window: int = 1) -> list[str]:
     start = ["-p", "rest_first:=true", "-p", f"rest_timeout:={REST_TIMEOUT!r}"] if rest else [
         "-p", "reset_first:=true"]
     return [*spec.ros_args(), "-p", f"lockstep:={str(lockstep).lower()}", "-p", f"dt:={dt!r}",
-            *start, "-p", f"wait_recorder:={bag}", "-p", "settle:=0.3",
+            *start, "-p", f"wait_recorder:={bag}", "-p", "settle:=0.3", "-p", f"window:={window}",
             "-r", f"__ns:={namespace}"]
 
 

@@ -7,7 +7,8 @@ force) on the ros2_control face (docs/ros2-control.md §Parameters).
 It does not start until its force publisher is matched by a subscriber (the
 plant) — a reliable publisher with no reader silently drops the first
 samples. In lock-step it also waits for the plant's ``joint_states`` and
-paces itself by them: command k+1 goes out only after sample k arrived. In
+paces itself by them: command k + W goes out only after sample k arrived
+(W = ``window``; 1 is a strict exchange per command). In
 real-time it publishes at 1/dt Hz on a steady-clock timer. A node without
 ``reset`` (``rest_first``, a rig) is first brought to rest by zero force until
 its position is still (:mod:`msd_bench.core.rest`); the signal then plays from
@@ -40,7 +41,14 @@ from msd_bench.core.errors import ConfigError, InterfaceError
 from msd_bench.core.rest import RestConfig, RestDetector
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
-from msd_msgs_py.contract import JOINT_STATES, PLANT_NAMESPACE, POSITION, RECORDER_READY, RESET
+from msd_msgs_py.contract import (
+    JOINT_STATES,
+    LOCKSTEP_COMMAND_DEPTH,
+    PLANT_NAMESPACE,
+    POSITION,
+    RECORDER_READY,
+    RESET,
+)
 from msd_msgs_py.interface import PlantInterface
 from msd_msgs_py.ros import command, msg_class, qos
 
@@ -78,6 +86,11 @@ class ExcitationNodeConfig:
     """Seconds between matching and the first command, so the plant's side has matched too."""
     sample_timeout: float = field(default=5.0, metadata={"range": (0.1, 600.0)})
     """Lock-step only: seconds to wait for a sample before giving up (the first is resent once)."""
+    window: int = field(default=1, metadata={"range": (1, LOCKSTEP_COMMAND_DEPTH)})
+    """Lock-step only: commands in flight ahead of the samples that came back (1 = one exchange per
+    command). The signal is open loop, so nothing waits on a sample's value; more in flight lets the
+    plant, this node and a recorder work at once. The plant's lock-step command history holds
+    ``LOCKSTEP_COMMAND_DEPTH``; the window opens after the first sample, which proves the plant listens."""
     reset_first: bool = False
     """Publish <ns>/reset once matched (before the settle), so the plant starts at rest, sample 0."""
     min_subscribers: int = field(default=1, metadata={"range": (1, 64)})
@@ -141,7 +154,9 @@ class ExcitationNode(Node):
         self.sent = 0
         self.done: Future[int] = Future()
         cmd = self.interface.command
-        self._pub: Publisher[Any] = self.create_publisher(msg_class(cmd), cmd.name, qos(cmd))
+        depth = max(cmd.depth, self.config.window) if self.config.lockstep else cmd.depth
+        self._pub: Publisher[Any] = self.create_publisher(msg_class(cmd), cmd.name, qos(cmd, depth))
+        self.received = 0
         self._reset = (
             self.create_publisher(Empty, RESET.name, qos(RESET)) if self.config.reset_first else None
         )
@@ -301,10 +316,12 @@ class ExcitationNode(Node):
     def _on_sample(self, _msg: Any) -> None:
         if self.done.done() or self.sent == 0:
             return
-        if self.sent < self.signal.size:
-            self._send()
-        else:
+        self.received += 1
+        if self.received >= self.signal.size:
             self._finish(0, f"excitation done: {self.sent} commands")
+            return
+        while self.sent < self.signal.size and self.sent - self.received < self.config.window:
+            self._send()
 
     def _finish(self, status: int, line: str) -> None:
         for timer in (self._timer, self._poll):

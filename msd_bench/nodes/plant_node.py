@@ -85,6 +85,7 @@ from msd_msgs_py.contract import (
     DIAGNOSTICS,
     FORCE,
     JOINT_STATES,
+    LOCKSTEP_COMMAND_DEPTH,
     PLANT_CLAIM,
     PLANT_NAMESPACE,
     POSITION,
@@ -276,8 +277,12 @@ class PlantNode(Node):
         return self.create_publisher(Float64, POSITION.name, qos(POSITION))
 
     def _subscribe_commands(self) -> None:
-        """Take force commands on ``force`` (the rig's ros2_control face takes them elsewhere)."""
-        self.create_subscription(Float64, FORCE.name, self._on_force, qos(FORCE))
+        """Take force commands on ``force`` (the rig's ros2_control face takes them elsewhere).
+
+        In lock-step every command is a step, and an open-loop excitation keeps several in flight
+        (:class:`msd_bench.nodes.excitation_node.ExcitationNodeConfig`), so the history holds them all."""
+        depth = LOCKSTEP_COMMAND_DEPTH if self.config.lockstep else FORCE.depth
+        self.create_subscription(Float64, FORCE.name, self._on_force, qos(FORCE, depth))
 
     def _init_sensor(self) -> None:
         """The sensor, its generator and velocity estimator, and the truth topic (only with a sensor)."""

@@ -137,7 +137,8 @@ def run_job(build: Callable[..., Node], line: str, n: int, executor: Executor, s
         print(f"error: malformed ROS arguments: {str(exc).split(', at ')[0]}", file=sys.stderr, flush=True)
         return EXIT_USAGE
     status = 0
-    if wants_events_executor(node):  # this job's own events executor (msd_bench.nodes.spin.make_executor)
+    own = wants_events_executor(node)
+    if own:  # this job's own events executor (msd_bench.nodes.spin.make_executor)
         executor = make_executor(events=True)
     try:
         reject_unknown_parameters(node)
@@ -150,6 +151,8 @@ def run_job(build: Callable[..., Node], line: str, n: int, executor: Executor, s
     finally:
         executor.remove_node(node)
         status = _closed(node, status)
+        if own:
+            executor.shutdown()
     return status
 
 

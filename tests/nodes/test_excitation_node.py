@@ -14,7 +14,7 @@ from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError
 from msd_bench.nodes.excitation_node import ExcitationNode, ExcitationNodeConfig
 from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
-from msd_msgs_py.contract import FORCE, JOINT_STATES
+from msd_msgs_py.contract import FORCE, JOINT_STATES, LOCKSTEP_COMMAND_DEPTH
 from msd_msgs_py.ros import qos
 from tests.nodes.conftest import spin_for, spin_until
 
@@ -49,6 +49,41 @@ def test_lockstep_plays_the_core_prbs_through_the_plant(ctx, executor):
     assert source.done.result() == 0
     assert [r.effort[0] for r in rows] == list(expected)
     assert plant.k == expected.size
+
+
+@pytest.mark.parametrize("window", [8, LOCKSTEP_COMMAND_DEPTH])
+def test_lockstep_window_keeps_commands_in_flight_and_loses_none(ctx, executor, window):
+    """Several commands ahead of the samples: the plant still steps each one once, in order."""
+    overrides = [Parameter("lockstep", value=True), Parameter("settle", value=0.0),
+                 Parameter("window", value=window), Parameter("seed", value=3),
+                 Parameter("prbs.n_samples", value=600), Parameter("prbs.settle", value=0)]
+    source = ExcitationNode(context=ctx, parameter_overrides=overrides)
+    rows: list[JointState] = []
+    peak = [0]
+
+    def on_row(msg: JointState) -> None:  # how far the commands ran ahead of the samples seen so far
+        rows.append(msg)
+        peak[0] = max(peak[0], source.sent - len(rows))
+
+    probe = Node("probe", namespace="/msd", context=ctx)
+    probe.create_subscription(JointState, JOINT_STATES.name, on_row, qos(JOINT_STATES))
+    plant = PlantNode(true_plant_spec(), config=PlantNodeConfig(lockstep=True, duplicate_check=0.0),
+                      context=ctx)
+    for node in (source, probe, plant):
+        executor.add_node(node)
+    assert spin_until(executor, source.done.done, timeout=20.0)
+    spin_for(executor, 0.1)
+    assert source.done.result() == 0 and plant.k == source.signal.size == 600
+    assert [r.effort[0] for r in rows] == list(np.clip(source.signal, -10.0, 10.0))
+    assert [r.header.stamp.nanosec + r.header.stamp.sec * 10**9 for r in rows] == [
+        k * 10_000_000 for k in range(600)]
+    assert peak[0] > 1  # commands ran ahead (the window bounds sent - received by construction)
+
+
+def test_window_above_the_plants_command_history_is_refused(ctx):
+    with pytest.raises(ConfigError, match="window"):
+        ExcitationNode(context=ctx,
+                       parameter_overrides=[Parameter("window", value=LOCKSTEP_COMMAND_DEPTH + 1)])
 
 
 def test_realtime_waits_for_a_subscriber_then_plays_the_signal(ctx, executor):
