@@ -32,9 +32,10 @@ def robust_config() -> QConfig:
 
 ROBUST: dict[str, object] = {"observer": "model", "obs_gain": 0.1, "obs_bias_gain": 8.0,
                              "obs_velocity_gain": 0.0, "obs_velocity_share": 0.3, "train_noise": 0.0,
-                             "train_delay": 1, "select_every": 0}
-"""The robust agent's observer gains and training perturbations (round 4's choice, on surrogates of
-design id seeds 90-92 only, ``scripts/robust_design.py``; docs/decisions.md §Robust)."""
+                             "train_delay": 1, "select_every": 25}
+"""The robust agent's observer gains and training perturbations (round 4's choice) and the table it keeps
+(round 5's: the best-rehearsing of its tables every 25 episodes over the second half), chosen on
+surrogates of design id seeds 90-92 only (``scripts/robust_design.py``; docs/decisions.md §Robust)."""
 
 LEARNERS: dict[str, Callable[[], QConfig]] = {
     "paper": QConfig,
