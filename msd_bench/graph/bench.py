@@ -11,7 +11,9 @@ the run directory, so a run can be resumed or re-reported):
              (in-process on the model artifact by default, over a surrogate
              node with ``--via-ros``, or Dyna-Q against the plant node) and
              validates every seed on the plant topics, writing
-             ``agents/<kind>/`` (Q-tables, bags, result);
+             ``agents/<kind>/`` (Q-tables, bags, result); Dyna-Q needs no
+             model, so it is submitted before ``identify`` and runs beside it
+             (:func:`start_model_free`);
 ``report``   Table 1 (Markdown, CSV, JSON) and the figures under ``report/``.
 
 With ``plant_ns`` (``--plant-ns NS``) no emulator is started: every stage runs
@@ -35,7 +37,7 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.plant_ns import hardware_scenario
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.registry import needs_bias_records
-from msd_bench.graph.jobs import JobServer, last_line
+from msd_bench.graph.jobs import Job, JobServer, last_line
 from msd_bench.graph.launch import NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, RecordServers, paper_plan, record_experiments
 from msd_msgs_py.contract import PLANT_NAMESPACE, surrogate_namespace
@@ -226,19 +228,40 @@ def surrogate_args(cfg: BenchConfig, name: str) -> list[str]:
             "-p", "lockstep:=true", "-r", f"__ns:={surrogate_namespace(name)}"]
 
 
+def model_free_kinds(cfg: BenchConfig) -> list[str]:
+    """The run's kinds that need no identified model (Dyna-Q learns on the plant itself)."""
+    return [k for k in cfg.run.agents if agent_kind(k).dyna]
+
+
+def start_model_free(cfg: BenchConfig, server: JobServer) -> dict[str, Job]:
+    """Submit the model-free kinds now, so they run on the idle plant while identification runs.
+
+    Why: the identifier is one process of CPU work and Dyna-Q's real steps are a
+    lock-step exchange with the plant; on two cores they overlap instead of
+    queueing (issue: stages that overlap where the cores allow). The served agent
+    process runs its jobs in order, so the kinds submitted later wait behind these.
+    """
+    server.ready()
+    kinds = model_free_kinds(cfg)
+    return {kind: server.submit(agent_args(cfg, kind), name=f"agent-{kind}") for kind in kinds}
+
+
 def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[int, int, str], None],
-                 server: JobServer | None = None) -> None:
+                 server: JobServer | None = None, started: dict[str, Job] | None = None) -> None:
     """Every agent kind, one after another (they share the plant), as nodes of one served process
-    (``server`` if the caller launched it early, so its start-up overlapped identification)."""
+    (``server`` if the caller launched it early, so its start-up overlapped identification).
+    ``started``: kinds already submitted to ``server`` (:func:`start_model_free`); their results are
+    collected in report order like the rest."""
     if cfg.via_ros:
         for name in cfg.run.surrogates_needed():
             p = procs.start("surrogate.py", surrogate_args(cfg, name), name=f"surrogate-{name}")
             p.wait_for_line(r"ready \(", timeout=60.0)
     agents = cfg.run.agents
     server = (server or JobServer(procs, "agent.py", "agent")).ready()  # one process, one node per kind
+    started = started or {}
     for i, kind in enumerate(agents):
         bar(i, len(agents), kind)
-        job = server.submit(agent_args(cfg, kind), name=f"agent-{kind}")
+        job = started.get(kind) or server.submit(agent_args(cfg, kind), name=f"agent-{kind}")
         status = job.wait(3600.0 if cfg.plant_ns is None else 4 * 3600.0)
         if status != 0:
             raise StageError(f"{job.name} failed (exit {status}): {last_line(job.lines) or 'no output'}")

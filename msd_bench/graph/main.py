@@ -26,12 +26,13 @@ from msd_bench.graph.bench import (
     stage_identify,
     stage_names,
     stage_record,
+    start_model_free,
     start_plant,
     timed,
     write_run_facts,
 )
 from msd_bench.graph.domains import claim_domain
-from msd_bench.graph.jobs import JobServer
+from msd_bench.graph.jobs import Job, JobServer
 from msd_bench.graph.launch import caller_env, process_group, stop
 from msd_bench.graph.record import RecordServers
 from msd_bench.io.bag_records import roles_from_dir
@@ -144,7 +145,12 @@ def run_graph_stages(cfg: BenchConfig) -> None:
             with StageProgress("record") as bar:
                 timed(cfg, "record", lambda: stage_record(cfg, procs, lambda d, t, n: bar.update(n, d, t),
                                                           servers))
+        early: dict[str, Job] = {}
         if "identify" in cfg.stages:
+            if agent_server is not None and not sensor:  # with a sensor the agents get a restarted plant
+                early = start_model_free(cfg, agent_server)
+                if early:
+                    say(f"{', '.join(early)}: learning on the plant while the surrogates are identified")
             say("identifying surrogates (identifier node)")
             fits = timed(cfg, "identify", lambda: stage_identify(cfg, procs))
             for name, f in fits.items():
@@ -161,7 +167,7 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                 def agents_bar(done: int, total: int, name: str) -> None:
                     bar.update(name, done, total)
 
-                timed(cfg, "agents", lambda: stage_agents(cfg, procs, say, agents_bar, agent_server))
+                timed(cfg, "agents", lambda: stage_agents(cfg, procs, say, agents_bar, agent_server, early))
 
 
 def expected_duration(cfg: BenchConfig) -> plant_ns.Duration:

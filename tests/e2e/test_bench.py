@@ -46,6 +46,13 @@ def test_exits_cleanly_and_prints_the_table(run):
     assert f"report: {out / 'report'}" in proc.stderr
 
 
+def test_dyna_q_learns_on_the_plant_while_the_surrogates_are_identified(run):
+    """The model-free kind is submitted before the identifier starts (stages overlap on two cores)."""
+    _, proc = run
+    early = proc.stderr.find("dyna-q: learning on the plant while the surrogates are identified")
+    assert 0 <= early < proc.stderr.find("identifying surrogates (identifier node)")
+
+
 def test_excitation_bags_hold_the_played_experiments(run):
     out, _ = run
     names = sorted(p.name for p in (out / "excitation").iterdir())
