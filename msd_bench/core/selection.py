@@ -46,6 +46,11 @@ REHEARSAL_TARGETS: tuple[float, ...] = (-1.5, -1.0, -0.5, 0.5, 1.0, 1.5)
 training range, so no single validation target decides which table is kept."""
 
 
+REHEARSAL_WINDOW = 500
+"""Terminal window (samples) of a rehearsal's SSE: the validation's default, or the whole episode of a
+shortened run (``steps`` below it)."""
+
+
 class Selection(NamedTuple):
     """The tables kept and where they came from."""
 
@@ -61,12 +66,15 @@ def rehearsal_successes(model: StepModel, cfg: QConfig, q: FloatArray) -> IntArr
     """How many of :data:`REHEARSAL_TARGETS` each table in ``q`` (n, S, 5) holds on ``model``, greedily."""
     lr = packed(cfg)
     tables = np.ascontiguousarray(q, dtype=np.float64)
-    quiet = np.zeros((tables.shape[0], cfg.steps))
     wins = np.zeros(tables.shape[0], dtype=np.int64)
+    if cfg.steps < 2:  # no trajectory to score: every table ties, so the final one is kept
+        return wins
+    quiet = np.zeros((tables.shape[0], cfg.steps))
+    window = min(REHEARSAL_WINDOW, cfg.steps)
     for target in REHEARSAL_TARGETS:
         nominal = Conditions(float(target), 0.0, 0, 0.0, 0, 0.0)
         xs, _ = greedy_under(model.kernel, lr, tables, nominal, quiet, model.kernel)
-        wins += np.array([compute(x, target, model.dt).sse < SUCCESS_SSE for x in xs], dtype=np.int64)
+        wins += np.array([compute(x, target, model.dt, window).sse < SUCCESS_SSE for x in xs], dtype=np.int64)
     return wins
 
 

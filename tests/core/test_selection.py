@@ -57,6 +57,14 @@ def test_ties_keep_the_later_table() -> None:
     assert kept.episodes.tolist() == [SMALL.episodes]
 
 
+@pytest.mark.parametrize("steps", [1, 120])
+def test_short_episodes_rehearse_over_what_they_have(steps: int) -> None:
+    """A shortened run (fewer steps than the validation's 500-sample window) still selects."""
+    cfg = replace(SMALL, steps=steps)
+    got = train(PLANT, cfg, [1, 2])
+    assert got.kept_episodes is not None and set(got.kept_episodes) <= set(cfg.selection_episodes())
+
+
 def test_a_missing_candidate_snapshot_is_refused() -> None:
     snaps = np.zeros((1, 2, *train(PLANT, replace(SMALL, select_every=0), [1]).q.shape[1:]))
     with pytest.raises(InvalidInputError, match="missing"):

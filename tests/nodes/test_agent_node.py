@@ -11,6 +11,8 @@ import pytest
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
+from msd_bench.app import agents
+from msd_bench.app.agents import robust_config
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import identify_surrogates, make_records
 from msd_bench.core.dyna import DynaConfig, train_dyna
@@ -73,6 +75,21 @@ def test_ros_training_is_bit_identical_and_validation_matches_core(ctx, executor
     arrays, meta = artifacts.load_qtables(tmp_path / "qtables.npz")
     assert np.array_equal(arrays["q"], reference.q)
     assert meta["provenance"]["sources"][0]["sha256"] == artifacts.sha256_path(glm_path)
+
+
+def test_ros_training_keeps_the_tables_the_batch_selects(ctx, executor, glm_path, tmp_path, monkeypatch):
+    """A robust kind trained over ROS rehearses its snapshots as :func:`train` does in-process."""
+    every = replace(robust_config(), select_every=1)  # candidates: episodes 4, 3, 2
+    monkeypatch.setitem(agents.LEARNERS, "robust", lambda: every)
+    cfg = AgentNodeConfig(kind="glm+robust", model_path=str(glm_path), seeds=(3, 4), episodes=4, steps=150,
+                          via_ros=True, surrogate_ns="/surrogate/glm", validation_steps=100,
+                          window=50, out_dir=str(tmp_path))
+    assert cfg.qconfig().selection_episodes() == (4, 3, 2)
+    model = artifacts.load_model(glm_path)
+    agent = _run(ctx, executor, cfg, surrogate=model)
+    reference = train(model, cfg.qconfig(), cfg.seeds)
+    assert reference.kept_episodes is not None
+    assert np.array_equal(agent.q, reference.q)
 
 
 def test_dyna_q_interacts_with_the_plant_node(ctx, executor, tmp_path):
