@@ -8,8 +8,8 @@ import pytest
 
 from msd_bench.app import plant_ns
 from msd_bench.core.errors import ConfigError
+from msd_bench.graph import domains
 from msd_bench.graph import main as bench_main
-from msd_bench.graph.domains import lock_dir
 
 
 def test_kinds_on_the_emulators_model_are_left_out_with_a_note() -> None:
@@ -117,10 +117,19 @@ def test_plant_ns_keeps_the_callers_domain_and_discovery(monkeypatch: pytest.Mon
     assert os.environ["ROS_DOMAIN_ID"] == "77" and os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "SUBNET"
 
 
+def _unheld(domain: int) -> bool:
+    """Whether no run holds ``domain`` now (a lock *file* may outlive its run: only the flock counts)."""
+    fh = domains._try_lock(domain)
+    if fh is None:
+        return False
+    fh.close()
+    return True
+
+
 def test_an_explicit_domain_id_still_wins(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("ROS_DOMAIN_ID", "77")
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET")
-    free = next(d for d in range(201, 233) if not (lock_dir() / f"{d}.lock").exists())
+    free = next(d for d in range(201, 233) if _unheld(d))
     lock = bench_main.use_domain(bench_main.parse(["--plant-ns", "/rig", "--domain-id", str(free)]))
     try:
         assert lock is not None and os.environ["ROS_DOMAIN_ID"] == str(free)
