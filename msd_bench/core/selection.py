@@ -4,7 +4,7 @@ Why: tabular Q-learning with a constant step size never settles. Its greedy
 policy keeps changing from episode to episode, and the final table is one draw
 from that wandering. On design seeds only (docs/decisions.md §Robust, round 5),
 the robust agent's final table failed its own greedy run on the training
-surrogate for about one seed in eleven. Those were almost exactly the seeds
+surrogate for about one seed in ten. Those were almost exactly the seeds
 that also failed on the other surrogate standing in for the plant. A table that
 cannot hold a set-point on the model it learned on is not going to hold one on
 the plant.
