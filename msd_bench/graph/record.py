@@ -265,7 +265,7 @@ def record_one(
     rec = servers.recorder.submit(
         [*_recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
          *iface.ros_args()], name=f"recorder[{spec.name}]")
-    window = WINDOW if lockstep and iface.command.name == MSD_INTERFACE.command.name else 1
+    window = WINDOW if lockstep else 1  # lock-step needs reset, so the face is msd's and its plant ours
     ex = servers.excitation.submit(
         [*_excitation_args(spec, bag, namespace, lockstep, dt, rest, window), *iface.ros_args()],
         name=f"excitation[{spec.name}]")
