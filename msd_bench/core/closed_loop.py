@@ -43,6 +43,11 @@ class Conditions(NamedTuple):
     """Coulomb friction, N (plant kind only)."""
 
 
+def nominal(target: float) -> Conditions:
+    """The plain validation: set-point ``target``, no sensor, delay, load or friction."""
+    return Conditions(float(target), 0.0, 0, 0.0, 0, 0.0)
+
+
 @numba.njit(cache=True)
 def quantise(y: float, step: float) -> float:
     """``y`` rounded to the nearest multiple of ``step`` (halves away from zero); identity for 0."""

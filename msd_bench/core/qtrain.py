@@ -124,11 +124,10 @@ def greedy_rollouts(model: StepModel, q_tables: FloatArray, cfg: QConfig, target
     if n_steps < 1:
         raise InvalidInputError(f"n_steps must be >= 1, got {n_steps}")
     if lr.observed:  # through its observer: the nominal scenario of the closed-loop kernel
-        from msd_bench.core.closed_loop import Conditions, greedy_under
+        from msd_bench.core.closed_loop import greedy_under, nominal
 
-        nominal = Conditions(float(target), 0.0, 0, 0.0, 0, 0.0)
         obs = (observer or model).kernel
-        return greedy_under(model.kernel, lr, q, nominal, np.zeros((q.shape[0], int(n_steps))), obs)
+        return greedy_under(model.kernel, lr, q, nominal(target), np.zeros((q.shape[0], int(n_steps))), obs)
     return qlearning.greedy_batch(model.kernel, lr, q, float(target), int(n_steps))
 
 

@@ -13,7 +13,7 @@ So the agent rehearses each candidate table greedily on that same model, from
 rest, at a spread of set-points inside the training range
 (:data:`REHEARSAL_TARGETS`). It keeps the table with the most successes there,
 by the validation's own criterion (SSE over the terminal window below
-:data:`msd_bench.core.results.SUCCESS_SSE`), and ties go to the later table.
+:data:`msd_bench.core.metrics.SUCCESS_SSE`), and ties go to the later table.
 Rehearsals run only on the model: they cost no plant sample. Learners that
 train on the plant itself therefore keep their final table
 (:func:`msd_bench.app.agents.learner_config`).
@@ -31,12 +31,11 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core.closed_loop import Conditions, greedy_under
+from msd_bench.core.closed_loop import greedy_under, nominal
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.metrics import compute
 from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import QConfig, packed
-from msd_bench.core.results import SUCCESS_SSE
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -72,9 +71,8 @@ def rehearsal_successes(model: StepModel, cfg: QConfig, q: FloatArray) -> IntArr
     quiet = np.zeros((tables.shape[0], cfg.steps))
     window = min(REHEARSAL_WINDOW, cfg.steps)
     for target in REHEARSAL_TARGETS:
-        nominal = Conditions(float(target), 0.0, 0, 0.0, 0, 0.0)
-        xs, _ = greedy_under(model.kernel, lr, tables, nominal, quiet, model.kernel)
-        wins += np.array([compute(x, target, model.dt, window).sse < SUCCESS_SSE for x in xs], dtype=np.int64)
+        xs, _ = greedy_under(model.kernel, lr, tables, nominal(target), quiet, model.kernel)
+        wins += np.array([compute(x, target, model.dt, window).success for x in xs], dtype=np.int64)
     return wins
 
 
