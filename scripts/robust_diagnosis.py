@@ -28,37 +28,21 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "scripts"))
 
-from robust_design import DESIGN_FIRST_SEED, DESIGN_ID_SEEDS, stand_ins  # noqa: E402
+from robust_design import DESIGN_FIRST_SEED, DESIGN_ID_SEEDS, stand_ins, successes  # noqa: E402
 
 from msd_bench.app.agents import robust_config  # noqa: E402
 from msd_bench.app.config import RunConfig  # noqa: E402
-from msd_bench.core.closed_loop import greedy_under  # noqa: E402
-from msd_bench.core.metrics import compute  # noqa: E402
 from msd_bench.core.model import StepModel  # noqa: E402
-from msd_bench.core.qconfig import QConfig, packed  # noqa: E402
+from msd_bench.core.qconfig import QConfig  # noqa: E402
 from msd_bench.core.qtrain import train  # noqa: E402
-from msd_bench.core.results import SUCCESS_SSE  # noqa: E402
-from msd_bench.core.robustness import conditions, sensor_noise  # noqa: E402
-from msd_bench.core.scenarios import parse  # noqa: E402
 from msd_bench.core.selection import select_tables  # noqa: E402
 
 SEEDS = 64
 CONDITIONS = ("nominal", "noise=0.005", "delay=1")
-
-
-def successes(cfg: QConfig, q: np.ndarray, plant: StepModel, trained_on: StepModel, seeds: list[int],
-              text: str) -> np.ndarray:
-    """Per table: does its greedy run on ``plant`` under scenario ``text`` succeed."""
-    sc = parse(text)
-    xs, _ = greedy_under(plant.kernel, packed(cfg), np.ascontiguousarray(q), conditions(sc, 0.01),
-                         sensor_noise(sc, seeds, 3000), trained_on.kernel)
-    return np.array([compute(x, sc.setpoint, 0.01, 500).sse < SUCCESS_SSE for x in xs])
 
 
 def diagnose(cfg: QConfig, plm: StepModel, nlarx: StepModel, seeds: list[int]) -> dict[str, object]:
