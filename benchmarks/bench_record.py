@@ -36,13 +36,12 @@ from msd_bench.io.bags import write_experiment
 def through_processes(plan: list[record.ExperimentSpec], out: Path, window: int) -> dict[str, float]:
     """Wall time of recording ``plan`` from a lock-step plant process, split by phase."""
     record.TIMINGS.clear()
-    record.WINDOW = window
     with launch.process_group() as procs:
         t0 = time.perf_counter()
         plant = procs.start("plant.py", ["-p", "lockstep:=true"])
         plant.wait_for_line("ready", timeout=30.0)
         t_plant = time.perf_counter() - t0
-        record.record_experiments(plan, out, procs)
+        record.record_experiments(plan, out, procs, window=window)
         wall = time.perf_counter() - t0
     startup = sum(t.startup_s for t in record.TIMINGS)
     samples = sum(t.samples for t in record.TIMINGS if t.name in {s.name for s in plan})

@@ -66,8 +66,6 @@ RECORD_WINDOW = LOCKSTEP_COMMAND_DEPTH // 2
 """Lock-step commands in flight while recording (the excitation's ``window``): the plant, the
 excitation and the recorder then work at once instead of taking turns (benchmarks/bench_record.py
 times it against one exchange per command). Half the plant's command history, for margin."""
-WINDOW: int = RECORD_WINDOW
-"""The window this process records with (a benchmark sets it to 1 for its baseline)."""
 REST_TIMEOUT = 30.0
 """Seconds of zero force a node without reset gets to come to rest before an experiment plays anyway."""
 _TOPICS = (JOINT_STATES,)
@@ -180,6 +178,7 @@ def record_experiments(
     rest: bool = False,
     iface: PlantInterface = MSD_INTERFACE,
     servers: RecordServers | None = None,
+    window: int = RECORD_WINDOW,
 ) -> list[Path]:
     """Record every spec into ``out_dir/<name>`` from the running plant under ``namespace``.
 
@@ -190,6 +189,7 @@ def record_experiments(
     until the position is still, from wherever the mass rests.
     ``iface``: the node's face (docs/ros2-control.md); with a measured effort its command topic is
     recorded too, so identification can rebuild the applied force.
+    ``window``: lock-step commands in flight (1 = one exchange per command; real time ignores it).
     """
     if lockstep and iface.reset is None:
         raise ConfigError(f"the {iface.kind} interface has no reset: record in real time")
@@ -202,14 +202,15 @@ def record_experiments(
     bags = []
     try:
         for i, spec in enumerate(specs):
+            def once(spec: ExperimentSpec = spec) -> Path:
+                return record_one(spec, out / spec.name, servers, namespace, lockstep, force_limit, dt, truth,
+                                  rest, iface, window)
             try:
-                bag = record_one(spec, out / spec.name, servers, namespace, lockstep, force_limit, dt, truth,
-                                 rest, iface)
+                bag = once()
             except SampleLossError as err:
                 print(f"warning: {err}; recording it again", file=sys.stderr, flush=True)
                 shutil.rmtree(out / spec.name)
-                bag = record_one(spec, out / spec.name, servers, namespace, lockstep, force_limit, dt, truth,
-                                 rest, iface)
+                bag = once()
             bags.append(bag)
             if progress is not None:
                 progress(i + 1, len(specs), spec.name)
@@ -250,7 +251,7 @@ class RecordServers:
 def record_one(
     spec: ExperimentSpec, bag: Path, servers: RecordServers, namespace: str, lockstep: bool,
     force_limit: float, dt: float, truth: bool = False, rest: bool = False,
-    iface: PlantInterface = MSD_INTERFACE,
+    iface: PlantInterface = MSD_INTERFACE, window: int = RECORD_WINDOW,
 ) -> Path:
     """Record one experiment through a recorder and an excitation node; verify the bag."""
     if bag.exists():
@@ -265,7 +266,7 @@ def record_one(
     rec = servers.recorder.submit(
         [*_recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
          *iface.ros_args()], name=f"recorder[{spec.name}]")
-    window = WINDOW if lockstep else 1  # lock-step needs reset, so the face is msd's and its plant ours
+    window = window if lockstep else 1  # lock-step needs reset, so the face is msd's and its plant ours
     ex = servers.excitation.submit(
         [*_excitation_args(spec, bag, namespace, lockstep, dt, rest, window), *iface.ros_args()],
         name=f"excitation[{spec.name}]")
