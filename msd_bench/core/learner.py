@@ -147,6 +147,14 @@ class StepwiseLearner:
         return int(qlearning.encode(self._lr.enc, e, dx, self._target))
 
 
+def stacked_snapshots(learners: list[StepwiseLearner]) -> tuple[FloatArray, tuple[int, ...]]:
+    """The learners' snapshots as one (n_agents, n_snap, S, 5) array and their episode counts, the layout
+    :func:`msd_bench.core.qtrain.train` returns (so :func:`~msd_bench.core.selection.select_tables` takes
+    either)."""
+    episodes = tuple(sorted(learners[0].snapshots))
+    return np.stack([np.stack([lr.snapshots[e] for e in episodes]) for lr in learners]), episodes
+
+
 class GreedyPolicy:
     """A trained table held fixed (paper §5): deterministic greedy force per position."""
 

@@ -40,7 +40,7 @@ from msd_bench.app.agents import SHAPINGS, agent_kind, learner_config
 from msd_bench.app.plant_ns import hardware_scenario
 from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.learner import GreedyPolicy, StepwiseLearner
+from msd_bench.core.learner import GreedyPolicy, StepwiseLearner, stacked_snapshots
 from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import QConfig
 from msd_bench.core.qtrain import train
@@ -283,9 +283,7 @@ class AgentNode(Node):
         qc = self.config.qconfig()
         if qc.select_every == 0 or self.model is None:
             return final
-        episodes = tuple(sorted(self._learners[0].snapshots))
-        snaps = np.stack([np.stack([lr.snapshots[e] for e in episodes]) for lr in self._learners])
-        return select_tables(self.model, qc, snaps, episodes).q
+        return select_tables(self.model, qc, *stacked_snapshots(self._learners)).q
 
     def _trained(self, q: np.ndarray, first: np.ndarray, last: np.ndarray) -> None:
         cfg = self.config

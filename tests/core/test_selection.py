@@ -10,7 +10,7 @@ import pytest
 from msd_bench.app import agents
 from msd_bench.app.agents import learner_config, robust_config
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.learner import StepwiseLearner
+from msd_bench.core.learner import StepwiseLearner, stacked_snapshots
 from msd_bench.core.model import plant_model
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.qconfig import improved_config
@@ -84,8 +84,7 @@ def test_step_by_step_training_keeps_the_same_tables_as_the_batch() -> None:
             while not agent.episode_over:
                 agent.learn(PLANT.step(state, agent.act()))
         learners.append(agent)
-    episodes = tuple(sorted(learners[0].snapshots))
-    snaps = np.stack([np.stack([a.snapshots[e] for e in episodes]) for a in learners])
+    snaps, episodes = stacked_snapshots(learners)
     assert np.array_equal(select_tables(PLANT, SMALL, snaps, episodes).q, batch.q)
 
 
