@@ -263,12 +263,13 @@ def record_one(
     topics = recorded_topics(truth)
     if not iface.effort_is_commanded:
         topics = (*topics, iface.command)  # a measured effort: the applied force is rebuilt from these
+    pooled = ["-p", f"pooled:={str(lockstep).lower()}"]  # lock-step: keep matched endpoints across jobs
     rec = servers.recorder.submit(
         [*_recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
-         *iface.ros_args()], name=f"recorder[{spec.name}]")
+         *iface.ros_args(), *pooled], name=f"recorder[{spec.name}]")
     window = window if lockstep else 1  # lock-step needs reset, so the face is msd's and its plant ours
     ex = servers.excitation.submit(
-        [*_excitation_args(spec, bag, namespace, lockstep, dt, rest, window), *iface.ros_args()],
+        [*_excitation_args(spec, bag, namespace, lockstep, dt, rest, window), *iface.ros_args(), *pooled],
         name=f"excitation[{spec.name}]")
     try:
         _wait_playing(spec, ex, rec, 40.0 + (REST_TIMEOUT if rest else 0.0))

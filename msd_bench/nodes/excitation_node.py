@@ -39,6 +39,7 @@ from std_msgs.msg import Empty, Float64, String
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, InterfaceError
 from msd_bench.core.rest import RestConfig, RestDetector
+from msd_bench.nodes import endpoints
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import (
@@ -105,12 +106,18 @@ class ExcitationNodeConfig:
     """Largest position standard deviation at rest, m (above the sensor's noise)."""
     rest_timeout: float = field(default=30.0, metadata={"range": (0.1, 3600.0)})
     """Seconds of zero force after which the signal plays even if the mass never looked still."""
+    pooled: bool = False
+    """Lock-step only, in a served process: keep the publishers and subscriptions (already matched)
+    for the next job (:mod:`msd_bench.nodes.endpoints`); the settle then counts from their first
+    match, not from this job's start."""
 
     def __post_init__(self) -> None:
         if self.signal not in SIGNALS:
             raise ConfigError(f"signal must be one of {', '.join(SIGNALS)}, got {self.signal!r}")
         if self.reset_first and self.rest_first:
             raise ConfigError("reset_first and rest_first exclude each other (a node has reset or not)")
+        if self.pooled and not self.lockstep:
+            raise ConfigError("pooled needs lockstep: a free-running plant publishes between experiments")
 
     def rest(self) -> RestConfig:
         """The stillness test of ``rest_first``."""
@@ -155,22 +162,24 @@ class ExcitationNode(Node):
         self.done: Future[int] = Future()
         cmd = self.interface.command
         depth = max(cmd.depth, self.config.window) if self.config.lockstep else cmd.depth
-        self._pub: Publisher[Any] = self.create_publisher(msg_class(cmd), cmd.name, qos(cmd, depth))
+        pooled = self.config.pooled
+        self._pub: Publisher[Any] = endpoints.create_publisher(
+            self, msg_class(cmd), cmd.name, qos(cmd, depth), pooled)
         self.received = 0
-        self._reset = (
-            self.create_publisher(Empty, RESET.name, qos(RESET)) if self.config.reset_first else None
-        )
+        self._reset = (endpoints.create_publisher(self, Empty, RESET.name, qos(RESET), pooled)
+                       if self.config.reset_first else None)
         self._sub = None
         if self.config.lockstep:
-            self._sub = self.create_subscription(
-                msg_class(JOINT_STATES), JOINT_STATES.name, self._on_sample, qos(JOINT_STATES)
-            )
+            self._sub = endpoints.create_subscription(
+                self, msg_class(JOINT_STATES), JOINT_STATES.name, self._on_sample, qos(JOINT_STATES),
+                pooled=pooled)
         # Lock-step: the plant acknowledges a reset with one `position`; until it has, a command could
         # reach it before the reset does (another topic, no ordering) and sample 0 would repeat.
         self._reset_acked = self._reset is None or not self.config.lockstep
         self._t_reset = 0.0
         if not self._reset_acked:
-            self.create_subscription(Float64, POSITION.name, self._on_reset_ack, qos(POSITION))
+            endpoints.create_subscription(self, Float64, POSITION.name, self._on_reset_ack, qos(POSITION),
+                                          pooled=pooled)
         # No reset (a rig): zero force until still; x0 is then wherever the mass rests.
         self._rest = RestDetector(self.config.rest()) if self.config.rest_first else None
         self._t_rest: float | None = None
@@ -180,11 +189,14 @@ class ExcitationNode(Node):
             self.create_subscription(msg_class(pos), pos.name, self._on_rest_position, qos(pos))
         self._recorders_ready: set[str] = set()
         if self.config.wait_recorder:
-            self.create_subscription(String, RECORDER_READY.name, lambda m: self._recorders_ready.add(m.data),
-                                     qos(RECORDER_READY))
+            endpoints.create_subscription(self, String, RECORDER_READY.name,
+                                          lambda m: self._recorders_ready.add(m.data), qos(RECORDER_READY),
+                                          pooled=pooled)
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._t0 = time.monotonic()
         self._t_match: float | None = None
+        self._settle_from = 0.0
+        """When our endpoints were all first seen matched (or the mass came to rest): the settle's start."""
         self._t_sent = 0.0
         self._resent = False
         self._poll = self.create_timer(0.02, self._on_poll, clock=self._steady)
@@ -211,6 +223,12 @@ class ExcitationNode(Node):
             return False
         return self._sub is None or self._sub.get_publisher_count() > 0
 
+    def _matched_since(self, now: float) -> float:
+        """Since when all our endpoints to the plant have been matched (earlier than ``now`` only for
+        endpoints a served process kept from an earlier job)."""
+        ours = [e for e in (self._pub, self._reset, self._sub) if e is not None]
+        return max(endpoints.matched_since(e, True, now) or now for e in ours)
+
     def _on_poll(self) -> None:
         """Wait for the plant, then start; in lock-step also watch for a lost sample."""
         now = time.monotonic()
@@ -223,6 +241,7 @@ class ExcitationNode(Node):
         if self._t_match is None:
             if self._matched():
                 self._t_match = now
+                self._settle_from = self._matched_since(now)
                 self._send_reset(now)
             elif now - self._t0 > self.config.start_timeout:
                 self._finish(1, f"no plant matched on {self._pub.topic_name} "
@@ -238,7 +257,7 @@ class ExcitationNode(Node):
         if self._rest is not None and self.x0 is None:
             self._rest_step(now)
             return
-        if now - self._t_match < self.config.settle:
+        if now - self._settle_from < self.config.settle:
             return
         self.get_logger().info(f"plant matched: playing {self.signal.size} commands")
         if self.config.lockstep:
@@ -267,7 +286,7 @@ class ExcitationNode(Node):
             self.get_logger().warning(
                 f"not still after {self.config.rest_timeout:.0f} s of zero force (position spread "
                 f"{self._rest.spread() * 1e3:.1f} mm); playing from x0 = {self.x0:+.4f} m")
-        self._t_match = now  # the settle counts from here
+        self._t_match = self._settle_from = now  # the settle counts from here
 
     def _on_rest_position(self, msg: Any) -> None:
         """A position while resting: ``position``'s value, or our joint's in a joint_states row."""

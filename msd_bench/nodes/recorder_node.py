@@ -48,6 +48,7 @@ from std_msgs.msg import String
 from msd_bench.core.errors import ConfigError
 from msd_bench.io.bag_writer import STAMPED_TYPES, BagRecorder, leading_stamp
 from msd_bench.io.errors import BagError
+from msd_bench.nodes import endpoints
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_msgs_py.contract import (
@@ -99,6 +100,10 @@ class RecorderConfig:
     log_time: str = "auto"
     """Log times: ``receive`` (node clock on arrival), ``stamp`` (sim time from the stamps) or
     ``auto`` (``stamp`` when use_sim_time is set or a /clock publisher exists, else ``receive``)."""
+    pooled: bool = False
+    """In a served process, keep the subscriptions (already matched) for the next job's bag
+    (:mod:`msd_bench.nodes.endpoints`). Only for lock-step plants, which publish nothing between
+    experiments: a free-running plant's samples would wait in the reader for the next bag."""
 
     RANGES: ClassVar[dict[str, tuple[float, float]]] = {
         "max_duration_s": (0.0, 1e6),
@@ -178,13 +183,14 @@ class RecorderNode(Node):
         """Newest sim time seen in a stamp (``stamp`` log times)."""
         self._expects_stamps = any(spec.ros_type in STAMPED_TYPES for spec in self._specs)
         self._offered: dict[str, list[Qos]] = {}
-        self._unmatched: dict[str, Subscription[Any]] = {}
+        self._subs: dict[str, Subscription[Any] | endpoints.PooledSubscription] = {}
+        self._unmatched: set[str] = set()
         for spec in self._specs:
             self._subscribe(spec)
         self._timer = self.create_timer(self.config.flush_period_s / 2, self._on_timer)
-        self._ready_pub = self.create_publisher(
-            String, RECORDER_READY.resolve(self.config.namespace), qos(RECORDER_READY))
-        self._all_matched_at: float | None = None
+        self._ready_pub = endpoints.create_publisher(
+            self, String, RECORDER_READY.resolve(self.config.namespace), qos(RECORDER_READY),
+            pooled=self.config.pooled)
         self._match_timer = self.create_timer(0.02, self._on_match_poll)
         self.get_logger().info(f"recording {list(self.config.topics)} to {self.config.bag_path}")
 
@@ -196,28 +202,30 @@ class RecorderNode(Node):
 
         profile = qos(spec)  # commands are keep-last 1: a lagging recorder would drop them
         profile.depth = max(profile.depth, RECORD_DEPTH)
-        self._unmatched[topic] = self.create_subscription(
-            msg_class(spec), topic, on_message, profile, raw=True
-        )
+        self._subs[topic] = endpoints.create_subscription(
+            self, msg_class(spec), topic, on_message, profile, raw=True, pooled=self.config.pooled)
+        self._unmatched.add(topic)
 
     def _on_match_poll(self) -> None:
         """Log ``matched <topic>`` per topic; once all are matched, announce ``recorder/ready``.
 
         The announcement (latched, carrying the bag path) is what an excitation waits for:
         our readers see the publishers, and a short grace lets the publishers' side match
-        us too (discovery is not symmetric), so the first sample is not lost.
+        us too (discovery is not symmetric), so the first sample is not lost. A pooled reader
+        matched in an earlier job has had its grace already.
         """
-        for topic, sub in list(self._unmatched.items()):
-            if sub.get_publisher_count() > 0:
-                del self._unmatched[topic]
+        now = time.monotonic()
+        since = {t: endpoints.matched_since(sub, sub.get_publisher_count() > 0, now)
+                 for t, sub in self._subs.items()}
+        for topic in sorted(self._unmatched):
+            if since[topic] is not None:
+                self._unmatched.discard(topic)
                 self._offered_qos(topic)
                 self.get_logger().info(f"matched {topic}")
-        if self._unmatched:
+        times = [t for t in since.values() if t is not None]
+        if len(times) < len(since):
             return
-        now = time.monotonic()
-        if self._all_matched_at is None:
-            self._all_matched_at = now
-        elif now - self._all_matched_at >= self.config.ready_grace_s:
+        if now - max(times) >= self.config.ready_grace_s:
             self._ready_pub.publish(String(data=str(self.config.bag_path)))
             self.get_logger().info("ready")
             self._match_timer.cancel()

@@ -22,11 +22,17 @@ Each node is built with its own arguments (``cli_args``), spun until its
 ``done`` future completes or ``stop`` arrives, then closed and destroyed; a
 user mistake in one job is that job's one error line and exit 2, and the
 server goes on. SIGINT/SIGTERM close the running node and end the process.
+
+The process also keeps a pool of endpoints (:mod:`msd_bench.nodes.endpoints`)
+spun beside each job's node: a lock-step job that asks for it gets the
+publishers and subscriptions an earlier job matched, so only the first job of
+a stage waits for discovery.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import queue
 import signal
 import sys
@@ -40,6 +46,7 @@ from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedE
 from rclpy.node import Node
 
 from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.nodes import endpoints
 from msd_bench.nodes.params import (
     allow_wildcard_names,
     check_params_files,
@@ -108,6 +115,7 @@ def serve(build: Callable[..., Node], argv: Sequence[str]) -> int:
     except KeyboardInterrupt:
         return 0
     inbox, executor = _Inbox(), make_executor()
+    endpoints.install(endpoints.EndpointPool(Node(f"served_endpoints_{os.getpid()}")))
     print(READY_LINE, flush=True)
     try:
         n = 0
@@ -140,20 +148,32 @@ def run_job(build: Callable[..., Node], line: str, n: int, executor: Executor, s
     own = wants_events_executor(node)
     if own:  # this job's own events executor (msd_bench.nodes.spin.make_executor)
         executor = make_executor(events=True)
+    pool = endpoints.pool()
+    finished = False
     try:
         reject_unknown_parameters(node)
-        executor.add_node(node)
+        for spun in (node, pool.node) if pool is not None else (node,):
+            executor.add_node(spun)
         print(running_line(n), flush=True)
         status = _spin_until_done(node, executor, stop)
+        finished = _done_by_itself(node) and status == 0
     except MsdBenchError as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)
         status = EXIT_USAGE
     finally:
-        executor.remove_node(node)
+        for spun in (node, pool.node) if pool is not None else (node,):
+            executor.remove_node(spun)
         status = _closed(node, status)
+        if pool is not None:  # what a job that did not finish left in flight dies with the endpoints
+            pool.end_job(finished and status == 0)
         if own:
             executor.shutdown()
     return status
+
+
+def _done_by_itself(node: Node) -> bool:
+    done: Any = getattr(node, "done", None)
+    return done is not None and done.done()
 
 
 def _spin_until_done(node: Node, executor: Executor, stop: threading.Event) -> int:

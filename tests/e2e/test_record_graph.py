@@ -11,7 +11,13 @@ import pytest
 from msd_bench.core import excitation as exc
 from msd_bench.core.plant import preset, simulate
 from msd_bench.graph import launch
-from msd_bench.graph.record import ExperimentSpec, RecordError, paper_plan, record_experiments
+from msd_bench.graph.record import (
+    ExperimentSpec,
+    RecordError,
+    RecordServers,
+    paper_plan,
+    record_experiments,
+)
 from msd_bench.io.bags import bag_info, read_experiment, read_topic
 
 pytestmark = pytest.mark.e2e
@@ -53,11 +59,15 @@ def test_two_experiments_record_exactly_what_the_plant_simulates(tmp_path):
         plant = procs.start("plant.py", ["-p", "lockstep:=true", "-p", "duplicate_check:=0.0"])
         plant.wait_for_line("ready", timeout=20.0)
         plant_pid = plant.pid
-        bags = record_experiments(SPECS, tmp_path, procs, progress=lambda *a: seen.append(a))
+        servers = RecordServers.launch(procs)
+        bags = record_experiments(SPECS, tmp_path, procs, progress=lambda *a: seen.append(a), servers=servers)
         with pytest.raises(RecordError, match=r"^experiment multi: bag .* already exists"):
             record_experiments(SPECS[1:], tmp_path, procs)  # the bag exists: the recorder refuses
         pids = [p.pid for p in procs.procs]
     assert seen == [(1, 2, "prbs_p5"), (2, 2, "multi")]
+    # lock-step: the second experiment reused the endpoints the first had matched (nodes/endpoints.py)
+    assert servers.recorder.proc.output().count("pooled subscription /msd/joint_states") == 1
+    assert servers.excitation.proc.output().count("pooled publisher /msd/force") == 1
     assert bags == [tmp_path / "prbs_p5", tmp_path / "multi"]
     assert np.abs(SPECS[0].force()).max() > 10.0  # saturation at F = 10 N is exercised
     for spec, bag in zip(SPECS, bags, strict=True):

@@ -116,6 +116,12 @@ def test_unknown_signal_kind_is_a_config_error(ctx):
         ExcitationNode(context=ctx, parameter_overrides=[Parameter("signal", value="chirp")])
 
 
+def test_pooled_endpoints_need_lockstep(ctx):
+    """A free-running plant publishes between experiments: a kept subscription would carry them over."""
+    with pytest.raises(ConfigError, match="pooled needs lockstep"):
+        ExcitationNode(context=ctx, parameter_overrides=[Parameter("pooled", value=True)])
+
+
 def test_ros2_control_face_plays_the_signal_as_command_vectors(ctx, executor):
     """Parameters choose the face: Float64MultiArray on /rig/effort_controller/commands, ours second."""
     from std_msgs.msg import Float64MultiArray
