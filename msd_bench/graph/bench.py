@@ -203,7 +203,8 @@ def agent_args(cfg: BenchConfig, kind: str) -> list[str]:
             "-p", f"validation_steps:={run.validation_steps}", "-p", f"window:={run.window}",
             "-p", f"target:={float(run.target)!r}", "-p", f"dt:={run.plant.dt!r}",
             "-p", f"force:={run.plant.F!r}", "-p", f"shaping:={run.shaping}",
-            "-p", f"plant_ns:={cfg.namespace}", *cfg.interface.ros_args()]
+            "-p", f"plant_ns:={cfg.namespace}", "-p", f"pooled:={str(not cfg.realtime).lower()}",
+            *cfg.interface.ros_args()]
     if cfg.plant_ns is not None:
         args += ["-p", "reset:=false"]
         if kind in cfg.scenario_kinds and cfg.node_scenarios:

@@ -106,6 +106,9 @@ class AgentNodeConfig:
     scenarios: str = ""
     """Scenarios validated on the node besides the nominal run, separated by ``;`` (a scenario has
     commas): ``setpoint=`` / ``disturbance=`` items only."""
+    pooled: bool = False
+    """Lock-step only, in a served process: take the plant's (and surrogate's) endpoints from the
+    process's pool, matched already by an earlier job (:mod:`msd_bench.nodes.endpoints`)."""
 
     def __post_init__(self) -> None:
         agent_kind(self.kind)  # one-line ConfigError naming the kinds
@@ -121,6 +124,8 @@ class AgentNodeConfig:
             raise ConfigError("window must not exceed validation_steps")
         if self.lockstep and not self.reset:
             raise ConfigError("lock-step needs the node's reset; set lockstep:=false for a node without one")
+        if self.pooled and not self.lockstep:
+            raise ConfigError("pooled needs lockstep: a free-running node publishes between jobs")
         for text in self.scenario_ids:
             hardware_scenario(text)
 
@@ -219,7 +224,7 @@ class AgentNode(Node):
         self._client = EpisodeClient(
             self, lockstep=self.config.lockstep, reset=self.config.reset,
             rest=RestConfig(threshold=self.config.rest_threshold, timeout=self.config.rest_timeout),
-            interfaces={self.config.plant_ns: self.interface})
+            interfaces={self.config.plant_ns: self.interface}, pooled=self.config.pooled)
         self._client.log = self._warn
         self._client.on_error = self._fail
         self._reference = self.create_publisher(

@@ -42,6 +42,7 @@ from std_msgs.msg import Empty, Float64
 
 from msd_bench.core.errors import InterfaceError, MsdBenchError
 from msd_bench.core.rest import RestConfig, RestDetector
+from msd_bench.nodes import endpoints
 from msd_msgs_py.contract import JOINT_STATES, POSITION
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 from msd_msgs_py.ros import command, msg_class, qos
@@ -92,14 +93,15 @@ class _Endpoint:
         self.iface = iface
         self.needs_reset = client.reset
         self._node, self._client = node, client
-        cmd = iface.command
-        self.force: Publisher[Any] = node.create_publisher(msg_class(cmd), cmd.resolve(ns), qos(cmd))
-        self.reset = (None if iface.reset is None else
-                      node.create_publisher(Empty, iface.reset.resolve(ns), qos(iface.reset)))
-        self.pos = None if iface.position is None else node.create_subscription(
-            Float64, iface.position.resolve(ns), client.guarded(lambda m: client.on_position(ns, m.data)),
-            qos(POSITION))
-        self.js: Subscription[Any] | None = None
+        cmd, pooled = iface.command, client.pooled
+        self.force: Publisher[Any] = endpoints.create_publisher(
+            node, msg_class(cmd), cmd.resolve(ns), qos(cmd), pooled)
+        self.reset = (None if iface.reset is None else endpoints.create_publisher(
+            node, Empty, iface.reset.resolve(ns), qos(iface.reset), pooled))
+        self.pos = None if iface.position is None else endpoints.create_subscription(
+            node, Float64, iface.position.resolve(ns),
+            client.guarded(lambda m: client.on_position(ns, m.data)), qos(POSITION), pooled=pooled)
+        self.js: Subscription[Any] | endpoints.PooledSubscription | None = None
         if self.pos is None:  # a face without position answers in joint_states
             self.want_rows()
 
@@ -113,9 +115,10 @@ class _Endpoint:
         """
         if self.js is not None:
             return False
-        self.js = self._node.create_subscription(
-            msg_class(JOINT_STATES), JOINT_STATES.resolve(self.ns),
-            self._client.guarded(lambda m: self._on_row(self._client, m)), qos(JOINT_STATES))
+        self.js = endpoints.create_subscription(
+            self._node, msg_class(JOINT_STATES), JOINT_STATES.resolve(self.ns),
+            self._client.guarded(lambda m: self._on_row(self._client, m)), qos(JOINT_STATES),
+            pooled=self._client.pooled)
         return True
 
     def _on_row(self, client: EpisodeClient, msg: Any) -> None:
@@ -132,6 +135,14 @@ class _Endpoint:
         """Ask for force ``u`` in the face's command message."""
         self.force.publish(command(self.iface, u))
 
+    def matched_since(self, now: float) -> float | None:
+        """Since when every endpoint has been matched (None: not all are); earlier than ``now`` for
+        endpoints a served process kept from an earlier job."""
+        if not self.matched():
+            return None
+        ours = [e for e in (self.force, self.reset, self.pos, self.js) if e is not None]
+        return max(endpoints.matched_since(e, True, now) or now for e in ours)
+
     def matched(self) -> bool:
         reset_ok = not self.needs_reset or (self.reset is not None
                                             and self.reset.get_subscription_count() > 0)
@@ -145,11 +156,16 @@ class EpisodeClient:
 
     def __init__(self, node: Node, lockstep: bool = True, settle_s: float = 0.5,
                  match_timeout_s: float = 30.0, reset: bool = True, rest: RestConfig | None = None,
-                 interfaces: dict[str, PlantInterface] | None = None) -> None:
-        """``interfaces``: the face of each namespace that is not the msd face (docs/ros2-control.md)."""
+                 interfaces: dict[str, PlantInterface] | None = None, pooled: bool = False) -> None:
+        """``interfaces``: the face of each namespace that is not the msd face (docs/ros2-control.md).
+        ``pooled`` (lock-step only): take the endpoints from a served process's pool
+        (:mod:`msd_bench.nodes.endpoints`), matched already by an earlier job."""
+        if pooled and not lockstep:
+            raise EpisodeError("pooled endpoints need lock-step: a free-running node publishes between jobs")
         if lockstep and not reset:
             raise EpisodeError("lock-step episodes need the node's reset (its acknowledgement paces them)")
         self.node = node
+        self.pooled = pooled
         self.interfaces = dict(interfaces or {})
         self.lockstep = lockstep
         self.reset = reset
@@ -168,7 +184,6 @@ class EpisodeClient:
         self._ep: Episode | None = None
         self._phase = "idle"
         self._since = 0.0
-        self._matched_at: dict[str, float] = {}
         node.create_timer(0.05, self.guarded_timer(self._on_tick))
 
     def guarded(self, callback: Callable[[Any], None]) -> Callable[[Any], None]:
@@ -209,8 +224,8 @@ class EpisodeClient:
     def submit(self, episode: Episode) -> None:
         """Queue an episode; it starts once its node is matched."""
         end = self.endpoint(episode.namespace)
-        if episode.record and end.want_rows():
-            self._matched_at.pop(episode.namespace, None)  # a new subscription: wait for its match
+        if episode.record:
+            end.want_rows()  # a new subscription: the episode waits for its match (matched_since)
         self._queue.append(episode)
 
     @property
@@ -238,9 +253,9 @@ class EpisodeClient:
     def _check_match(self, now: float) -> None:
         assert self._ep is not None
         ns = self._ep.namespace
-        if self._endpoints[ns].matched():
-            first = self._matched_at.setdefault(ns, now)
-            if now - first >= 0.3:  # both sides see the match, not just ours
+        since = self._endpoints[ns].matched_since(now)
+        if since is not None:
+            if now - since >= 0.3:  # both sides see the match, not just ours
                 self._send_reset(now)
         elif now - self._since > self.match_timeout_s:
             raise EpisodeError(f"no plant-like node answers under {ns} (waited {self.match_timeout_s:.0f} s)")

@@ -100,3 +100,25 @@ def test_a_served_agent_trains_over_ros_on_its_own_events_executor(tmp_path: Pat
                           out_dir=str(tmp_path))
     assert np.array_equal(arrays["q"], train(artifacts.load_model(model), cfg.qconfig(), cfg.seeds).q)
     assert not (tmp_path / "long" / "qtables.npz").exists()
+
+
+def test_pooled_agent_jobs_match_once_and_validate_as_an_unpooled_job(tmp_path: Path) -> None:
+    """Two lock-step agent jobs with ``pooled:=true`` share one force publisher and one position reader
+    (created once, nodes/endpoints.py); their closed loop is the unpooled job's, sample for sample."""
+    model = Path(__file__).resolve().parents[1] / "data" / "pinned" / "plm.json"
+    args = ["-p", "kind:=plm", "-p", f"model_path:={model}", "-p", "seeds:=[2]", "-p", "episodes:=2",
+            "-p", "steps:=200", "-p", "validation_steps:=300", "-p", "window:=50"]
+    with process_group() as procs:
+        procs.start("plant.py", ["-p", "lockstep:=true", "-p", "duplicate_check:=0.0"])
+        server = JobServer(procs, "agent.py", "agent").ready()
+        for name, pooled in (("first", "true"), ("second", "true"), ("plain", "false")):
+            job = server.submit([*args, "-p", f"pooled:={pooled}", "-p", f"out_dir:={tmp_path / name}"],
+                                name=name)
+            assert job.wait(120.0) == 0
+        assert server.close() == 0
+    output = server.proc.output()
+    assert output.count("pooled publisher /msd/force") == 1
+    assert output.count("pooled subscription /msd/position") == 1
+    results = {n: json.loads((tmp_path / n / "result.json").read_text())["per_seed"]
+               for n in ("first", "second", "plain")}
+    assert results["second"] == results["first"] == results["plain"]
