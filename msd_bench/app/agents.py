@@ -90,11 +90,13 @@ DEFAULT_AGENTS: tuple[str, ...] = tuple(
 """What a run does unless ``--agents`` says otherwise: every surrogate under every design, and the
 paper's on-plant baselines; the ``@`` readings and our agents on the true plant are opt-in."""
 
-BENCH_AGENTS: tuple[str, ...] = ("glm", "plm", "nlarx-paper", "dyna-q", "plm+improved", "plm+robust")
-"""bench.py's default kinds: the paper's Table 1 (GLM, PLM, NLARX, Dyna-Q) and our two agents on its
-best surrogate. Every kind validates over DDS in lock-step, so each costs the graph what the paper's
-Table 1 costs in-process many times over; the full matrix is ``msd-bench paper``'s default and one
-``--agents`` away here (docs/decisions.md §Main job)."""
+BENCH_AGENTS: tuple[str, ...] = ("glm", "plm", "nlarx-paper", "plm+improved", "plm+robust")
+"""bench.py's default kinds: the paper's surrogate agents of Table 1 (GLM, PLM, NLARX) and our two agents
+on its best surrogate. Every kind validates over DDS in lock-step, so each costs the graph what it costs
+in-process many times over. Dyna-Q is one ``--agents`` away: its real steps at bench.py's token budget
+(5 of the paper's 300 episodes) cost as many lock-step round trips as the five kinds' validations together,
+for a row that is not the paper's Dyna-Q; the README's generated Table 1 has it at full budget. The full
+matrix is ``msd-bench paper``'s default and ``--agents matrix`` here (docs/decisions.md §Main job)."""
 
 
 def agent_kind(name: str) -> AgentKind:

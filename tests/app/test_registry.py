@@ -136,6 +136,14 @@ def test_matrix_names_every_default_kind_and_bench_runs_a_subset_of_it() -> None
         parse_agents("matrix,plm")
 
 
+def test_bench_default_kinds_train_off_the_plant() -> None:
+    """The main job's plant time is recording and validation only (docs/decisions.md §Main job)."""
+    from msd_bench.app.agents import BENCH_AGENTS, PLANT, agent_kind
+
+    assert {"glm", "plm", "nlarx-paper"} <= set(BENCH_AGENTS)
+    assert all(agent_kind(k).surrogate != PLANT for k in BENCH_AGENTS)
+
+
 def test_bench_runs_its_own_default_kinds_and_the_matrix_on_request() -> None:
     from msd_bench.app.agents import BENCH_AGENTS, DEFAULT_AGENTS
     from msd_bench.graph.main import config, parse
