@@ -135,6 +135,13 @@ class BenchConfig:
 Say = Callable[[str], None]
 
 
+BENCH_DUPLICATE_CHECK_S = 1.0
+"""Seconds the run's plant listens for a rival plant before serving (the node's default is 4 s, all of
+it start-up the whole run waits for). The run's domain is one no other msd-bench run holds
+(:mod:`msd_bench.graph.domains`), and a rival that discovery reveals later still stops one of the two at
+the next claim heartbeat, which fails the stage with the conflict's one line."""
+
+
 def plant_args(cfg: BenchConfig, sensor: bool = False) -> list[str]:
     """ROS arguments of the emulated plant process; ``sensor``: measured through the run's sensor.
 
@@ -143,7 +150,8 @@ def plant_args(cfg: BenchConfig, sensor: bool = False) -> list[str]:
     plant. Its noise is seeded by the identification seed, so two identification
     seeds see different noise and one seed the same noise run after run.
     """
-    args = ["-p", f"preset:={cfg.run.preset}", "-p", f"lockstep:={str(not cfg.realtime).lower()}"]
+    args = ["-p", f"preset:={cfg.run.preset}", "-p", f"lockstep:={str(not cfg.realtime).lower()}",
+            "-p", f"duplicate_check:={BENCH_DUPLICATE_CHECK_S!r}"]
     if sensor and cfg.run.sensor is not None:
         args += ["-p", f"sensor_noise:={float(cfg.run.record_noise)!r}",
                  "-p", f"sensor_quant:={float(cfg.run.record_quant)!r}", "-p", f"sensor_seed:={cfg.id_seed}"]
