@@ -85,17 +85,24 @@ def records_from_plan(p: PlantParams, plan: Sequence[PlannedExperiment],
 
 
 def identify_surrogates(
-    records: Records, names: Sequence[str], seed: int, plant: PlantParams, nlarx_scale: float = 1.0
+    records: Records, names: Sequence[str], seed: int, plant: PlantParams, nlarx_scale: float = 1.0,
+    on_model: Callable[[str, StepModel, FitReport], None] | None = None,
 ) -> tuple[dict[str, StepModel], dict[str, FitReport]]:
     """Fit the requested model kinds and score each on the broad validation record.
 
     Every surrogate is scored on the same broad-range record: scoring the PLM on
     its own five bias records would mostly measure the offsets between biases
-    and flatter it.
+    and flatter it. ``on_model`` hears of each model as soon as it is fitted and
+    scored (the identifier node saves it then, so agents on it can start).
     """
     req = FitRequest(records, seed, plant.L, plant.F, nlarx_scale)
-    models = {name: fit_model(name, req) for name in names}
-    fits = {name: identify.evaluate(m, records.broad_val) for name, m in models.items()}
+    models: dict[str, StepModel] = {}
+    fits: dict[str, FitReport] = {}
+    for name in names:
+        models[name] = fit_model(name, req)
+        fits[name] = identify.evaluate(models[name], records.broad_val)
+        if on_model is not None:
+            on_model(name, models[name], fits[name])
     return models, fits
 
 

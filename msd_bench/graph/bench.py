@@ -26,6 +26,7 @@ scenarios that make sense on a node whose model is unknown
 from __future__ import annotations
 
 import json
+import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -187,17 +188,25 @@ def stage_record(cfg: BenchConfig, procs: ProcessSet, bar: Callable[[int, int, s
                               iface=cfg.interface, servers=servers)
 
 
-def stage_identify(cfg: BenchConfig, procs: ProcessSet) -> dict[str, Any]:
-    """Fit the surrogates from the bags in the identifier process."""
+SAVED_MODEL = re.compile(r"saved model (\S+): ")
+"""The identifier's line for each model it has written (``identifier_node.SAVED``)."""
+
+
+def stage_identify(cfg: BenchConfig, procs: ProcessSet,
+                   on_saved: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Fit the surrogates from the bags in the identifier process; ``on_saved`` hears of each model
+    as soon as the identifier has written it (its agents can start while the rest are fitted)."""
     models = "[" + ",".join(cfg.run.surrogates_needed()) + "]"
     p = cfg.run.plant
     args = ["-p", f"bags_dir:={cfg.excitation_dir}", "-p", f"out_dir:={cfg.run_dir / 'models'}",
             "-p", f"models:={models}", "-p", f"nlarx_scale:={float(cfg.run.nlarx_scale)!r}",
             "-p", f"seed:={cfg.id_seed}", "-p", f"stroke:={p.L!r}", "-p", f"force:={p.F!r}",
             "-p", f"dt:={p.dt!r}", "-p", f"namespace:={cfg.namespace}", *cfg.interface.ros_args()]
+    proc = procs.start("identifier.py", args, name="identifier")
+    if on_saved is not None:
+        _follow_saved(proc, on_saved)
     # a rig's run has cost real time already: a slow machine must not lose it to a timeout here
-    _run_to_end(procs.start("identifier.py", args, name="identifier"),
-                timeout=600.0 if cfg.plant_ns is None else 3600.0)
+    _run_to_end(proc, timeout=600.0 if cfg.plant_ns is None else 3600.0)
     return json.loads((cfg.run_dir / "models" / "fits.json").read_text())  # type: ignore[no-any-return]
 
 
@@ -255,6 +264,30 @@ def start_model_free(cfg: BenchConfig, server: JobServer) -> dict[str, Job]:
     return {kind: server.submit(agent_args(cfg, kind), name=f"agent-{kind}") for kind in kinds}
 
 
+def pipelined(cfg: BenchConfig, sensor: bool) -> bool:
+    """Whether agents start as soon as their surrogate is identified, beside the identification.
+
+    Only in lock-step, where a validation waits for the plant's answers instead
+    of a clock (CPU taken by the identifier slows it, never spoils it), with
+    training in-process (``--via-ros`` needs every surrogate node up first) and
+    the plant that will validate already running (a sensor run restarts it).
+    """
+    return not (cfg.realtime or cfg.via_ros or sensor)
+
+
+def start_agents_on(cfg: BenchConfig, server: JobServer, model: str,
+                    started: dict[str, Job]) -> dict[str, Job]:
+    """Submit the run's kinds that train on ``model`` (just identified) and are not submitted yet.
+
+    Why: an agent job's validation is a lock-step exchange with the plant and
+    the identifier is CPU work; on two cores they overlap instead of queueing.
+    The served agent process runs its jobs in order; :func:`stage_agents`
+    collects them in report order with the rest.
+    """
+    kinds = [k for k in cfg.run.agents if agent_kind(k).surrogate == model and k not in started]
+    return {k: server.submit(agent_args(cfg, k), name=f"agent-{k}") for k in kinds}
+
+
 def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[int, int, str], None],
                  server: JobServer | None = None, started: dict[str, Job] | None = None) -> None:
     """Every agent kind, one after another (they share the plant), as nodes of one served process
@@ -277,6 +310,24 @@ def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[i
         say(last_line(job.lines, "agent done") or f"agent {kind} done")
     server.close()
     bar(len(agents), len(agents), "done")
+
+
+def _follow_saved(proc: NodeProcess, on_saved: Callable[[str], None], poll_s: float = 0.05) -> None:
+    """Call ``on_saved`` for each model the identifier reports written, until the process ends."""
+    seen = 0
+    while True:
+        ended = proc.popen.poll() is not None
+        if ended:
+            proc.close_output()  # the reader has every line then
+        lines = proc.lines[seen:]
+        seen += len(lines)
+        for line in lines:
+            match = SAVED_MODEL.search(line)
+            if match is not None:
+                on_saved(match.group(1))
+        if ended:
+            return
+        time.sleep(poll_s)
 
 
 def _run_to_end(proc: NodeProcess, timeout: float) -> None:

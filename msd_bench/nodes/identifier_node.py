@@ -12,6 +12,7 @@ it runs, logs and is configured like every other part of the bench.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,8 @@ from rclpy.task import Future
 
 from msd_bench.app.pipeline import identify_surrogates
 from msd_bench.core.errors import ConfigError
+from msd_bench.core.identify import FitReport
+from msd_bench.core.model import StepModel
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.registry import MODEL_KINDS, check_models, needs_bias_records
 from msd_bench.io import artifacts
@@ -80,13 +83,20 @@ class IdentifierConfig:
                               f"got {self.force_input!r}")
 
 
+SAVED = "saved model {name}: {path}"
+"""The line the node logs as each model is written (a launcher can start that model's agents then)."""
+
+
 def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERFACE,
-                       sources: list[ForceSource] | None = None) -> dict[str, Any]:
+                       sources: list[ForceSource] | None = None,
+                       on_saved: Callable[[str, Path], None] | None = None) -> dict[str, Any]:
     """Read, fit, write; return the fit reports (shared by the node and the tests).
 
     ``iface`` is the face the bags were recorded through; which force each bag gave as
     input (its effort, or the commands rebuilt by log time) goes to ``inputs.json`` and,
-    when given, to ``sources`` (docs/ros2-control.md §Force).
+    when given, to ``sources`` (docs/ros2-control.md §Force). Each model is written
+    as soon as it is fitted, then ``on_saved`` hears of it; ``fits.json`` and
+    ``inputs.json`` follow the last.
     """
     sources = [] if sources is None else sources
     out = writable_dir(cfg.out_dir, "out_dir")  # before the fit: a read-only disk fails at once
@@ -97,20 +107,38 @@ def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERF
     records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace, cfg.dt, iface=iface,
                            force_limit=cfg.force, sources=sources, force_input=cfg.force_input)
     rig = PlantParams(L=cfg.stroke, F=cfg.force, dt=cfg.dt)  # only these (and the checked dt) are known
-    models, fits = identify_surrogates(records, cfg.models, cfg.seed, rig, cfg.nlarx_scale)
     parameters = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()}
     parameters["interface"] = iface.as_dict()
     parameters["inputs"] = [s.as_dict() for s in sources]
     prov = artifacts.Provenance(tuple(artifacts.source(r.path) for r in roles), parameters, cfg.seed)
+
+    def save(name: str, model: StepModel, fit: FitReport) -> None:
+        path = _written(lambda: write_models(out, {name: model}, {name: fit}, prov)[name], out)
+        if on_saved is not None:
+            on_saved(name, path)
+
+    _, fits = identify_surrogates(records, cfg.models, cfg.seed, rig, cfg.nlarx_scale, on_model=save)
     report = {name: asdict(f) for name, f in fits.items()}
+    _written(lambda: _write_reports(out, report, iface, sources), out)
+    return report
+
+
+def _write_reports(out: Path, report: dict[str, Any], iface: PlantInterface,
+                   sources: list[ForceSource]) -> Path:
+    """``fits.json`` and ``inputs.json``."""
+    (out / "fits.json").write_text(json.dumps(artifacts.jsonable(report), indent=1) + "\n")
+    inputs = {"interface": iface.as_dict(), "bags": [s.as_dict() for s in sources]}
+    path = out / "inputs.json"
+    path.write_text(json.dumps(artifacts.jsonable(inputs), indent=1) + "\n")
+    return path
+
+
+def _written(write: Callable[[], Path], out: Path) -> Path:
+    """Run a write; a failing disk is the one-line OutputError naming ``out``."""
     try:
-        write_models(out, models, fits, prov)
-        (out / "fits.json").write_text(json.dumps(artifacts.jsonable(report), indent=1) + "\n")
-        inputs = {"interface": iface.as_dict(), "bags": [s.as_dict() for s in sources]}
-        (out / "inputs.json").write_text(json.dumps(artifacts.jsonable(inputs), indent=1) + "\n")
+        return write()
     except OSError as exc:
         raise OutputError(f"out_dir {out}: writing the models failed ({exc.strerror or exc})") from None
-    return report
 
 
 class IdentifierNode(Node):
@@ -127,10 +155,13 @@ class IdentifierNode(Node):
 
     def _run(self) -> None:
         self._timer.cancel()
-        self.report = identify_from_bags(self.config, self.interface, self.sources)
+        self.report = identify_from_bags(self.config, self.interface, self.sources, self._saved)
         for src in self.sources:
             self.get_logger().info(src.line())
         for name, f in self.report.items():
             self.get_logger().info(
                 f"{name}: fit {f['sim_fit']:.1f} % (simulation), {f['one_step_fit']:.2f} % (one-step)")
         self.done.set_result(0)
+
+    def _saved(self, name: str, path: Path) -> None:
+        self.get_logger().info(SAVED.format(name=name, path=path))

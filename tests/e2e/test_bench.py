@@ -53,6 +53,15 @@ def test_dyna_q_learns_on_the_plant_while_the_surrogates_are_identified(run):
     assert 0 <= early < proc.stderr.find("identifying surrogates (identifier node)")
 
 
+def test_agents_start_as_soon_as_their_surrogate_is_identified(run):
+    """The GLM's agent is submitted while the NLARX is still being fitted (the identifier's summary,
+    printed once it has exited, comes later)."""
+    _, proc = run
+    glm = proc.stderr.find("glm identified: glm start on the plant")
+    nlarx = proc.stderr.find("nlarx-improved identified: nlarx-improved+robust start on the plant")
+    assert 0 <= glm < nlarx < proc.stderr.find("nlarx-improved: fit ")
+
+
 def test_excitation_bags_hold_the_played_experiments(run):
     out, _ = run
     names = sorted(p.name for p in (out / "excitation").iterdir())

@@ -58,7 +58,14 @@ def _in_process_reference(bag_dir: Path) -> Records:
 
 def test_models_from_our_bags_equal_the_in_process_fit(bag_dir, tmp_path):
     cfg = IdentifierConfig(bags_dir=str(bag_dir), models=("glm", "plm"), out_dir=str(tmp_path))
-    report = identify_from_bags(cfg)
+    heard: list[tuple[str, bool, bool]] = []  # (model, its file is there, fits.json is there) when heard
+
+    def saved(name, path):
+        heard.append((name, path == tmp_path / f"{name}.json" and path.is_file(),
+                      (tmp_path / "fits.json").exists()))
+
+    report = identify_from_bags(cfg, on_saved=saved)
+    assert heard == [("glm", True, False), ("plm", True, False)]  # each model as soon as it is fitted
     models, fits = identify_surrogates(_in_process_reference(bag_dir), ["glm", "plm"], 0, P)
     for name in ("glm", "plm"):
         saved = artifacts.load_model(tmp_path / f"{name}.json")
