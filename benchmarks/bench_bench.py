@@ -1,13 +1,15 @@
 """Wall time of the main job, ``python launch_scripts/bench.py``, and of each of its stages.
 
 Runs bench.py with its defaults (lock-step, 3 seeds, its default agent kinds,
-paper budgets except Dyna-Q's reduced 5 episodes and 2,000-sample validation
-records) as a subprocess into a temporary run directory, then reads the stage
-timings and the agent kinds bench.py records in ``run.json``. Baseline in the
-same run: ``msd-bench paper`` with the same seeds, agent kinds and budgets
-in-process (no ROS), so ``bench_over_inprocess`` shows what running every
-stage through node processes and DDS costs. Floors: ``seconds`` <= 90 and
-``bench_over_inprocess`` <= 4.
+paper budgets and 2,000-sample validation records; Dyna-Q, if a default kind,
+at bench.py's reduced 5 episodes) as a subprocess into a temporary run
+directory, then reads the stage timings and the agent kinds bench.py records
+in ``run.json``. Baseline in the same run: ``msd-bench paper`` with the same
+seeds, agent kinds and budgets in-process (no ROS), so ``bench_over_inprocess``
+shows what running every stage through node processes and DDS costs. Floors:
+``seconds`` <= 90 and ``bench_over_inprocess`` <= 4. Stages overlap (agents
+start while later surrogates are identified), so the stage seconds add up to
+the wall time but an agent's share may sit in ``identify``.
 
     .venv/bin/python benchmarks/bench_bench.py [--seeds 3]
 """
