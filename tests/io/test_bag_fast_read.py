@@ -289,3 +289,22 @@ def test_samples_of_another_namespace_are_not_used(tmp_path: Path, monkeypatch: 
     with pytest.raises(BagError, match="has no topic /other/joint_states"):
         read_interface_experiment(roles[0].path, namespace="/other", samples=samples)
     assert opened == {roles[0].path.name: 1}
+
+
+def test_a_bad_row_before_a_corrupt_chunk_is_the_error(tmp_path: Path) -> None:
+    """Rows used to be decoded while the bag was read: the first bad one is reported, not the chunk after."""
+    mark = 1234.5678
+    with BagRecorder(tmp_path / "bad") as rec:
+        for k in range(40):
+            if k == 20:
+                rec.flush()  # a second chunk
+            pos, eff = [0.1 if k < 20 else mark], [] if k == 5 else [1.0]
+            rec.write(TOPIC, JS, T0 + k * DT_NS, _js(T0 + k * DT_NS, ["msd_slider"], pos, [0.0], eff))
+    mcap = tmp_path / "bad" / "bad.mcap"
+    data = bytearray(mcap.read_bytes())
+    data[data.find(np.float64(mark).tobytes())] ^= 0x40  # inside the second chunk only
+    mcap.write_bytes(bytes(data))
+    with pytest.raises(BagError, match="a message lacks position or effort"):
+        bags.read_experiment(tmp_path / "bad", timing=bags.UNCHECKED)
+    with pytest.raises(BagError, match="truncated or corrupt: Chunk checksum mismatch"):
+        bags.read_topic(tmp_path / "bad", TOPIC)  # the chunk is corrupt indeed
