@@ -34,7 +34,7 @@ from msd_bench.core.data import Experiment
 from msd_bench.core.errors import InterfaceError, MsdBenchError
 from msd_bench.io.bag_timing import READ, TimingPolicy, check_timing
 from msd_bench.io.bag_writer import typestore
-from msd_bench.io.bags import _open_bag, _params, _topic_list, decode_joint_state, read_experiment
+from msd_bench.io.bags import BagSamples, _open_bag, _params, _topic_list, decode_joint_state, read_experiment
 from msd_bench.io.errors import BagError
 from msd_msgs_py.contract import PLANT_NAMESPACE
 from msd_msgs_py.interface import MSD, MSD_INTERFACE, PlantInterface
@@ -93,18 +93,24 @@ def read_interface_experiment(
     watchdog_s: float = 0.5,
     min_agreement: float = MIN_AGREEMENT,
     force_input: str = "applied",
+    samples: BagSamples | None = None,
 ) -> tuple[Experiment, dict[str, Any], ForceSource]:
     """Input and position of our joint from ``<namespace>/joint_states`` (+ commands), in stamp order.
 
     ``force_limit`` and ``watchdog_s`` are the rig's saturation and watchdog,
     replayed on the rebuilt commands. A measured effort that agrees with them
     by less than ``min_agreement`` % is an error naming both figures. ``force_input``
-    (:data:`FORCE_INPUTS`) says how a measured-effort bag's input is rebuilt.
+    (:data:`FORCE_INPUTS`) says how a measured-effort bag's input is rebuilt. ``samples``, what
+    :func:`~msd_bench.io.bags.read_samples` already read from this bag under ``namespace``, spares
+    the msd face with commanded effort a second read (any other face reads the bag itself).
     """
     path = Path(path)
     state_topic = iface.state.resolve(namespace)
     if iface.kind == MSD and iface.effort_is_commanded:
-        exp, params = read_experiment(path, namespace, timing=timing)
+        if samples is not None and samples.path == path and samples.namespace == namespace:
+            exp, params = samples.experiment(timing)
+        else:
+            exp, params = read_experiment(path, namespace, timing=timing)
         return exp, params, ForceSource(str(path), "effort", state_topic)
     command_topic = iface.command.resolve(namespace)
     with _open_bag(path) as reader:

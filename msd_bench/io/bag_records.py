@@ -9,7 +9,7 @@ none of that: the caller names each bag's role and bias and the settle length.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +22,7 @@ from msd_bench.core.records import Records
 from msd_bench.io.bag_interface import ForceSource, read_interface_experiment
 from msd_bench.io.bag_recover import RECOVERED_SUFFIX
 from msd_bench.io.bag_timing import DEFAULT_DT, IDENTIFY, READ
-from msd_bench.io.bags import missing_metadata, read_experiment
+from msd_bench.io.bags import BagSamples, missing_metadata, read_samples
 from msd_bench.io.errors import BagError
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
@@ -62,6 +62,9 @@ class BagRole:
     """Leading samples to drop (the settling segment before the PRBS)."""
     params: Mapping[str, Any] | None = None
     """The experiment parameters stored in the bag (None for a rig's bag)."""
+    samples: BagSamples | None = field(default=None, compare=False, repr=False)
+    """What :func:`roles_from_dir` read from the bag to find its role: :func:`load_records` identifies
+    from it instead of reading the bag a second time (None: read it then)."""
 
 
 def roles_from_dir(bags_dir: Path, namespace: str = "/msd", dt: float = DEFAULT_DT) -> list[BagRole]:
@@ -71,9 +74,10 @@ def roles_from_dir(bags_dir: Path, namespace: str = "/msd", dt: float = DEFAULT_
         raise BagError(f"{bags_dir}: no such bag directory")
     roles = []
     for bag in bag_dirs(bags_dir):
-        _, params = read_experiment(bag, namespace, timing=replace(READ, dt=dt))
+        samples = read_samples(bag, namespace)
+        _, params = samples.experiment(replace(READ, dt=dt))
         if "role" in params:
-            roles.append(_role_of(bag, params))
+            roles.append(_role_of(bag, params, samples))
     if not roles:
         raise BagError(f"{bags_dir}: no experiment bag with msd-bench parameters found")
     return roles
@@ -98,11 +102,11 @@ def bag_dirs(bags_dir: Path) -> list[Path]:
     return found
 
 
-def _role_of(path: Path, params: Mapping[str, Any]) -> BagRole:
+def _role_of(path: Path, params: Mapping[str, Any], samples: BagSamples) -> BagRole:
     signal = params.get("signal")
     settle = int(params.get(str(signal), {}).get("settle", 0)) if signal == "prbs" else 0
     bias = params.get("bias")
-    return BagRole(path, str(params["role"]), None if bias is None else float(bias), settle, params)
+    return BagRole(path, str(params["role"]), None if bias is None else float(bias), settle, params, samples)
 
 
 def explicit_roles(bias_bags: Sequence[str], broad_bag: str, val_bag: str, settle: int) -> list[BagRole]:
@@ -143,7 +147,8 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
     data: dict[tuple[str, float | None], IOData] = {}
     for r in roles:
         exp, _, src = read_interface_experiment(r.path, iface, namespace, timing=replace(IDENTIFY, dt=dt),
-                                                force_limit=force_limit, force_input=force_input)
+                                                force_limit=force_limit, force_input=force_input,
+                                                samples=r.samples)
         if sources is not None:
             sources.append(src)
         if r.params is not None:

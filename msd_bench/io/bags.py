@@ -10,6 +10,7 @@ here so callers have one module to import.
 
 from __future__ import annotations
 
+import copy
 import json
 import struct
 from collections.abc import Iterator
@@ -114,6 +115,57 @@ def _params(path: Path, reader: Reader) -> dict[str, Any]:
     return dict(value) if isinstance(value, dict) else {}
 
 
+@dataclass(frozen=True)
+class SliderRows:
+    """The slider joint's header stamps (ns), positions and efforts in a JointState topic, in bag order."""
+
+    stamps: np.ndarray
+    x: np.ndarray
+    effort: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.stamps.size)
+
+
+_NO_ROWS = SliderRows(np.empty(0, dtype=np.int64), np.empty(0), np.empty(0))
+
+
+@dataclass(frozen=True)
+class BagSamples:
+    """What :func:`read_experiment` reads from a bag, before any check of its stamps.
+
+    Why kept: the identifier reads each bag for its parameters (which bags are
+    there, and for what) and then identifies from it, each with its own timing
+    policy; holding these rows lets the second use skip reading and decoding
+    the bag again (:attr:`msd_bench.io.bag_records.BagRole.samples`).
+    """
+
+    path: Path
+    """The bag read."""
+    namespace: str
+    """The namespace whose ``joint_states`` (and truth) topic was read."""
+    rows: SliderRows
+    """``<namespace>/joint_states`` (never empty)."""
+    truth: SliderRows
+    """``<namespace>/truth/joint_states``; empty when the bag has no such topic."""
+    params: dict[str, Any]
+    """Stored experiment parameters (empty when none)."""
+
+    def experiment(self, timing: TimingPolicy | None = None) -> tuple[Experiment, dict[str, Any]]:
+        """The experiment and a copy of the parameters, as :func:`read_experiment` returns them."""
+        check_timing(self.path, self.rows.stamps, READ if timing is None else timing)
+        order = np.argsort(self.rows.stamps, kind="stable")
+        try:
+            exp = Experiment(u=self.rows.effort[order], y=self.rows.x[order], name=str(self.path))
+        except MsdBenchError as exc:
+            topic = JOINT_STATES.resolve(self.namespace)
+            raise BagError(f"bag {self.path}: topic {topic}: {exc}") from None
+        if len(self.truth):
+            truth_topic = TRUTH_JOINT_STATES.resolve(self.namespace)
+            exp = _with_truth(self.path, truth_topic, exp, self.rows.stamps[order], self.truth)
+        return exp, copy.deepcopy(self.params)
+
+
 def read_experiment(
     path: str | Path, namespace: str = PLANT_NAMESPACE, *, timing: TimingPolicy | None = None
 ) -> tuple[Experiment, dict[str, Any]]:
@@ -128,46 +180,81 @@ def read_experiment(
     a sensor model) gives the experiment its noise-free ``truth``, matched row
     by row on the header stamp; see :func:`_with_truth`.
     """
+    return read_samples(path, namespace).experiment(timing)
+
+
+def read_samples(path: str | Path, namespace: str = PLANT_NAMESPACE) -> BagSamples:
+    """The bag's rows and parameters, read once; :meth:`BagSamples.experiment` checks and orders them."""
     path = Path(path)
     topic = JOINT_STATES.resolve(namespace)
     truth_topic = TRUTH_JOINT_STATES.resolve(namespace)
     with _open_bag(path) as reader:
         rows = _rows(path, reader, JOINT_STATES, topic)
-        if not rows:
+        if not len(rows):
             raise BagError(f"bag {path}: topic {topic} has no messages")
-        truth_rows = _rows(path, reader, TRUTH_JOINT_STATES, truth_topic, required=False)
+        truth = _rows(path, reader, TRUTH_JOINT_STATES, truth_topic, required=False)
         params = _params(path, reader)
-    stamps = np.array([r[0] for r in rows], dtype=np.int64)
-    check_timing(path, stamps, READ if timing is None else timing)
-    data = np.array([r[1:] for r in rows], dtype=np.float64)
-    order = np.argsort(stamps, kind="stable")
-    try:
-        exp = Experiment(u=data[order, 1], y=data[order, 0], name=str(path))
-    except MsdBenchError as exc:
-        raise BagError(f"bag {path}: topic {topic}: {exc}") from None
-    if truth_rows:
-        exp = _with_truth(path, truth_topic, exp, stamps[order], truth_rows)
-    return exp, params
+    return BagSamples(path, namespace, rows, truth, params)
 
 
-def _rows(
-    path: Path, reader: Reader, spec: TopicSpec, topic: str, *, required: bool = True
-) -> list[tuple[int, float, float]]:
-    """(stamp, position, effort) rows of a JointState topic; [] for an absent optional topic."""
+def _rows(path: Path, reader: Reader, spec: TopicSpec, topic: str, *, required: bool = True) -> SliderRows:
+    """The slider's rows of a JointState topic; empty for an absent optional topic."""
     conns = [c for c in reader.connections if c.topic == topic]
     if not conns:
         if not required:
-            return []
+            return _NO_ROWS
         raise BagError(f"bag {path} has no topic {topic} (has: {_topic_list(reader)})")
     wrong = [c.msgtype for c in conns if c.msgtype != spec.ros_type]
     if wrong:
         raise BagError(f"bag {path}: topic {topic} has type {wrong[0]}, expected {spec.ros_type}")
-    store = typestore()
-    return [_sample(path, topic, store, raw) for _, _, raw in reader.messages(connections=conns)]
+    raws, failure = _raw_messages(reader, conns)
+    rows = _columns_rows(raws) if failure is None else None
+    if rows is None:
+        rows = _message_rows(path, topic, typestore(), raws)
+    if failure is not None:
+        raise failure
+    return rows
+
+
+def _raw_messages(reader: Reader, conns: list[Connection]) -> tuple[list[bytes], Exception | None]:
+    """Every message's bytes in bag order, and the read error that cut them short, if any.
+
+    Why the error is returned, not raised: messages used to be decoded while
+    the bag was read, so a bad message before a corrupt chunk was the error
+    reported. The caller decodes what was read before raising the read error,
+    which keeps that.
+    """
+    raws: list[bytes] = []
+    try:
+        for _, _, raw in reader.messages(connections=conns):
+            raws.append(raw)
+    except Exception as exc:  # raised again by the caller, unchanged
+        return raws, exc
+    return raws, None
+
+
+def _columns_rows(raws: list[bytes]) -> SliderRows | None:
+    """All rows at once when the messages share one one-joint layout (:func:`cdr.joint_state_columns`).
+
+    None when they do not, or when a message lacks position or effort: the
+    per-message reader then gives the rows, or the error, as it always did.
+    """
+    cols = cdr.joint_state_columns(raws)
+    if cols is None or cols.position.shape[1] != 1 or cols.effort.shape[1] != 1:
+        return None
+    return SliderRows(cols.stamp_ns, cols.position[:, 0], cols.effort[:, 0])
+
+
+def _message_rows(path: Path, topic: str, store: Typestore, raws: list[bytes]) -> SliderRows:
+    """The rows decoded one message at a time: any layout, several joints, rosbags for the rest."""
+    samples = [_sample(path, topic, store, raw) for raw in raws]
+    return SliderRows(np.array([s[0] for s in samples], dtype=np.int64),
+                      np.array([s[1] for s in samples], dtype=np.float64),
+                      np.array([s[2] for s in samples], dtype=np.float64))
 
 
 def _with_truth(
-    path: Path, topic: str, exp: Experiment, stamps: np.ndarray, truth_rows: list[tuple[int, float, float]]
+    path: Path, topic: str, exp: Experiment, stamps: np.ndarray, truth_rows: SliderRows
 ) -> Experiment:
     """``exp`` with the truth row of the same header stamp attached to every sample.
 
@@ -177,7 +264,8 @@ def _with_truth(
     or a truth row whose force differs from the measured row's, is a BagError
     (the two topics would not describe the same run).
     """
-    truth = {stamp: (x, effort) for stamp, x, effort in truth_rows}
+    truth = dict(zip(truth_rows.stamps.tolist(), zip(truth_rows.x.tolist(), truth_rows.effort.tolist(),
+                                                     strict=True), strict=True))
     has = np.array([int(s) in truth for s in stamps], dtype=bool)
     if not has.any():
         raise BagError(f"bag {path}: topic {topic} shares no header stamp with joint_states")
