@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from rosbags.interfaces import Connection
 from rosbags.rosbag2 import Reader, ReaderError
+from rosbags.serde import SerdeError
 from rosbags.typesys.store import Typestore
 
 from msd_bench.core.data import Experiment
@@ -42,7 +43,9 @@ from msd_msgs_py.contract import JOINT_NAME, JOINT_STATES, PLANT_NAMESPACE, TRUT
 UNCHECKED = TimingPolicy(min_samples=0, rate_tolerance=float("inf"), gap_factor=float("inf"))
 """Timing policy that only refuses stamps going backwards or repeating (closed-loop runs, tests)."""
 
-_READ_ERRORS = (ReaderError, OSError, EOFError, struct.error, KeyError, IndexError, ValueError)
+_READ_ERRORS = (ReaderError, SerdeError, OSError, EOFError, struct.error, KeyError, IndexError, ValueError)
+"""What reading a damaged bag raises: each becomes the one-line BagError naming the bag (a message cut
+short inside an intact file is rosbags' SerdeError)."""
 
 
 def missing_metadata(path: Path) -> BagError:
