@@ -39,7 +39,7 @@ from msd_bench.app.plant_ns import hardware_scenario
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.registry import needs_bias_records
 from msd_bench.graph.jobs import Job, JobServer, last_line
-from msd_bench.graph.launch import NodeProcess, ProcessSet
+from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, RecordServers, paper_plan, record_experiments
 from msd_msgs_py.contract import PLANT_NAMESPACE, surrogate_namespace
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
@@ -192,21 +192,29 @@ SAVED_MODEL = re.compile(r"saved model (\S+): ")
 """The identifier's line for each model it has written (``identifier_node.SAVED``)."""
 
 
-def stage_identify(cfg: BenchConfig, procs: ProcessSet,
-                   on_saved: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """Fit the surrogates from the bags in the identifier process; ``on_saved`` hears of each model
-    as soon as the identifier has written it (its agents can start while the rest are fitted)."""
+def stage_identify(cfg: BenchConfig, procs: ProcessSet, on_saved: Callable[[str], None] | None = None,
+                   server: JobServer | None = None) -> dict[str, Any]:
+    """Fit the surrogates from the bags in the identifier process (``server`` if the caller launched
+    it early, so its imports overlapped the recording); ``on_saved`` hears of each model as soon as
+    the identifier has written it (its agents can start while the rest are fitted)."""
     models = "[" + ",".join(cfg.run.surrogates_needed()) + "]"
     p = cfg.run.plant
     args = ["-p", f"bags_dir:={cfg.excitation_dir}", "-p", f"out_dir:={cfg.run_dir / 'models'}",
             "-p", f"models:={models}", "-p", f"nlarx_scale:={float(cfg.run.nlarx_scale)!r}",
             "-p", f"seed:={cfg.id_seed}", "-p", f"stroke:={p.L!r}", "-p", f"force:={p.F!r}",
             "-p", f"dt:={p.dt!r}", "-p", f"namespace:={cfg.namespace}", *cfg.interface.ros_args()]
-    proc = procs.start("identifier.py", args, name="identifier")
+    server = (server or JobServer(procs, "identifier.py", "identifier")).ready()
+    job = server.submit(args, name="identifier")
     if on_saved is not None:
-        _follow_saved(proc, on_saved)
+        _follow_saved(job, on_saved)
     # a rig's run has cost real time already: a slow machine must not lose it to a timeout here
-    _run_to_end(proc, timeout=600.0 if cfg.plant_ns is None else 3600.0)
+    try:
+        status = job.wait(600.0 if cfg.plant_ns is None else 3600.0)
+    except LaunchError as err:
+        raise StageError(f"{err}: {last_line(job.lines) or 'no output'}") from None
+    server.close()
+    if status != 0:
+        raise StageError(f"{job.name} failed (exit {status}): {last_line(job.lines) or 'no output'}")
     return json.loads((cfg.run_dir / "models" / "fits.json").read_text())  # type: ignore[no-any-return]
 
 
@@ -312,14 +320,12 @@ def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[i
     bar(len(agents), len(agents), "done")
 
 
-def _follow_saved(proc: NodeProcess, on_saved: Callable[[str], None], poll_s: float = 0.05) -> None:
-    """Call ``on_saved`` for each model the identifier reports written, until the process ends."""
+def _follow_saved(job: Job, on_saved: Callable[[str], None], poll_s: float = 0.05) -> None:
+    """Call ``on_saved`` for each model the identifier job reports written, until the job ends."""
     seen = 0
     while True:
-        ended = proc.popen.poll() is not None
-        if ended:
-            proc.close_output()  # the reader has every line then
-        lines = proc.lines[seen:]
+        ended = job.finished()  # its exit line comes after all of its lines
+        lines = job.lines[seen:]
         seen += len(lines)
         for line in lines:
             match = SAVED_MODEL.search(line)
@@ -328,13 +334,6 @@ def _follow_saved(proc: NodeProcess, on_saved: Callable[[str], None], poll_s: fl
         if ended:
             return
         time.sleep(poll_s)
-
-
-def _run_to_end(proc: NodeProcess, timeout: float) -> None:
-    status = proc.wait(timeout)
-    if status != 0:
-        raise StageError(f"{proc.name} failed (exit {status}): {last_line(proc.lines) or 'no output'}")
-
 
 
 def write_run_facts(cfg: BenchConfig, extra: dict[str, Any]) -> Path:

@@ -140,6 +140,7 @@ def run_graph_stages(cfg: BenchConfig) -> None:
         # served processes start first: their imports overlap the plant's start and identification
         servers = RecordServers.launch(procs) if recording else None
         agent_server = JobServer(procs, "agent.py", "agent") if "agents" in cfg.stages else None
+        ident_server = JobServer(procs, "identifier.py", "identifier") if "identify" in cfg.stages else None
         plant = None
         if ("record" in cfg.stages or "agents" in cfg.stages) and cfg.plant_ns is None:
             plant = timed(cfg, "plant_start", lambda: start_plant(procs, cfg, sensor))
@@ -162,7 +163,7 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                     early.update(new)
                     if new:
                         say(f"  {name} identified: {', '.join(new)} start on the plant")
-            fits = timed(cfg, "identify", lambda: stage_identify(cfg, procs, on_saved))
+            fits = timed(cfg, "identify", lambda: stage_identify(cfg, procs, on_saved, ident_server))
             for name, f in fits.items():
                 truth = "" if f.get("sim_fit_truth") is None else f" ({f['sim_fit_truth']:.1f} % vs truth)"
                 say(f"  {name}: fit {f['sim_fit']:.1f} % simulation{truth}, "
