@@ -6,9 +6,13 @@ force) on the ros2_control face (docs/ros2-control.md §Parameters).
 
 It does not start until its force publisher is matched by a subscriber (the
 plant) — a reliable publisher with no reader silently drops the first
-samples. In lock-step it also waits for the plant's ``joint_states`` and
-paces itself by them: command k + W goes out only after sample k arrived
-(W = ``window``; 1 is a strict exchange per command). In
+samples. In lock-step it also waits for the plant's answers and paces itself
+by them: command k + W goes out only after the answer to command k arrived
+(W = ``window``; 1 is a strict exchange per command). The answer is
+``position`` (x_{k+1}, one Float64 per command, published first), not the
+``joint_states`` row that follows it: one reader fewer on the plant's largest
+message and a smaller message here (a face without ``position`` answers in
+``joint_states``). In
 real-time it publishes at 1/dt Hz on a steady-clock timer. A node without
 ``reset`` (``rest_first``, a rig) is first brought to rest by zero force until
 its position is still (:mod:`msd_bench.core.rest`); the signal then plays from
@@ -46,7 +50,6 @@ from msd_msgs_py.contract import (
     JOINT_STATES,
     LOCKSTEP_COMMAND_DEPTH,
     PLANT_NAMESPACE,
-    POSITION,
     RECORDER_READY,
     RESET,
 )
@@ -78,7 +81,7 @@ class ExcitationNodeConfig:
     seed: int = 0
     """Seed of the signal generator (the same seed plays the same signal)."""
     lockstep: bool = False
-    """Pace by the plant's joint_states (one command per sample) instead of a timer."""
+    """Pace by the plant's answers (one ``position`` per command) instead of a timer."""
     dt: float = field(default=0.01, metadata={"range": (1e-4, 10.0)})
     """Real-time only: seconds between commands (the plant's sample time)."""
     start_timeout: float = field(default=30.0, metadata={"range": (0.1, 3600.0)})
@@ -170,16 +173,13 @@ class ExcitationNode(Node):
                        if self.config.reset_first else None)
         self._sub = None
         if self.config.lockstep:
+            answer = self.interface.position or JOINT_STATES  # every face with reset has position
             self._sub = endpoints.create_subscription(
-                self, msg_class(JOINT_STATES), JOINT_STATES.name, self._on_sample, qos(JOINT_STATES),
-                pooled=pooled)
+                self, msg_class(answer), answer.name, self._on_answer, qos(answer), pooled=pooled)
         # Lock-step: the plant acknowledges a reset with one `position`; until it has, a command could
         # reach it before the reset does (another topic, no ordering) and sample 0 would repeat.
         self._reset_acked = self._reset is None or not self.config.lockstep
         self._t_reset = 0.0
-        if not self._reset_acked:
-            endpoints.create_subscription(self, Float64, POSITION.name, self._on_reset_ack, qos(POSITION),
-                                          pooled=pooled)
         # No reset (a rig): zero force until still; x0 is then wherever the mass rests.
         self._rest = RestDetector(self.config.rest()) if self.config.rest_first else None
         self._t_rest: float | None = None
@@ -307,9 +307,13 @@ class ExcitationNode(Node):
             self._t_reset = now
             self._reset.publish(Empty())
 
-    def _on_reset_ack(self, _msg: Float64) -> None:
-        if self._t_match is not None and self.sent == 0:  # only a position after our reset counts
-            self._reset_acked = True
+    def _on_answer(self, msg: Any) -> None:
+        """Lock-step: before the first command, the reset's acknowledgement; then one per command."""
+        if self.sent == 0:
+            if self._t_match is not None:  # only a position after our reset counts
+                self._reset_acked = True
+            return
+        self._on_sample(msg)
 
     def _watch_sample(self, now: float) -> None:
         if now - self._t_sent <= self.config.sample_timeout:
@@ -318,7 +322,7 @@ class ExcitationNode(Node):
             self._resent, self.sent = True, 0
             self._send()
             return
-        self._finish(1, f"no joint_states sample {self.sent - 1} within {self.config.sample_timeout} s")
+        self._finish(1, f"no answer to command {self.sent - 1} within {self.config.sample_timeout} s")
 
     def _send(self) -> None:
         self._pub.publish(command(self.interface, float(self.signal[self.sent])))

@@ -518,8 +518,8 @@ class PlantNode(Node):
         self._pub_js.publish(joint_state(stamp, y, v_row, u))
         if self._pub_truth is not None:
             self._pub_truth.publish(joint_state(stamp, x, v, u))
-        if self._pub_clock is not None:
-            self._pub_clock.publish(clock(self._k * self._dt_ns))
+        if self._pub_clock is not None and self._pub_clock.get_subscription_count() > 0:
+            self._pub_clock.publish(clock(self._k * self._dt_ns))  # to no reader it is pure cost
 
     def close(self) -> None:
         """Stop the sample thread, then log the counters once, at shutdown."""
