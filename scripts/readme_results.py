@@ -175,7 +175,8 @@ PERFORMANCE_FLOORS: tuple[tuple[str, str, str, float | None, str], ...] = (
     ("bench_bench", "seconds", "<=", 90.0, "`bench.py` default run, seconds"),
     ("bench_bench", "bench_over_inprocess", "<=", 4.0, "`bench.py` over the same kinds in-process"),
     ("bench_bench", "round_trip_bound_s", None, None,
-     "`bench.py`'s closed-loop round trips (validation, Dyna-Q) at bare ping-pong speed, seconds"),
+     "`bench.py`'s closed-loop round trips (validation runs; Dyna-Q's real steps if asked for) at bare "
+     "ping-pong speed, seconds"),
     ("bench_lockstep", "lockstep_over_pingpong", ">=", 0.8, "lock-step steps over bare rclpy ping-pong"),
     ("bench_lockstep", "via_ros_over_pingpong", ">=", 0.7, "`--via-ros` training steps over ping-pong"),
     ("bench_lockstep", "lockstep_over_pingpong_events", None, None,
