@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from msd_bench.core.excitation import MultilevelConfig, PrbsConfig
-from msd_bench.core.plm import PLM_BIASES
+from msd_bench.core.operating_points import PLM_BIASES
 
 TRAIN, VALIDATION = "train", "validation"
 

@@ -30,8 +30,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import minimize_scalar
-from scipy.signal import lfilter
 
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.fit import fit_percent
@@ -115,6 +113,8 @@ def actuator_force(command: FloatArray, delay: int, tau: float, dt: float) -> Fl
         return r
     a = math.exp(-dt / tau)
     beta = (tau / dt) * (1.0 - a)
+    from scipy.signal import lfilter  # here: SciPy's signal and optimize cost bench.py's start 0.8 s
+
     state = lfilter([0.0, 1.0 - a], [1.0, -a], r)  # s_k from s_0 = 0
     return np.asarray(r + (state - r) * beta, dtype=np.float64)
 
@@ -125,6 +125,8 @@ def _best_tau(u: FloatArray, e: FloatArray, finite: NDArray[np.bool_], d: int,
     def loss(log_tau: float) -> float:
         sim = actuator_force(u, d, math.exp(log_tau), dt)
         return float(np.sum((e[finite] - sim[finite]) ** 2))
+
+    from scipy.optimize import minimize_scalar  # here, as lfilter above
 
     fits = [(fit_percent(e[finite], actuator_force(u, d, 0.0, dt)[finite]), 0.0)]
     res = minimize_scalar(loss, bounds=(math.log(dt / 100), math.log(5.0)), method="bounded",

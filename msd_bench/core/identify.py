@@ -49,8 +49,8 @@ from msd_bench.core.fit import fit_percent
 from msd_bench.core.greybox import GreyboxConfig
 from msd_bench.core.linear import LinearFit, oe_fit
 from msd_bench.core.model import StepModel
+from msd_bench.core.operating_points import PLM_BIASES
 from msd_bench.core.plm import (
-    PLM_BIASES,
     blend,
     fit_local,
     local_from_params,

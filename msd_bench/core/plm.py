@@ -56,11 +56,10 @@ from msd_bench.core.data import Experiment, IOData
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.linear import LinearFit, oe_fit
 from msd_bench.core.model import StepModel
+from msd_bench.core.operating_points import PLM_BIASES
 
 FloatArray = NDArray[np.float64]
 
-PLM_BIASES = (-10.0, -5.0, 0.0, 5.0, 10.0)
-"""The paper's bias forces, N, in the order of the memberships f1..f5."""
 
 _REFINED = (0, 1, 2, 3, 5)
 """Slots of a local ``(n1, n2, d1, d2, u0, y0)`` the global refinement moves (``u0`` stays the bias)."""

@@ -32,7 +32,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import butter, sosfiltfilt
 
 from msd_bench.core.errors import ConfigError, InvalidInputError
 
@@ -155,6 +154,8 @@ def lowpass(s: FloatArray, dt: float, cutoff_hz: float) -> FloatArray:
     nyquist = 0.5 / dt
     if cutoff_hz >= nyquist or arr.size < 30:
         return arr.copy()
+    from scipy.signal import butter, sosfiltfilt  # here: scipy.signal costs every plant's start 1 s
+
     sos = butter(4, cutoff_hz / nyquist, output="sos")
     return np.asarray(sosfiltfilt(sos, arr), dtype=np.float64)
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from msd_bench.core.data import Experiment, IOData
 from msd_bench.core.excitation import signal_from_params
-from msd_bench.core.plm import PLM_BIASES
+from msd_bench.core.operating_points import PLM_BIASES
 from msd_bench.core.records import Records
 from msd_bench.io.bag_interface import ForceSource, read_interface_experiment
 from msd_bench.io.bag_recover import RECOVERED_SUFFIX
