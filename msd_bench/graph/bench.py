@@ -205,11 +205,12 @@ def stage_identify(cfg: BenchConfig, procs: ProcessSet, on_saved: Callable[[str]
             "-p", f"dt:={p.dt!r}", "-p", f"namespace:={cfg.namespace}", *cfg.interface.ros_args()]
     server = (server or JobServer(procs, "identifier.py", "identifier")).ready()
     job = server.submit(args, name="identifier")
-    if on_saved is not None:
-        _follow_saved(job, on_saved)
     # a rig's run has cost real time already: a slow machine must not lose it to a timeout here
+    deadline = time.monotonic() + (600.0 if cfg.plant_ns is None else 3600.0)
+    if on_saved is not None:
+        _follow_saved(job, on_saved, deadline)
     try:
-        status = job.wait(600.0 if cfg.plant_ns is None else 3600.0)
+        status = job.wait(max(0.1, deadline - time.monotonic()))
     except LaunchError as err:
         raise StageError(f"{err}: {last_line(job.lines) or 'no output'}") from None
     server.close()
@@ -320,10 +321,11 @@ def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[i
     bar(len(agents), len(agents), "done")
 
 
-def _follow_saved(job: Job, on_saved: Callable[[str], None], poll_s: float = 0.05) -> None:
-    """Call ``on_saved`` for each model the identifier job reports written, until the job ends."""
+def _follow_saved(job: Job, on_saved: Callable[[str], None], deadline: float, poll_s: float = 0.05) -> None:
+    """Call ``on_saved`` for each model the identifier job reports written, until the job ends (or the
+    ``deadline``, monotonic, passes: the caller's wait then names the timeout)."""
     seen = 0
-    while True:
+    while time.monotonic() < deadline:
         ended = job.finished()  # its exit line comes after all of its lines
         lines = job.lines[seen:]
         seen += len(lines)

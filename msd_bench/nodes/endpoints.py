@@ -53,7 +53,7 @@ class PooledSubscription:
     def __init__(self, latched: int) -> None:
         self.subscription: Subscription[Any] | None = None
         self.handler: Handler | None = None
-        self._kept: deque[Any] = deque(maxlen=latched) if latched else deque(maxlen=0)
+        self._kept: deque[Any] = deque(maxlen=latched)
 
     def dispatch(self, msg: Any) -> None:
         """The rclpy callback: keep it if latched, hand it to the job's handler if there is one."""
