@@ -78,7 +78,7 @@ TRUTH_JOINT_STATES = TopicSpec(
 FORCE = TopicSpec(
     "force", "std_msgs/msg/Float64", 1, "force command in N; non-finite rejected, saturated at ±F"
 )
-LOCKSTEP_COMMAND_DEPTH = 64
+LOCKSTEP_COMMAND_DEPTH = 256
 """Depth of a lock-step plant's command subscription (and of an open-loop excitation's publisher): the
 commands an excitation may have in flight before their samples come back. In real time only the
 latest command matters (depth 1); in lock-step each command is one step, so none may be dropped."""
