@@ -29,7 +29,7 @@ from __future__ import annotations
 import time
 import weakref
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from rclpy.node import Node
@@ -174,3 +174,9 @@ def matched_since(endpoint: Any, matched: bool, now: float | None = None) -> flo
         _MATCHED_AT.pop(endpoint, None)
         return None
     return _MATCHED_AT.setdefault(endpoint, time.monotonic() if now is None else now)
+
+
+def all_matched_since(ours: Sequence[Any], now: float) -> float:
+    """Since when every one of ``ours`` (all matched now; None entries skipped) has been matched:
+    ``now`` for any seen matched for the first time, earlier only if all were kept from earlier jobs."""
+    return max(matched_since(e, True, now) or now for e in ours if e is not None)

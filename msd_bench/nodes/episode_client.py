@@ -140,8 +140,7 @@ class _Endpoint:
         endpoints a served process kept from an earlier job."""
         if not self.matched():
             return None
-        ours = [e for e in (self.force, self.reset, self.pos, self.js) if e is not None]
-        return max(endpoints.matched_since(e, True, now) or now for e in ours)
+        return endpoints.all_matched_since((self.force, self.reset, self.pos, self.js), now)
 
     def matched(self) -> bool:
         reset_ok = not self.needs_reset or (self.reset is not None

@@ -226,8 +226,7 @@ class ExcitationNode(Node):
     def _matched_since(self, now: float) -> float:
         """Since when all our endpoints to the plant have been matched (earlier than ``now`` only for
         endpoints a served process kept from an earlier job)."""
-        ours = [e for e in (self._pub, self._reset, self._sub) if e is not None]
-        return max(endpoints.matched_since(e, True, now) or now for e in ours)
+        return endpoints.all_matched_since((self._pub, self._reset, self._sub), now)
 
     def _on_poll(self) -> None:
         """Wait for the plant, then start; in lock-step also watch for a lost sample."""

@@ -96,6 +96,10 @@ def test_a_match_time_starts_again_when_the_far_side_went_away() -> None:
     assert endpoints.matched_since(endpoint, True, now=9.0) == 5.0
     assert endpoints.matched_since(endpoint, False) is None
     assert endpoints.matched_since(endpoint, True, now=12.0) == 12.0
+    kept, fresh = endpoints.PooledSubscription(0), endpoints.PooledSubscription(0)
+    endpoints.matched_since(kept, True, now=1.0)
+    assert endpoints.all_matched_since((kept, None), now=20.0) == 1.0  # a kept endpoint: wait long over
+    assert endpoints.all_matched_since((kept, fresh, None), now=20.0) == 20.0  # a new one: wait from now
 
 
 def test_a_latched_subscription_hands_its_last_messages_to_the_next_job(
