@@ -297,6 +297,17 @@ def start_agents_on(cfg: BenchConfig, server: JobServer, model: str,
     return {k: server.submit(agent_args(cfg, k), name=f"agent-{k}") for k in kinds}
 
 
+def agent_starter(cfg: BenchConfig, server: JobServer, started: dict[str, Job],
+                  say: Say) -> Callable[[str], None]:
+    """The identifier's ``on_saved``: submit each newly identified model's kinds into ``started``."""
+    def on_saved(name: str) -> None:
+        new = start_agents_on(cfg, server, name, started)
+        started.update(new)
+        if new:
+            say(f"  {name} identified: {', '.join(new)} start on the plant")
+    return on_saved
+
+
 def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[int, int, str], None],
                  server: JobServer | None = None, started: dict[str, Job] | None = None) -> None:
     """Every agent kind, one after another (they share the plant), as nodes of one served process

@@ -24,12 +24,12 @@ from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.graph.bench import (
     STAGES,
     BenchConfig,
+    agent_starter,
     pipelined,
     stage_agents,
     stage_identify,
     stage_names,
     stage_record,
-    start_agents_on,
     start_model_free,
     start_plant,
     timed,
@@ -171,14 +171,8 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                 if early:
                     say(f"{', '.join(early)}: learning on the plant while the surrogates are identified")
             say("identifying surrogates (identifier node)")
-            on_saved = None
-            if agent_server is not None and pipelined(cfg, sensor):
-                def on_saved(name: str) -> None:
-                    assert agent_server is not None
-                    new = start_agents_on(cfg, agent_server, name, early)
-                    early.update(new)
-                    if new:
-                        say(f"  {name} identified: {', '.join(new)} start on the plant")
+            on_saved = (agent_starter(cfg, agent_server, early, say)
+                         if agent_server is not None and pipelined(cfg, sensor) else None)
             fits = timed(cfg, "identify", lambda: stage_identify(cfg, procs, on_saved, ident_server))
             for name, f in fits.items():
                 truth = "" if f.get("sim_fit_truth") is None else f" ({f['sim_fit_truth']:.1f} % vs truth)"
