@@ -245,7 +245,7 @@ class PlantNode(Node):
         self._pacer = DeadlinePacer(self.spec.dt, lead=0.0)  # the sample thread sleeps to each deadline
         self._reanchors_seen = 0
         self._ros0 = self.get_clock().now().nanoseconds
-        self._mono0 = time.monotonic()
+        self._mono0_ns = time.monotonic_ns()
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(plant_claim.HEARTBEAT_S, self._on_heartbeat, clock=steady)
         self._stalls = StallTracker(self.spec.dt)
@@ -408,12 +408,12 @@ class PlantNode(Node):
                 self._u = u
                 self._t_cmd = time.monotonic()
 
-    def _on_due(self, now: float, due: list[float]) -> None:
+    def _on_due(self, now_ns: int, due_ns: list[int]) -> None:
         """Sample thread: run every step whose slot has begun (one, or a burst after a stall)."""
         with self._lock:
-            for t_sched in due:
-                self._tick(t_sched)
-        self._report_stall(now, len(due))
+            for t_sched_ns in due_ns:
+                self._tick(t_sched_ns)
+        self._report_stall(now_ns * 1e-9, len(due_ns))
 
     def _report_stall(self, now: float, caught_up: int) -> None:
         """Log a gap between wake-ups longer than two samples (after the samples went out)."""
@@ -453,14 +453,14 @@ class PlantNode(Node):
         if ticker is not None:
             ticker.stop()
 
-    def _tick(self, t_sched: float) -> None:
-        """One real-time sample, scheduled at monotonic time ``t_sched`` (s)."""
-        self._check_watchdog(t_sched)
-        self._step(self._u, self._stamp(t_sched))
+    def _tick(self, t_sched_ns: int) -> None:
+        """One real-time sample, scheduled at monotonic time ``t_sched_ns``."""
+        self._check_watchdog(t_sched_ns * 1e-9)
+        self._step(self._u, self._stamp(t_sched_ns))
 
-    def _stamp(self, t_sched: float) -> int:
-        """ROS time (ns) of the sample scheduled at monotonic ``t_sched``: start + k·dt, no drift."""
-        return self._ros0 + round((t_sched - self._mono0) * 1e9)
+    def _stamp(self, t_sched_ns: int) -> int:
+        """ROS time (ns) of the sample scheduled at monotonic ``t_sched_ns``: start + k·dt, exactly."""
+        return self._ros0 + t_sched_ns - self._mono0_ns
 
     def _on_diagnostics(self) -> None:
         """Publish the node's health on /diagnostics (1 Hz)."""

@@ -177,11 +177,12 @@ class RigNode(PlantNode):
         if self.counters["watchdog"] != trips:
             self.rig.cut()
 
-    def _tick(self, t_sched: float) -> None:
-        """Acquire sample k at ``t_sched``, step the rig, publish after the jitter delay."""
+    def _tick(self, t_sched_ns: int) -> None:
+        """Acquire sample k at ``t_sched_ns``, step the rig, publish after the jitter delay."""
+        t_sched = t_sched_ns * 1e-9
         self._check_watchdog(t_sched)
         row = self.rig.step(self._u)
-        stamp = self._stamp(t_sched)
+        stamp = self._stamp(t_sched_ns)
         wait = t_sched + self.rig.publish_delay() - time.monotonic()
         if wait > 0:
             time.sleep(wait)

@@ -53,8 +53,15 @@ class DeadlinePacer:
     After a stall longer than ``max_lag`` the schedule re-anchors at ``now``
     (counted in ``reanchors``).
 
+    Times are integer nanoseconds of the monotonic clock (``time.monotonic_ns``)
+    and each deadline is ``anchor + slot·period``, never a running sum. Why: a
+    float deadline advanced by adding the period rounds at every step; at a
+    monotonic clock of a few days (≈2·10⁵ s) that drifts by about 0.1 ns per
+    step, so stamps derived from the deadlines stopped being an exact 10 ms grid
+    after a few hundred samples — a CI failure on a machine with a long uptime.
+
     ``lead`` (periods): a slot counts as begun that long before its deadline.
-    0 suits a caller that sleeps to :attr:`next_deadline` itself
+    0 suits a caller that sleeps to :attr:`next_deadline_ns` itself
     (:class:`DeadlineThread`): a step runs at its deadline, never before. A
     caller woken on a grid of its own (an rcl timer) needs a lead, since its
     grid sits at an arbitrary phase against the schedule (wherever its first
@@ -65,35 +72,46 @@ class DeadlinePacer:
     """
 
     period: float
-    """Seconds between steps."""
+    """Seconds between steps (used to the nanosecond)."""
     max_lag: float = 1.0
     """Longest stall (s) that is caught up by a burst of steps."""
     lead: float = 0.5
     """Fraction of a period before its deadline at which a slot counts as begun."""
     reanchors: int = 0
     """How many times the schedule gave up catching up."""
-    _next: float | None = field(default=None, repr=False)
-
-    def due(self, now: float) -> list[float]:
-        """Scheduled times (monotonic s) of the steps to run now, oldest first."""
-        if self._next is None or now - self._next > self.max_lag:
-            self.reanchors += self._next is not None
-            self._next = now
-        out = []
-        while self._next - self.lead * self.period <= now:
-            out.append(self._next)
-            self._next += self.period
-        return out
-
+    _anchor_ns: int | None = field(default=None, repr=False)
+    _slot: int = field(default=0, repr=False)
 
     @property
-    def next_deadline(self) -> float | None:
-        """Scheduled time (monotonic s) of the next step not yet run (None before the first)."""
-        return self._next
+    def period_ns(self) -> int:
+        """The period in whole nanoseconds: the grid the deadlines sit on."""
+        return round(self.period * 1e9)
+
+    def due(self, now_ns: int) -> list[int]:
+        """Deadlines (monotonic ns) of the steps to run at ``now_ns``, oldest first."""
+        nxt = self.next_deadline_ns
+        if nxt is None or now_ns - nxt > self.max_lag * 1e9:
+            self.reanchors += nxt is not None
+            self._anchor_ns, self._slot = now_ns, 0
+        begun = now_ns + self.lead * self.period_ns
+        out = []
+        while (deadline := self._deadline_ns(self._slot)) <= begun:
+            out.append(deadline)
+            self._slot += 1
+        return out
+
+    def _deadline_ns(self, slot: int) -> int:
+        assert self._anchor_ns is not None
+        return self._anchor_ns + slot * self.period_ns
+
+    @property
+    def next_deadline_ns(self) -> int | None:
+        """Deadline (monotonic ns) of the next step not yet run (None before the first)."""
+        return None if self._anchor_ns is None else self._deadline_ns(self._slot)
 
 
 class DeadlineThread:
-    """Call ``on_due(now, due)`` at the pacer's absolute deadlines, from a thread of its own.
+    """Call ``on_due(now_ns, due_ns)`` at the pacer's absolute deadlines, from a thread of its own.
 
     Why not an rcl timer on the node's executor: the executor wakes for every
     entity of the node (subscriptions, services, other timers), rebuilds its
@@ -113,7 +131,7 @@ class DeadlineThread:
     SIGINT/SIGTERM are blocked in it so they always reach the main thread.
     """
 
-    def __init__(self, pacer: DeadlinePacer, on_due: Callable[[float, list[float]], None], *,
+    def __init__(self, pacer: DeadlinePacer, on_due: Callable[[int, list[int]], None], *,
                  alive: Callable[[], bool], on_error: Callable[[BaseException], None],
                  name: str = "deadline") -> None:
         self.pacer = pacer
@@ -149,12 +167,12 @@ class DeadlineThread:
         signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
         try:
             while not self._stop.is_set() and self._alive():
-                now = time.monotonic()
-                due = self.pacer.due(now)
+                now_ns = time.monotonic_ns()
+                due = self.pacer.due(now_ns)
                 if due:
-                    self._on_due(now, due)
-                deadline = self.pacer.next_deadline
-                wait = 0.0 if deadline is None else deadline - time.monotonic()
+                    self._on_due(now_ns, due)
+                deadline = self.pacer.next_deadline_ns
+                wait = 0.0 if deadline is None else (deadline - time.monotonic_ns()) * 1e-9
                 self._stop.wait(max(wait, 0.0))
         except Exception as exc:  # reported below unless it is part of a stop
             if self._stop.is_set() or not self._alive():

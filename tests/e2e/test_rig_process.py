@@ -55,7 +55,8 @@ def test_rig_process_serves_rig_without_reset_and_a_second_one_refuses(capsys):
         assert len(set(ys)) > 5 and max(abs(y) for y in ys) < 0.02  # at rest, read through 2 mm noise
         assert all(r.effort[0] == 0.0 for r in rows)  # no command: the drive applies nothing
 
-        assert topics.main(["hz", "/rig/joint_states", "--count", "100"]) == 0
+        # 3 s of messages: a burst that catches up a stall averages out
+        assert topics.main(["hz", "/rig/joint_states", "--count", "300"]) == 0
         rate = float(capsys.readouterr().out.rsplit("average rate: ", 1)[1].split()[0])
         assert 70 < rate < 130  # lenient: shared CPU; the conformance check measures it properly
 

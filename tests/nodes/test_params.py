@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from rcl_interfaces.msg import ParameterType
 from rclpy.node import Node
@@ -68,20 +69,37 @@ def test_bad_values_become_one_line_config_errors(ctx, cls, override, message):
     assert "\n" not in str(info.value)
 
 
+MS = 1_000_000  # ns
+T0 = 100_000 * MS  # a monotonic clock at 100 s
+
+
 def test_pacer_runs_one_step_per_period_and_catches_up_a_stall():
     pacer = DeadlinePacer(0.01, max_lag=0.5)
-    assert pacer.due(100.0) == [100.0]
-    assert pacer.due(100.0101) == [pytest.approx(100.01)]  # jitter never skips a step
-    assert pacer.due(100.0199) == [pytest.approx(100.02)]  # nor doubles one
-    assert len(pacer.due(100.0702)) == 5  # a 50 ms stall: the missed slots run as a burst
-    assert pacer.due(100.0705) == []
-    assert pacer.due(102.0) == [102.0] and pacer.reanchors == 1  # too long: re-anchor
+    assert pacer.due(T0) == [T0]
+    assert pacer.due(T0 + 10_100_000) == [T0 + 10 * MS]  # jitter never skips a step
+    assert pacer.due(T0 + 19_900_000) == [T0 + 20 * MS]  # nor doubles one
+    assert len(pacer.due(T0 + 70_200_000)) == 5  # a 50 ms stall: the missed slots run as a burst
+    assert pacer.due(T0 + 70_500_000) == []
+    assert pacer.due(T0 + 2000 * MS) == [T0 + 2000 * MS] and pacer.reanchors == 1  # too long
 
 
 def test_pacer_without_lead_runs_a_step_at_its_deadline_never_before():
     pacer = DeadlinePacer(0.01, lead=0.0)
-    assert pacer.due(100.0) == [100.0] and pacer.next_deadline == pytest.approx(100.01)
-    assert pacer.due(100.0099) == []  # 0.1 ms early: not yet
-    assert pacer.due(100.0101) == [pytest.approx(100.01)]
-    assert pacer.due(100.0299) == [pytest.approx(100.02)]  # 9.9 ms late: still one step, no burst
-    assert pacer.due(100.0301) == [pytest.approx(100.03)]
+    assert pacer.due(T0) == [T0] and pacer.next_deadline_ns == T0 + 10 * MS
+    assert pacer.due(T0 + 9_900_000) == []  # 0.1 ms early: not yet
+    assert pacer.due(T0 + 10_100_000) == [T0 + 10 * MS]
+    assert pacer.due(T0 + 29_900_000) == [T0 + 20 * MS]  # 9.9 ms late: still one step, no burst
+    assert pacer.due(T0 + 30_100_000) == [T0 + 30 * MS]
+
+
+@pytest.mark.parametrize("uptime_s", [5e3, 2e5, 3e7])
+def test_pacer_deadlines_stay_an_exact_grid_at_any_uptime(uptime_s):
+    """Stamps come from these deadlines: a float running sum drifted off the 10 ms grid by
+    1 ns within a few hundred samples at an uptime of a few days (a CI failure)."""
+    pacer = DeadlinePacer(0.01, lead=0.0)
+    now = round(uptime_s * 1e9)
+    deadlines = []
+    for _ in range(100_000):
+        deadlines += pacer.due(now)
+        now = pacer.next_deadline_ns + 3_000  # each wake-up 3 µs late, as the thread's
+    assert len(deadlines) == 100_000 and set(np.diff(deadlines).tolist()) == {10 * MS}
