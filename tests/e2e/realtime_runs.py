@@ -1,24 +1,33 @@
-"""The two real-time ``bench.py --plant-ns`` runs of the e2e tier, run side by side.
+"""The two real-time ``bench.py --plant-ns`` runs of the e2e tier, run side by side in the background.
 
 Both are the README's short configuration against a separately started
 real-time node: our plant under ``/fakerig`` (msd face) and the rig emulator's
 ros2_control face under ``/r2crig``. Each spends almost all its time waiting
-for real time (rests, recordings, validation runs at 100 Hz), so running them
-together costs the time of the longer one, not of both. They share the
-caller's domain, as two benches on one network would, and are told apart by
-namespace only.
+for real time (rests, recordings, validation runs at 100 Hz; about 0.7 of a
+core for the pair, over about 200 s), so they share one domain and are told
+apart by namespace only, as two benches on one network would.
+
+The suite starts them with the session (:class:`BackgroundPair`, from the root
+conftest) and runs the tests that read them last, so the rest of the suite runs
+meanwhile instead of waiting 200 s. They run on a domain of their own, claimed
+like a bench run's: the suite's own nodes never see them, nor they the suite's.
 """
 
 from __future__ import annotations
 
 import os
+import random
 import subprocess
 import sys
+import threading
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO
 
 from msd_bench.app.plant_ns import QUICK_LOOK
+from msd_bench.core.errors import ConfigError
 from msd_bench.graph import launch
+from msd_bench.graph.domains import AUTO_DOMAINS, claim_domain
 
 REPO = Path(__file__).resolve().parents[2]
 PLANT_NS = "/fakerig"
@@ -35,6 +44,8 @@ class Run:
 
     out: Path
     proc: subprocess.CompletedProcess[str]
+    domain: int
+    """The ROS_DOMAIN_ID the run was given (its caller's)."""
 
 
 def _target() -> tuple[str, list[str]]:
@@ -43,12 +54,12 @@ def _target() -> tuple[str, list[str]]:
     return str(REPO / TARGET), ["-r", f"__ns:={PLANT_NS}"]
 
 
-def _bench(ns: str, out: Path, face: list[str]) -> subprocess.Popen[str]:
+def _bench(ns: str, out: Path, face: list[str], domain: int) -> subprocess.Popen[str]:
     argv = [sys.executable, "launch_scripts/bench.py", "--plant-ns", ns, *face, "--out", str(out),
             *QUICK_LOOK]
-    # the caller's ROS_DOMAIN_ID and discovery range (the test suite's), never one the bench claims
+    # the caller's environment and ROS_DOMAIN_ID (the bench claims none with --plant-ns)
     return subprocess.Popen(argv, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ})
+                            env=launch.ros_env(domain))
 
 
 def _finish(popen: subprocess.Popen[str], timeout: float) -> subprocess.CompletedProcess[str]:
@@ -60,14 +71,70 @@ def _finish(popen: subprocess.Popen[str], timeout: float) -> subprocess.Complete
     return subprocess.CompletedProcess(popen.args, popen.returncode, stdout, stderr)
 
 
-def run_both(root: Path, timeout: float = 1500.0) -> dict[str, Run]:
-    """Start both nodes, then both bench runs; wait for both; stop the nodes. Keyed ``plant``, ``r2c``."""
-    outs = {"plant": root / "plant_ns" / "run", "r2c": root / "r2c" / "run"}
-    with launch.process_group() as procs:
-        script, args = _target()
-        r2c_rig = ["-p", "interface:=ros2_control", "-r", f"__ns:={R2C_NS}"]
-        nodes = [procs.start(script, args, name="target"), procs.start("rig.py", r2c_rig, name="rig")]
-        for node in nodes:
-            node.wait_for_line(r"ready", timeout=60.0)
-        running = {"plant": _bench(PLANT_NS, outs["plant"], []), "r2c": _bench(R2C_NS, outs["r2c"], R2C_FACE)}
-        return {name: Run(outs[name], _finish(p, timeout)) for name, p in running.items()}
+def _claim_other_domain() -> tuple[int, IO[str]]:
+    """A domain no bench run holds and other than the suite's own (which holds no lock)."""
+    suite = int(os.environ["ROS_DOMAIN_ID"])
+    for domain in random.SystemRandom().sample(list(AUTO_DOMAINS), len(AUTO_DOMAINS)):
+        if domain == suite:
+            continue
+        try:
+            return claim_domain(domain)
+        except ConfigError:
+            continue
+    raise RuntimeError("no free ROS domain for the real-time runs")
+
+
+class BackgroundPair:
+    """Both runs in a thread of their own: :meth:`start`, then :meth:`result` (waits), :meth:`close`."""
+
+    def __init__(self, root: Path, timeout: float = 1500.0) -> None:
+        self.outs = {"plant": root / "plant_ns" / "run", "r2c": root / "r2c" / "run"}
+        self.timeout = timeout
+        self.domain, self._lock = _claim_other_domain()
+        self._benches: list[subprocess.Popen[str]] = []
+        self._runs: dict[str, Run] = {}
+        self._error: BaseException | None = None
+        self._closed = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="realtime-runs", daemon=True)
+
+    def start(self) -> BackgroundPair:
+        self._thread.start()
+        return self
+
+    def result(self) -> dict[str, Run]:
+        """Both runs, keyed ``plant`` and ``r2c`` (waits for them to end)."""
+        self._thread.join(self.timeout + 120.0)
+        if self._error is not None:
+            raise RuntimeError(f"the real-time runs could not run: {self._error!r}") from self._error
+        if self._thread.is_alive() or len(self._runs) != 2:
+            raise RuntimeError("the real-time runs did not end")
+        return self._runs
+
+    def close(self) -> None:
+        """Stop whatever still runs (a session that ended early) and release the domain."""
+        self._closed.set()
+        for popen in self._benches:
+            if popen.poll() is None:
+                popen.kill()
+        self._thread.join(60.0)
+        self._lock.close()
+
+    def _run(self) -> None:
+        """Start both nodes, then both bench runs; wait for both; stop the nodes."""
+        try:
+            with launch.process_group(self.domain) as procs:
+                script, args = _target()
+                r2c_rig = ["-p", "interface:=ros2_control", "-r", f"__ns:={R2C_NS}"]
+                nodes = [procs.start(script, args, name="target"), procs.start("rig.py", r2c_rig, name="rig")]
+                for node in nodes:
+                    node.wait_for_line(r"ready", timeout=60.0)
+                if self._closed.is_set():
+                    return
+                faces = {"plant": (PLANT_NS, []), "r2c": (R2C_NS, R2C_FACE)}
+                running = {name: _bench(ns, self.outs[name], face, self.domain)
+                           for name, (ns, face) in faces.items()}
+                self._benches.extend(running.values())
+                self._runs = {name: Run(self.outs[name], _finish(p, self.timeout), self.domain)
+                              for name, p in running.items()}
+        except BaseException as exc:  # reported by result(), in the test that reads the runs
+            self._error = exc

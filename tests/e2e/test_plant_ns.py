@@ -4,7 +4,6 @@ real-time plant-like node (no emulator started by the bench, no reset used), on 
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 from pathlib import Path
 
@@ -18,22 +17,23 @@ NS = PLANT_NS
 
 
 @pytest.fixture(scope="module")
-def run(realtime_runs: dict[str, Run]) -> tuple[Path, subprocess.CompletedProcess[str]]:
-    return realtime_runs["plant"].out, realtime_runs["plant"].proc
+def run(realtime_runs: dict[str, Run]) -> tuple[Path, subprocess.CompletedProcess[str], int]:
+    plant = realtime_runs["plant"]
+    return plant.out, plant.proc, plant.domain
 
 
 def test_completes_without_a_traceback_and_says_what_it_does(run) -> None:  # type: ignore[no-untyped-def]
-    out, proc = run
+    out, proc, domain = run
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "Traceback" not in proc.stderr
     assert f"plant-like node {NS}: no emulator started" in proc.stderr
     assert "expected real-time duration about" in proc.stderr
-    assert f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']})" in proc.stderr  # the caller's, not a claimed one
+    assert f"ROS_DOMAIN_ID={domain})" in proc.stderr  # the caller's, not a claimed one
     assert f"report: {out / 'report'}" in proc.stderr
 
 
 def test_report_has_no_plant_kinds_and_states_the_dyna_budget(run) -> None:  # type: ignore[no-untyped-def]
-    out, _ = run
+    out, *_ = run
     table = (out / "report" / "table1.md").read_text()
     doc = json.loads((out / "report" / "table1.json").read_text())
     kinds = [r["kind"] for r in doc["agents"]]
@@ -45,7 +45,7 @@ def test_report_has_no_plant_kinds_and_states_the_dyna_budget(run) -> None:  # t
 
 
 def test_robustness_is_measured_on_the_node(run) -> None:  # type: ignore[no-untyped-def]
-    out, _ = run
+    out, *_ = run
     rob = json.loads((out / "report" / "robustness.json").read_text())
     text = json.dumps(rob)
     assert "setpoint=0.5" in text and "noise=" not in text and "mass=" not in text
@@ -59,7 +59,7 @@ def test_robustness_is_measured_on_the_node(run) -> None:  # type: ignore[no-unt
 
 
 def test_episodes_start_from_a_measured_rest_position(run) -> None:  # type: ignore[no-untyped-def]
-    out, _ = run
+    out, *_ = run
     for kind in ("glm+improved", "dyna-q"):
         x0 = json.loads((out / "agents" / kind / "result.json").read_text())["x0"]["nominal"]
         assert set(x0) == {"0", "1"}
@@ -70,7 +70,7 @@ def test_episodes_start_from_a_measured_rest_position(run) -> None:  # type: ign
 
 
 def test_only_the_broad_records_are_recorded_and_identified(run) -> None:  # type: ignore[no-untyped-def]
-    out, _ = run
+    out, *_ = run
     assert sorted(p.name for p in (out / "excitation").iterdir()) == ["broad", "val_broad"]
     fits = json.loads((out / "models" / "fits.json").read_text())
     assert set(fits) == {"glm", "greybox"}
