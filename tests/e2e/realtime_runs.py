@@ -16,7 +16,7 @@ like a bench run's: the suite's own nodes never see them, nor they the suite's.
 from __future__ import annotations
 
 import os
-import random
+import signal
 import subprocess
 import sys
 import threading
@@ -25,9 +25,8 @@ from pathlib import Path
 from typing import IO
 
 from msd_bench.app.plant_ns import QUICK_LOOK
-from msd_bench.core.errors import ConfigError
 from msd_bench.graph import launch
-from msd_bench.graph.domains import AUTO_DOMAINS, claim_domain
+from msd_bench.graph.domains import claim_domain
 
 REPO = Path(__file__).resolve().parents[2]
 PLANT_NS = "/fakerig"
@@ -72,16 +71,15 @@ def _finish(popen: subprocess.Popen[str], timeout: float) -> subprocess.Complete
 
 
 def _claim_other_domain() -> tuple[int, IO[str]]:
-    """A domain no bench run holds and other than the suite's own (which holds no lock)."""
-    suite = int(os.environ["ROS_DOMAIN_ID"])
-    for domain in random.SystemRandom().sample(list(AUTO_DOMAINS), len(AUTO_DOMAINS)):
-        if domain == suite:
-            continue
-        try:
-            return claim_domain(domain)
-        except ConfigError:
-            continue
-    raise RuntimeError("no free ROS domain for the real-time runs")
+    """A domain claimed as a bench run claims one, other than the suite's own (which holds no lock:
+    its e2e tests hand it to bench.py with ``--domain-id``)."""
+    domain, lock = claim_domain(None)
+    if domain != int(os.environ["ROS_DOMAIN_ID"]):
+        return domain, lock
+    try:
+        return claim_domain(None)  # while the first lock is held, not the suite's domain again
+    finally:
+        lock.close()
 
 
 class BackgroundPair:
@@ -113,11 +111,21 @@ class BackgroundPair:
     def close(self) -> None:
         """Stop whatever still runs (a session that ended early) and release the domain."""
         self._closed.set()
-        for popen in self._benches:
-            if popen.poll() is None:
-                popen.kill()
+        self._stop_benches()
         self._thread.join(60.0)
         self._lock.close()
+
+    def _stop_benches(self) -> None:
+        """SIGINT, as a user stops a bench (it stops its own processes and their shared memory),
+        then SIGKILL for one that is still running after 30 s."""
+        for popen in self._benches:
+            if popen.poll() is None:
+                popen.send_signal(signal.SIGINT)
+        for popen in self._benches:
+            try:
+                popen.wait(30.0)
+            except subprocess.TimeoutExpired:
+                popen.kill()
 
     def _run(self) -> None:
         """Start both nodes, then both bench runs; wait for both; stop the nodes."""
@@ -134,6 +142,8 @@ class BackgroundPair:
                 running = {name: _bench(ns, self.outs[name], face, self.domain)
                            for name, (ns, face) in faces.items()}
                 self._benches.extend(running.values())
+                if self._closed.is_set():  # close() ran meanwhile and may have missed them
+                    self._stop_benches()
                 self._runs = {name: Run(self.outs[name], _finish(p, self.timeout), self.domain)
                               for name, p in running.items()}
         except BaseException as exc:  # reported by result(), in the test that reads the runs
