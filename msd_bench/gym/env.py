@@ -176,12 +176,17 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
     def _force(self, action: Any) -> float:
         """The force of an action: the alphabet entry, or the clipped continuous value."""
         if self.continuous:
-            a = np.asarray(action, dtype=np.float64).reshape(-1)
+            try:
+                a = np.asarray(action, dtype=np.float64).reshape(-1)
+            except (TypeError, ValueError):
+                a = np.full(2, np.nan)  # not a number at all: the same one-line error below
             if a.size != 1 or not math.isfinite(float(a[0])):
                 raise InvalidInputError(f"continuous action must be one finite force in N, got {action!r}")
             return float(np.clip(a[0], -self.cfg.force, self.cfg.force))
-        if not (isinstance(action, int | np.integer) and 0 <= int(action) < self.forces.size):
-            raise InvalidInputError(f"discrete action must be an int in 0..{self.forces.size - 1}, "
+        # Whatever Gymnasium's Discrete accepts is an action: a Python int, a NumPy integer scalar,
+        # or the 0-d integer array Stable-Baselines3's predict() returns for one observation.
+        if not self.action_space.contains(action):
+            raise InvalidInputError(f"discrete action must be an integer in 0..{self.forces.size - 1}, "
                                     f"got {action!r}")
         return float(self.forces[int(action)])
 

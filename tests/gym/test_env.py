@@ -137,7 +137,7 @@ def test_sensor_noise_reaches_the_observation_not_the_reward() -> None:
 def test_bad_actions_and_arguments_are_one_line_errors() -> None:
     env = gymnasium.make("MsdBench-v0")
     env.reset(seed=0)
-    with pytest.raises(InvalidInputError, match=r"int in 0\.\.4"):
+    with pytest.raises(InvalidInputError, match=r"integer in 0\.\.4"):
         env.unwrapped.step(5)
     cont = gymnasium.make("MsdBench-v0", continuous=True)
     cont.reset(seed=0)

@@ -77,3 +77,22 @@ def test_a_noisy_rig_without_reset_comes_to_rest_as_the_bench_judges_it(rig_emul
     rows = [env.step(4) for _ in range(20)]
     assert rows[-1][3] is True
     env.close()
+
+
+def test_sb3_predict_loop_over_the_lockstep_plant(lockstep_plant: str) -> None:
+    """SB3's documented loop drives the plant node over DDS: its 0-d actions are actions there too."""
+    from stable_baselines3 import DQN
+
+    env = gymnasium.make("MsdBench-v0", ros_namespace=lockstep_plant, episode_steps=50)
+    local = gymnasium.make("MsdBench-v0", episode_steps=50)
+    agent = DQN("MlpPolicy", local, seed=0, device="cpu")
+    obs, _ = env.reset(seed=3)
+    obs_local, _ = local.reset(seed=3)
+    for _ in range(50):
+        action, _ = agent.predict(obs, deterministic=True)
+        obs, _, _, truncated, _ = env.step(action)
+        obs_local, _, _, _, _ = local.step(action)
+        assert np.array_equal(obs, obs_local)  # the node's plant is the in-process plant, bit for bit
+    assert truncated
+    env.close()
+    local.close()
