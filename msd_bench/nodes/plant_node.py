@@ -78,7 +78,7 @@ from msd_bench.core.plant import PRESETS, PlantParams, preset
 from msd_bench.core.sensor import SensorModel, VelocityEstimator, sensor_rng
 from msd_bench.nodes import plant_claim
 from msd_bench.nodes.health import StallTracker, diagnostic_array
-from msd_bench.nodes.params import declare_from_dataclass, reject_unknown_parameters
+from msd_bench.nodes.params import declare_from_dataclass, keep_own_clock, reject_unknown_parameters
 from msd_bench.nodes.spin import DeadlinePacer, DeadlineThread, stops_deferred
 from msd_msgs_py.contract import (
     CLOCK,
@@ -224,6 +224,7 @@ class PlantNode(Node):
         """Held by each real-time step and by the command and reset callbacks (two threads)."""
         self._ticker: DeadlineThread | None = None
         reject_unknown_parameters(self)
+        keep_own_clock(self)  # use_sim_time refused, at start and by ros2 param set (nodes/params.py)
         self.done: Future[int] = Future()
         """Completes with :data:`EXIT_CONFLICT` when an earlier plant claims the namespace."""
         self._claim_namespace()
