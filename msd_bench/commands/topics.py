@@ -32,6 +32,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
 
 from msd_bench.core.errors import MsdBenchError
+from msd_bench.dds import confine_process
 from msd_bench.nodes.spin import ros_session
 from msd_msgs_py.contract import ALL_TOPICS
 from msd_msgs_py.ros import qos
@@ -216,7 +217,13 @@ def run_hz(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Standalone entry point: ``python -m msd_bench.commands.topics echo /msd/position``."""
+    """Standalone entry point: ``python -m msd_bench.commands.topics echo /msd/position``.
+
+    As :func:`msd_bench.cli.main`: without ``argv`` it is the process's entry
+    point and confines the process's DDS first (:func:`msd_bench.dds.confine_process`).
+    """
+    if argv is None:
+        confine_process()
     parser = argparse.ArgumentParser(prog="msd-bench-topics", description=__doc__.splitlines()[0])
     register(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(argv)

@@ -97,9 +97,11 @@ def test_a_launch_script_run_directly_binds_only_to_loopback() -> None:
     assert shm, "the shared-memory transport is off"
 
 
-def test_a_console_command_binds_only_to_loopback() -> None:
-    """``msd-bench echo`` waiting for a publisher that never comes: an in-process rclpy context."""
-    echo = _start_by_hand(["-m", "msd_bench", "echo", f"/nobody{os.getpid()}/topic", "--timeout", "60"])
+@pytest.mark.parametrize("command", [["msd_bench", "echo"], ["msd_bench.commands.topics", "hz"]],
+                         ids=["msd-bench-echo", "topics-hz"])
+def test_a_console_command_binds_only_to_loopback(command: list[str]) -> None:
+    """``msd-bench echo`` (and the standalone topics module) waiting for a publisher that never comes."""
+    echo = _start_by_hand(["-m", *command, f"/nobody{os.getpid()}/topic", "--timeout", "60"])
     try:
         sockets = _settled_sockets(echo.pid)
     finally:
