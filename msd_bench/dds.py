@@ -45,6 +45,8 @@ RANGE_VAR = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 _CHANGED = (*_PROFILE_VARS, RANGE_VAR)
 T = TypeVar("T")
 _log = logging.getLogger(__name__)
+_PROFILE_MISSED: list[bool] = []
+"""Non-empty once :func:`start_confined` found the profile unread in this process (it never will be)."""
 
 
 def _profile_var() -> str:
@@ -107,6 +109,8 @@ def start_confined(start: Callable[[], T], stop: Callable[[T], None]) -> T:
     The new participant's sockets tell: if any is off loopback, ``stop`` it,
     undo the change, start again with the caller's environment, and log why.
     """
+    if _PROFILE_MISSED:
+        return start()  # this process's Fast DDS has read its profiles already: do not try again
     before = set(own_udp_sockets())
     changes = confine_process()
     started = start()
@@ -117,6 +121,7 @@ def start_confined(start: Callable[[], T], stop: Callable[[T], None]) -> T:
         return started
     stop(started)
     undo(changes)
+    _PROFILE_MISSED.append(True)
     _log.warning("DDS not confined to loopback: this process started ROS before msd-bench could set its "
                  "Fast DDS profile; call msd_bench.dds.confine_process() before any rclpy.init")
     return start()
