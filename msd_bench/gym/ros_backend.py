@@ -21,7 +21,8 @@ the last positions, read, never assumed 0.
 The backend owns a private rclpy context and executor and spins them only
 while it waits for an answer, so it lives happily in a training loop that
 knows nothing of ROS, beside other nodes of the same process. It uses the
-caller's ``ROS_DOMAIN_ID`` and discovery range. One environment per
+caller's ``ROS_DOMAIN_ID`` and discovery range (LOCALHOST: confined to
+127.0.0.1, :func:`msd_bench.dds.start_confined`). One environment per
 namespace: two clients stepping the same lock-step node would interleave.
 
 A node with the ros2_control face (``interface=``, docs/ros2-control.md §Face)
