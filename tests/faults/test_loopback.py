@@ -110,6 +110,22 @@ def test_a_console_command_binds_only_to_loopback(command: list[str]) -> None:
     assert _unconfined(sockets) == [], sockets
 
 
+def test_processes_run_by_hand_still_see_each_other() -> None:
+    """The README's use: ``plant.py`` in one shell, ``echo`` in another, both confined by themselves."""
+    ns = f"/loophand{os.getpid()}"
+    plant = _start_by_hand(["launch_scripts/plant.py", "--ros-args", "-p", "duplicate_check:=0.0",
+                            "-r", f"__ns:={ns}"])
+    try:
+        plant.wait_for_line(r"ready \(", 60.0)
+        echo = subprocess.run([sys.executable, "-m", "msd_bench.commands.topics", "echo", f"{ns}/position",
+                               "--count", "1", "--timeout", "30"], cwd=launch.REPO_ROOT, env=_user_env(),
+                              capture_output=True, text=True, timeout=60)
+    finally:
+        launch.stop(plant)
+    assert echo.returncode == 0, echo.stderr
+    assert echo.stdout.startswith("data: ") and echo.stdout.rstrip().endswith("---"), echo.stdout
+
+
 def test_a_users_own_profile_and_another_rmw_are_left_alone() -> None:
     own = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "FASTRTPS_DEFAULT_PROFILES_FILE": "/lab/dds.xml"}
     env = dict(own)
