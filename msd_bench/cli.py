@@ -34,7 +34,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Parse, dispatch, and turn user errors into one line and exit status 2."""
+    """Parse, dispatch, and turn user errors into one line and exit status 2.
+
+    Without ``argv`` this is the process's entry point (the console script,
+    ``python -m msd_bench``): the process's DDS is confined to loopback first
+    when the discovery range asks for it (:func:`msd_bench.dds.confine_process`).
+    A caller passing ``argv`` owns its process's environment.
+    """
+    if argv is None:
+        from msd_bench.dds import confine_process
+
+        confine_process()
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args) or 0)

@@ -14,12 +14,15 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
 import itertools
 import math
+import re
 import sys
 import time
 from collections import deque
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import rclpy
@@ -29,6 +32,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
 
 from msd_bench.core.errors import MsdBenchError
+from msd_bench.dds import confine_process
 from msd_bench.nodes.spin import ros_session
 from msd_msgs_py.contract import ALL_TOPICS
 from msd_msgs_py.ros import qos
@@ -69,14 +73,53 @@ def resolve_type(node: Node, topic: str, timeout: float) -> tuple[type, QoSProfi
     raise TopicError(f"topic {topic} has no publisher (waited {timeout} s)")
 
 
+_PACKAGE = re.compile(r"[a-z][a-z0-9_]*\Z")
+_TYPE = re.compile(r"[A-Z][A-Za-z0-9]*\Z")
+"""ROS 2 naming rules for interface packages and message types (REP 144, rosidl)."""
+
+
 def import_type(ros_type: str) -> type:
-    """``pkg/msg/Name`` -> the generated class."""
+    """``pkg/msg/Name`` -> the generated class; only ROS message types, never another module.
+
+    Why so strict: the name may come from any participant on the domain (the
+    graph reports the type another node advertises), and importing a module
+    runs its code. So the name must be ``<package>/msg/<Type>`` with ROS
+    identifiers, the package must be found (not imported) with rosidl's
+    generated type support beside it, and only then is ``<package>.msg``
+    imported and the class checked for rosidl's attributes.
+    """
+    parts = ros_type.split("/")
+    if len(parts) != 3 or parts[1] != "msg" or not _PACKAGE.match(parts[0]) or not _TYPE.match(parts[2]):
+        raise TopicError(f"unsupported type {ros_type!r}: only message types <package>/msg/<Type> are read")
+    pkg, _, name = parts
+    if not _is_interface_package(pkg):
+        raise TopicError(f"unsupported type {ros_type!r}: {pkg} is not an installed ROS message package")
     try:
-        pkg, kind, name = ros_type.split("/")
-        cls: type = getattr(importlib.import_module(f"{pkg}.{kind}"), name)
-        return cls
-    except (ValueError, ImportError, AttributeError):
-        raise TopicError(f"cannot import message type {ros_type}") from None
+        cls = getattr(importlib.import_module(f"{pkg}.msg"), name)
+    except (ImportError, AttributeError):
+        raise TopicError(f"unsupported type {ros_type!r}: {pkg}.msg has no message {name}") from None
+    if not (isinstance(cls, type) and hasattr(type(cls), "__import_type_support__")
+            and hasattr(cls, "get_fields_and_field_types")):
+        raise TopicError(f"unsupported type {ros_type!r}: {pkg}.msg.{name} is not a ROS message class")
+    return cls
+
+
+def _is_interface_package(pkg: str) -> bool:
+    """Whether ``pkg`` is a top-level package with rosidl type support and a ``msg`` subpackage.
+
+    Looked up with ``find_spec`` on the top-level name, which imports nothing.
+    """
+    try:
+        spec = importlib.util.find_spec(pkg)
+    except (ImportError, ValueError):
+        return False
+    if spec is None or not spec.submodule_search_locations:
+        return False
+    for location in spec.submodule_search_locations:
+        root = Path(location)
+        if (root / "msg" / "__init__.py").is_file() and any(root.glob(f"{pkg}_s__rosidl_typesupport_c*")):
+            return True
+    return False
 
 
 def to_plain(msg: Any) -> Any:
@@ -174,7 +217,13 @@ def run_hz(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Standalone entry point: ``python -m msd_bench.commands.topics echo /msd/position``."""
+    """Standalone entry point: ``python -m msd_bench.commands.topics echo /msd/position``.
+
+    As :func:`msd_bench.cli.main`: without ``argv`` it is the process's entry
+    point and confines the process's DDS first (:func:`msd_bench.dds.confine_process`).
+    """
+    if argv is None:
+        confine_process()
     parser = argparse.ArgumentParser(prog="msd-bench-topics", description=__doc__.splitlines()[0])
     register(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(argv)

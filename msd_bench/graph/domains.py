@@ -10,6 +10,7 @@ blocks a domain.
 from __future__ import annotations
 
 import fcntl
+import os
 import random
 import tempfile
 from pathlib import Path
@@ -28,9 +29,40 @@ def lock_dir() -> Path:
     return Path(tempfile.gettempdir()) / "msd-bench-domains"
 
 
-def _try_lock(domain: int) -> IO[str] | None:
-    lock_dir().mkdir(parents=True, exist_ok=True)
-    fh = (lock_dir() / f"{domain}.lock").open("a+")
+_FIX = "set TMPDIR to a directory you can write (the locks live in $TMPDIR/msd-bench-domains)"
+
+
+def _lock_dir_ready() -> Path:
+    """The lock directory, created if needed; one ConfigError line naming it if it cannot be."""
+    where = lock_dir()
+    try:
+        where.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"domain-lock directory {where}: cannot create it ({exc.strerror}); "
+                          f"{_FIX}") from None
+    return where
+
+
+def _try_lock(domain: int, *, skip_foreign: bool = False) -> IO[str] | None:
+    """The locked file of ``domain``, or None if another run holds it.
+
+    A lock file this user cannot open (another user's, or a symlink, which is
+    never followed) means the domain is not ours: skipped when ``skip_foreign``
+    (a random pick), else one line. A directory where no file can be created is
+    one line naming it and what to set.
+    """
+    path = _lock_dir_ready() / f"{domain}.lock"
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
+    except OSError as exc:
+        if not path.is_symlink() and not path.exists():
+            raise ConfigError(f"domain-lock directory {path.parent} is not writable ({exc.strerror}); "
+                              f"{_FIX}") from None
+        if skip_foreign:
+            return None
+        raise ConfigError(f"ROS domain {domain}: cannot open its lock file {path} ({exc.strerror}); "
+                          f"pick another --domain-id or {_FIX}") from None
+    fh = os.fdopen(fd, "a+")
     try:
         fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
@@ -52,7 +84,7 @@ def claim_domain(requested: int | None, rng: random.Random | None = None) -> tup
     candidates = list(AUTO_DOMAINS)
     (rng or random.SystemRandom()).shuffle(candidates)
     for domain in candidates:
-        fh = _try_lock(domain)
+        fh = _try_lock(domain, skip_foreign=True)
         if fh is not None:
             return domain, fh
     raise ConfigError(f"every ROS domain in {AUTO_DOMAINS.start}..{AUTO_DOMAINS.stop - 1} "

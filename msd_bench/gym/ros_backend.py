@@ -21,7 +21,8 @@ the last positions, read, never assumed 0.
 The backend owns a private rclpy context and executor and spins them only
 while it waits for an answer, so it lives happily in a training loop that
 knows nothing of ROS, beside other nodes of the same process. It uses the
-caller's ``ROS_DOMAIN_ID`` and discovery range. One environment per
+caller's ``ROS_DOMAIN_ID`` and discovery range (LOCALHOST: confined to
+127.0.0.1, :func:`msd_bench.dds.start_confined`). One environment per
 namespace: two clients stepping the same lock-step node would interleave.
 
 A node with the ros2_control face (``interface=``, docs/ros2-control.md §Face)
@@ -41,17 +42,31 @@ from typing import Any
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
 from rclpy.publisher import Publisher
 from std_msgs.msg import Empty, Float64
 
 from msd_bench.core.errors import InterfaceError, MsdBenchError
 from msd_bench.core.plant import DT, PlantParams
 from msd_bench.core.rest import RestConfig, RestDetector
+from msd_bench.dds import start_confined
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 from msd_msgs_py.ros import command, msg_class, qos
 
 MATCH_SETTLE_S = 0.3
 """After our side sees the match, wait this long so the node's side sees it too (as the episode client)."""
+
+
+def _new_session() -> tuple[Context, Node]:
+    """A private rclpy context and the backend's node (its DDS participant opens the sockets)."""
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    return ctx, rclpy.create_node("msd_gym", context=ctx, start_parameter_services=False)
+
+
+def _end_session(session: tuple[Context, Node]) -> None:
+    session[1].destroy_node()
+    session[0].shutdown()
 
 
 class RosBackendError(MsdBenchError):
@@ -82,9 +97,7 @@ class RosBackend:
         self.lockstep = lockstep
         self.rest = rest or RestConfig()
         self._positions: deque[float] = deque()
-        self._ctx = Context()
-        rclpy.init(args=[], context=self._ctx)
-        self._node = rclpy.create_node("msd_gym", context=self._ctx, start_parameter_services=False)
+        self._ctx, self._node = start_confined(_new_session, _end_session)  # loopback under LOCALHOST
         cmd, reset, pos = interface.command, interface.reset, interface.position or interface.state
         self._force: Publisher[Any] = self._node.create_publisher(msg_class(cmd), cmd.resolve(namespace),
                                                                   qos(cmd))

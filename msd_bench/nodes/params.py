@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 import yaml
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import InvalidParameterValueException, ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -238,6 +238,37 @@ ROS_OWN_NAMES = frozenset({"use_sim_time", "start_type_description_service"})
 """Parameters rclpy itself reads; every node accepts them."""
 ROS_OWN_PREFIXES = ("qos_overrides.",)
 """Prefixes of parameters rclpy reads (QoS overrides of publishers and subscriptions)."""
+
+
+OWN_CLOCK_REFUSED = "use_sim_time"
+"""rclpy's parameter that swaps a node's clock for ``/clock`` (:func:`keep_own_clock` refuses it)."""
+
+
+def _own_clock_reason(node: Node) -> str:
+    return (f"parameter use_sim_time: {node.get_fully_qualified_name()} paces itself on its own clock "
+            "(it publishes /clock in lock-step, runs on the monotonic clock in real time); "
+            "only the recorder and the other consumers of /clock take use_sim_time")
+
+
+def keep_own_clock(node: Node) -> None:
+    """Refuse ``use_sim_time`` on a plant-like node, at start (ConfigError) and at run time.
+
+    Why: rclpy accepts ``use_sim_time`` on every node, from ``-p``, a params
+    file or a ``ros2 param set`` (a SetParameters call any participant on the
+    domain may make); on the plant, rig or surrogate it would stamp samples
+    with a ``/clock`` the node itself (or nobody) publishes. At run time the
+    refusal is a SetParametersResult with the reason; our callback is added
+    after rclpy's TimeSource's, so it runs first and the clock never switches.
+    """
+    if node.get_parameter(OWN_CLOCK_REFUSED).value is not False:
+        raise ConfigError(_own_clock_reason(node))
+
+    def refuse(params: list[Parameter[Any]]) -> SetParametersResult:
+        if any(p.name == OWN_CLOCK_REFUSED and p.value is not False for p in params):
+            return SetParametersResult(successful=False, reason=_own_clock_reason(node))
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(refuse)
 
 
 def _params_files(argv: Sequence[str]) -> list[str]:

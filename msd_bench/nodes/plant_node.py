@@ -78,7 +78,7 @@ from msd_bench.core.plant import PRESETS, PlantParams, preset
 from msd_bench.core.sensor import SensorModel, VelocityEstimator, sensor_rng
 from msd_bench.nodes import plant_claim
 from msd_bench.nodes.health import StallTracker, diagnostic_array
-from msd_bench.nodes.params import declare_from_dataclass, reject_unknown_parameters
+from msd_bench.nodes.params import declare_from_dataclass, keep_own_clock, reject_unknown_parameters
 from msd_bench.nodes.spin import DeadlinePacer, DeadlineThread, stops_deferred
 from msd_msgs_py.contract import (
     CLOCK,
@@ -224,6 +224,7 @@ class PlantNode(Node):
         """Held by each real-time step and by the command and reset callbacks (two threads)."""
         self._ticker: DeadlineThread | None = None
         reject_unknown_parameters(self)
+        keep_own_clock(self)  # use_sim_time refused, at start and by ros2 param set (nodes/params.py)
         self.done: Future[int] = Future()
         """Completes with :data:`EXIT_CONFLICT` when an earlier plant claims the namespace."""
         self._claim_namespace()
@@ -316,12 +317,12 @@ class PlantNode(Node):
         or, if one turns up later, at the next heartbeat (:meth:`_on_heartbeat`).
         """
         self._claim = plant_claim.new_claim(self.get_fully_qualified_name())
-        self._heard: dict[str, tuple[plant_claim.Claim, int]] = {}
+        self._claims = plant_claim.ClaimBook(self._claim, self.config.duplicate_check)
         self._pub_claim = self.create_publisher(String, PLANT_CLAIM.name, qos(PLANT_CLAIM))
         listen = qos(PLANT_CLAIM)
         listen.depth = 32  # one latched claim per rival writer, several may arrive in one spin
         self.create_subscription(String, PLANT_CLAIM.name, self._on_claim, listen)
-        self._pub_claim.publish(String(data=plant_claim.encode(self._claim)))
+        self._pub_claim.publish(String(data=self._claims.message()))
         if self.config.duplicate_check <= 0:
             return
         executor = SingleThreadedExecutor(context=self.context)
@@ -338,26 +339,26 @@ class PlantNode(Node):
             executor.shutdown()
 
     def _on_claim(self, msg: String) -> None:
-        got = plant_claim.decode(msg.data)
-        if got is not None:
-            self._heard[got[0].token] = got
+        self._claims.hear(msg.data)
 
     def _earlier_rival(self) -> plant_claim.Claim | None:
-        return plant_claim.earlier_rival(self._claim, self._heard, time.time_ns())
+        return self._claims.rival()
 
     def _conflict_text(self, rival: plant_claim.Claim) -> str:
         topic = JOINT_STATES.resolve(self.get_namespace())
         return f"{topic} already has a publisher ({rival.describe(self._claim)})"
 
     def _on_heartbeat(self) -> None:
-        """Re-send the claim; yield to an earlier live claim that appeared after start-up."""
+        """Re-send the claim; yield to a rival heard during start-up; report, never yield to, later ones."""
         if self.done.done():
             return
-        self._pub_claim.publish(String(data=plant_claim.encode(self._claim)))
+        self._pub_claim.publish(String(data=self._claims.message()))
         rival = self._earlier_rival()
         if rival is not None:
             print(f"error: {self._conflict_text(rival)}; shutting down", file=sys.stderr, flush=True)
             self.done.set_result(EXIT_CONFLICT)
+        for late in self._claims.ignored():
+            self.get_logger().warning(plant_claim.ignored_text(late, self._claim))
 
     def destroy_node(self) -> None:
         """Stop the sample thread, then release the claim (a node destroyed a moment ago is never

@@ -2,15 +2,21 @@
 
 from __future__ import annotations
 
+import os
 import time
 
 import pytest
 import rclpy
 from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from std_msgs.msg import String
 
 from msd_bench.graph import launch
 from msd_bench.nodes import plant_claim
 from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
+from msd_msgs_py.contract import PLANT_CLAIM
+from msd_msgs_py.ros import qos
 
 
 def test_simultaneous_plant_processes_leave_exactly_one() -> None:
@@ -61,13 +67,105 @@ def test_a_node_destroyed_a_moment_ago_is_not_a_rival() -> None:
         rclpy.try_shutdown(context=ctx)
 
 
+def _heard(claim: plant_claim.Claim, at: int, established: bool = False) -> plant_claim.Heard:
+    return plant_claim.Heard(claim, at, at, established)
+
+
 def test_claim_order_and_staleness() -> None:
     own = plant_claim.Claim(2_000, 10, "b", "/msd/plant")
     earlier = plant_claim.Claim(1_000, 99, "a", "/msd/plant")
     tie = plant_claim.Claim(2_000, 9, "c", "/msd/plant")
-    now = 10**12
-    assert plant_claim.earlier_rival(own, {"a": (earlier, now)}, now) == earlier
-    assert plant_claim.earlier_rival(own, {"c": (tie, now)}, now) == tie  # same start: lower pid wins
-    assert plant_claim.earlier_rival(earlier, {"b": (own, now)}, now) is None
-    stale = now - int((plant_claim.STALE_S + 0.1) * 1e9)
-    assert plant_claim.earlier_rival(own, {"a": (earlier, stale)}, now) is None
+    now, window = 10_000, 10**9
+    assert plant_claim.earlier_rival(own, {earlier: _heard(earlier, now)}, now, window) == earlier
+    assert plant_claim.earlier_rival(own, {tie: _heard(tie, now)}, now, window) == tie  # same start: pid
+    assert plant_claim.earlier_rival(earlier, {own: _heard(own, now)}, now, window) is None
+    later = now + int((plant_claim.STALE_S + 0.1) * 1e9)
+    assert plant_claim.earlier_rival(own, {earlier: _heard(earlier, now)}, later, window) is None
+
+
+def test_a_claim_first_heard_after_the_window_never_wins_whatever_its_start() -> None:
+    own = plant_claim.Claim(10**9, 10, "b", "/msd/plant")
+    fake = plant_claim.Claim(0, 1, "f", "/msd/plant")  # states the earliest possible start
+    book = plant_claim.ClaimBook(own, 0.0)
+    heard_at = own.start_ns + book.window_ns + 1
+    book.hear(plant_claim.encode(fake, established=True), now_ns=heard_at)
+    assert book.rival(heard_at) is None
+    assert [h.claim for h in book.ignored(heard_at)] == [fake]
+    assert book.ignored(heard_at) == []  # reported once
+    within = plant_claim.ClaimBook(own, 0.0)
+    within.hear(plant_claim.encode(fake), now_ns=own.start_ns + within.window_ns)
+    assert within.rival(own.start_ns + within.window_ns) == fake  # a simultaneous start is arbitrated
+
+
+def test_a_newcomer_yields_to_an_established_claim_whatever_the_start_times() -> None:
+    """Two hosts with skewed clocks: the newcomer states the earlier start and still yields."""
+    own = plant_claim.Claim(5 * 10**9, 10, "new", "/msd/plant")
+    serving = plant_claim.Claim(9 * 10**9, 20, "old", "/msd/plant")
+    book = plant_claim.ClaimBook(own, 1.0)
+    book.hear(plant_claim.encode(serving, established=True), now_ns=own.start_ns + 10**8)
+    assert book.rival(own.start_ns + 10**8) == serving
+    simultaneous = plant_claim.ClaimBook(serving, 1.0)  # heard not yet established: start order decides
+    simultaneous.hear(plant_claim.encode(own), now_ns=serving.start_ns)
+    simultaneous.hear(plant_claim.encode(own, established=True), now_ns=serving.start_ns + 10**8)
+    assert simultaneous.rival(serving.start_ns + 10**8) == own
+
+
+NOT_CLAIMS = ["", "not json", "[]", "{}", "[" * 100_000, '{"a": "' + "x" * 10_000 + '"}',
+              '{"start_ns": "x", "pid": 1, "token": "t", "node": "n", "sent_ns": 1}']
+
+
+@pytest.mark.parametrize("text", NOT_CLAIMS)
+def test_anything_but_a_claim_is_dropped(text: str) -> None:
+    book = plant_claim.ClaimBook(plant_claim.Claim(0, 1, "own"), 0.0)
+    book.hear(text, now_ns=1)
+    assert book.heard == {}
+
+
+def test_a_flood_of_claims_is_bounded() -> None:
+    own = plant_claim.Claim(10**12, 1, "own")
+    book = plant_claim.ClaimBook(own, 0.0)
+    for i in range(plant_claim.MAX_HEARD + 50):
+        book.hear(plant_claim.encode(plant_claim.Claim(i, 2, f"t{i}")), now_ns=own.start_ns)
+    assert len(book.heard) == plant_claim.MAX_HEARD
+
+
+def _claims_of(node: Node, topic: str, into: list[str]) -> None:
+    listen = qos(PLANT_CLAIM)
+    listen.depth = 32
+    node.create_subscription(String, topic, lambda m: into.append(m.data), listen)
+
+
+def test_a_fake_early_claim_does_not_stop_a_serving_plant() -> None:
+    """Issue 20: a participant publishing a claim that states an early start shut a running plant down."""
+    ns = f"/fakeclaim{os.getpid()}"
+    topic = PLANT_CLAIM.resolve(ns)
+    ctx = Context()
+    rclpy.init(args=[], context=ctx)
+    node = rclpy.create_node("fake_claimer", context=ctx)
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(node)
+    seen: list[str] = []
+    _claims_of(node, topic, seen)
+    try:
+        with launch.process_group() as procs:
+            plant = procs.start("plant.py", ["-p", "duplicate_check:=0.0", "-r", f"__ns:={ns}"])
+            deadline = time.monotonic() + 60.0
+            while not any('"established": true' in m for m in seen) and time.monotonic() < deadline:
+                executor.spin_once(timeout_sec=0.1)
+            assert any('"established": true' in m for m in seen), plant.output()
+            fake = plant_claim.Claim(0, 1, "f" * 16, f"{ns}/plant")
+            pub = node.create_publisher(String, topic, qos(PLANT_CLAIM))
+            since = len(plant.lines)
+            for _ in range(40):  # re-sent as a real claimer would, until the plant has judged it
+                pub.publish(String(data=plant_claim.encode(fake, established=True)))
+                executor.spin_once(timeout_sec=0.25)
+                if any("ignoring the claim of" in ln for ln in plant.lines[since:]):
+                    break
+            plant.wait_for_line(r"ignoring the claim of .*pid 1\b", 5.0, since)
+            assert plant.popen.poll() is None, plant.output()
+            assert "already has a publisher" not in plant.output()
+            assert procs.stop_all()[plant.name] == 0
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=ctx)
