@@ -213,4 +213,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    from msd_bench.dds import confine_process
+
+    confine_process()  # this process's own participants stay on loopback, as the bench's do
     main()
