@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from msd_bench.app.options import add_run_arguments, run_config_from_args
-from msd_bench.commands.paper import check_out
+from msd_bench.commands.paper import run_config_doc
 
 
 def register(sub: Any) -> None:
@@ -56,13 +56,22 @@ def run(args: argparse.Namespace) -> int:
                            plant_agents=tuple(run_cfg.plant_agents()),
                            record_samples=_ints(args.record_samples, "--record-samples"),
                            episodes=_ints(args.budgets, "--budgets"))
-    out = Path(args.out)
-    check_out(out, "efficiency.json")
-    with StageProgress("efficiency") as bar:
-        doc = efficiency(cfg, bar.update)
-    (out / "efficiency.json").write_text(json.dumps(doc, indent=1) + "\n")
-    efficiency_figure(out / "efficiency.png", doc["methods"])
-    for line in crossings(doc["methods"]):
+    from msd_bench.io.atomic import write_text_atomic
+    from msd_bench.io.run_dir import RunDir, RunDirError
+
+    config = run_config_doc(run_cfg, record_samples=list(cfg.record_samples), episodes=list(cfg.episodes),
+                            surrogate_agents=list(cfg.surrogate_agents), plant_agents=list(cfg.plant_agents))
+    rd = RunDir.open(Path(args.out), "efficiency", ["efficiency"], config)  # before any work
+    if rd.pending():  # a run that died after its files but before the marker needs no new work
+        with StageProgress("efficiency") as bar:
+            doc = efficiency(cfg, bar.update)
+        rd.run_task("efficiency", lambda: [
+            write_text_atomic(rd.root / "efficiency.json", json.dumps(doc, indent=1) + "\n", root=rd.root),
+            efficiency_figure(rd.root / "efficiency.png", doc["methods"], root=rd.root)])
+    rd.mark_complete()
+    from msd_bench.io.safe_read import read_json_bounded
+
+    for line in crossings(read_json_bounded(rd.root / "efficiency.json", RunDirError)["methods"]):
         print(line)
-    print(f"report: {out.resolve()}", file=sys.stderr)
+    print(f"report: {rd.root}", file=sys.stderr)
     return 0
