@@ -193,7 +193,11 @@ def remove_stale_temps(root: Path) -> int:
     for dirpath, _dirs, files in os.walk(root, followlinks=False):
         for f in files:
             if f.startswith(TEMP_PREFIX):
-                Path(dirpath, f).unlink(missing_ok=True)
+                try:
+                    Path(dirpath, f).unlink(missing_ok=True)
+                except OSError as exc:
+                    raise OutputError(f"{Path(dirpath, f)}: cannot remove this stale temporary file "
+                                      f"({_why(exc)})") from None
                 count += 1
     return count
 

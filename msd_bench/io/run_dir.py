@@ -88,18 +88,16 @@ class RunDir:
         entries = sorted(os.listdir(root))
         if not entries:
             doc["created_utc"] = _now()
-            write_text_atomic(root / MANIFEST, json.dumps(doc, indent=1) + "\n", root=root, exclusive=True,
-                              error=RunDirError)
+            _probe_write(root, {**doc}, path, label, exclusive=True)
             return cls(root, command, tasks, resumed=False)
         if MANIFEST not in entries:
             raise RunDirError(f"{label} {path} is not empty (holds {_names(entries)}) and is not a run of "
                               f"msd-bench {command}; choose a new or empty directory")
         old = _read_manifest(root, path, label)
         _check_same(old, doc, path, label, entries)
-        remove_stale_temps(root)
         # the probe of a resumed run: the manifest rewritten in place proves the directory writable
-        write_text_atomic(root / MANIFEST, json.dumps({**old, "resumed_utc": _now()}, indent=1) + "\n",
-                          root=root)
+        _probe_write(root, {**old, "resumed_utc": _now()}, path, label, exclusive=False)
+        remove_stale_temps(root)
         return cls(root, command, tasks, resumed=True)
 
     def path(self, rel: str) -> Path:
@@ -188,12 +186,19 @@ def _probe_root(path: Path, label: str) -> Path:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OutputError(f"{label} {path}: cannot create it ({exc.strerror or exc})") from None
-    try:
-        if not os.access(path, os.W_OK | os.X_OK):
-            raise OutputError(f"{label} {path}: cannot write there (permission denied)")
-    except OSError as exc:
-        raise OutputError(f"{label} {path}: cannot write there ({exc.strerror or exc})") from None
     return Path(os.path.realpath(path))
+
+
+def _probe_write(root: Path, doc: Mapping[str, Any], shown: Path, label: str, exclusive: bool) -> None:
+    """Write the manifest: the first write of a run, so it is the write probe of ``--out`` too."""
+    try:
+        write_text_atomic(root / MANIFEST, json.dumps(doc, indent=1) + "\n", root=root, exclusive=exclusive,
+                          error=RunDirError)
+    except RunDirError:
+        raise
+    except OutputError as exc:
+        why = str(exc).rsplit("(", 1)[-1].rstrip(")") if "(" in str(exc) else str(exc)
+        raise OutputError(f"{label} {shown}: cannot write there ({why})") from None
 
 
 def _read_manifest(root: Path, shown: Path, label: str) -> dict[str, Any]:
