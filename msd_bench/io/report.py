@@ -63,7 +63,8 @@ def _agent_json(r: AgentResult) -> dict[str, Any]:
     return doc
 
 
-_LINE_BREAKS = re.compile(r"[\r\n\u2028\u2029\x0b\x0c\x85]+")
+_LINE_BREAKS = re.compile(r"[\n\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029]+")
+"""Every character str.splitlines breaks on (Markdown itself breaks on \\n and \\r)."""
 
 
 def md_text(value: object) -> str:

@@ -120,9 +120,7 @@ class RunDir:
             return False
         if not isinstance(doc, dict) or doc.get("task") != task or not isinstance(doc.get("files"), list):
             return False
-        return all(isinstance(f, dict) and _regular(self.root / str(f.get("path")))
-                   and (self.root / str(f.get("path"))).stat().st_size == f.get("bytes")
-                   for f in doc["files"])
+        return all(_intact(self.root, f) for f in doc["files"])
 
     def run_task(self, task: str, produce: Callable[[], Sequence[Path]]) -> bool:
         """Run ``produce`` (which writes files under the root, atomically) unless ``task`` is done.
@@ -228,8 +226,22 @@ def _check_same(old: Mapping[str, Any], new: Mapping[str, Any], shown: Path, lab
 def _regular(path: Path) -> bool:
     try:
         return stat.S_ISREG(os.lstat(path).st_mode)
-    except OSError:
+    except (OSError, ValueError):  # ValueError: a NUL byte in a name read from a received record
         return False
+
+
+def _intact(root: Path, entry: Any) -> bool:
+    """A task record's file entry names a regular file below ``root`` of the recorded size."""
+    if not isinstance(entry, dict) or not isinstance(entry.get("path"), str):
+        return False
+    rel = Path(entry["path"])
+    if rel.is_absolute() or ".." in rel.parts or not rel.parts:
+        return False
+    try:
+        info = os.lstat(root / rel)
+    except (OSError, ValueError):
+        return False
+    return stat.S_ISREG(info.st_mode) and info.st_size == entry.get("bytes")
 
 
 def _names(entries: list[str], most: int = 3) -> str:
