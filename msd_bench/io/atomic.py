@@ -146,8 +146,7 @@ def _write_and_rename(name: str, writer: Writer, dir_fd: int, exclusive: bool) -
             fh.flush()
             os.fsync(fh.fileno())
         if exclusive:
-            os.link(tmp, name, src_dir_fd=dir_fd, dst_dir_fd=dir_fd, follow_symlinks=False)
-            os.unlink(tmp, dir_fd=dir_fd)
+            _link_new(tmp, name, dir_fd)
         else:
             os.replace(tmp, name, src_dir_fd=dir_fd, dst_dir_fd=dir_fd)
     except BaseException:
@@ -155,6 +154,24 @@ def _write_and_rename(name: str, writer: Writer, dir_fd: int, exclusive: bool) -
             os.unlink(tmp, dir_fd=dir_fd)
         raise
     os.fsync(dir_fd)
+
+
+def _link_new(tmp: str, name: str, dir_fd: int) -> None:
+    """Give the finished temporary file the target's name only if that name is free.
+
+    ``os.link`` fails on an existing name, so no concurrent writer is clobbered;
+    a file system without hard links gets a checked rename instead.
+    """
+    try:
+        os.link(tmp, name, src_dir_fd=dir_fd, dst_dir_fd=dir_fd, follow_symlinks=False)
+    except OSError as exc:
+        if exc.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EMLINK):
+            raise
+        if _kind(name, dir_fd) is not None:
+            raise FileExistsError(errno.EEXIST, "File exists") from None
+        os.replace(tmp, name, src_dir_fd=dir_fd, dst_dir_fd=dir_fd)
+        return
+    os.unlink(tmp, dir_fd=dir_fd)
 
 
 def write_bytes_atomic(path: Path, data: bytes, **kw: Any) -> Path:

@@ -154,3 +154,13 @@ def test_figure_and_npz_variants_round_trip(tmp_path: Path) -> None:
     npz = atomic.savez_atomic(tmp_path / "q.npz", {"q": np.arange(6.0).reshape(2, 3)})
     with np.load(npz) as data:
         np.testing.assert_array_equal(data["q"], np.arange(6.0).reshape(2, 3))
+
+
+def test_exclusive_never_clobbers_a_file_that_appeared_meanwhile(tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    target = tmp_path / "m.json"
+    target.write_text("a concurrent writer's")
+    monkeypatch.setattr(atomic, "_check_target", lambda *a: None)  # the file appears after the check
+    with pytest.raises(ArtifactError, match="refusing to overwrite"):
+        atomic.write_text_atomic(target, "ours", exclusive=True, error=ArtifactError)
+    assert target.read_text() == "a concurrent writer's" and _temps(tmp_path) == []
