@@ -223,6 +223,35 @@ def test_paper_resumes_an_unfinished_run_without_redoing_its_tasks(
             assert json.loads(a.read_text())["params"] == json.loads(b.read_text())["params"]
 
 
+EFFICIENCY = ["efficiency", "--seeds", "1", "--id-seeds", "1", "--agents", "glm+improved,plant",
+              "--record-samples", "300", "--budgets", "1", "--steps", "100", "--validation-steps", "100",
+              "--episodes", "2"]
+
+
+def test_efficiency_resumes_without_resweeping_a_finished_route(tmp_path: Path,
+                                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    from msd_bench.app import efficiency as eff
+
+    assert cli_main([*EFFICIENCY, "--out", str(tmp_path / "whole")]) == 0
+    real_surrogate, real_plant = eff.surrogate_points, eff.plant_points
+    swept: list[str] = []
+
+    def die(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt  # stopped during the on-plant route
+
+    monkeypatch.setattr(eff, "surrogate_points",
+                        lambda *a, **k: swept.append("surrogate") or real_surrogate(*a, **k))
+    monkeypatch.setattr(eff, "plant_points", die)
+    assert cli_main([*EFFICIENCY, "--out", str(tmp_path / "cut")]) == 130
+    assert not is_complete(tmp_path / "cut") and not (tmp_path / "cut" / "efficiency.json").exists()
+    monkeypatch.setattr(eff, "plant_points", lambda *a, **k: swept.append("plant") or real_plant(*a, **k))
+    assert cli_main([*EFFICIENCY, "--out", str(tmp_path / "cut")]) == 0
+    assert swept == ["surrogate", "plant"]  # the surrogate route was not swept again on resume
+    assert is_complete(tmp_path / "cut")
+    whole, cut = (json.loads((tmp_path / d / "efficiency.json").read_text()) for d in ("whole", "cut"))
+    assert cut == whole
+
+
 def test_a_paper_run_of_other_options_is_not_resumed(tmp_path: Path,
                                                      capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / "out").mkdir()
