@@ -25,7 +25,7 @@ from rosbags.rosbag2.metadata import parse_qos
 from rosbags.typesys import get_types_from_msg
 from rosbags.typesys.store import Typestore
 
-from msd_bench.io.bag_writer import PARAMS_RECORD, BagRecorder, _prepare_target, typestore
+from msd_bench.io.bag_writer import PARAMS_RECORD, BagRecorder, _prepare_target, check_target, typestore
 from msd_bench.io.errors import BagError
 from msd_bench.io.paths import writable_dir
 
@@ -176,11 +176,12 @@ def recover(path: str | Path, *, output: str | Path | None = None, overwrite: bo
     bag_dir = path if path.is_dir() else path.parent
     out = Path(output) if output is not None else bag_dir.with_name(bag_dir.name + RECOVERED_SUFFIX)
     _check_output(out, source, bag_dir if path.is_dir() else None)
-    _prepare_target(out, overwrite)
-    writable_dir(out.parent, "output directory")  # before the scan: a read-only disk is one line at once
+    check_target(out, overwrite)  # before the scan: a refusal costs nothing
+    writable_dir(out.parent, "output directory")  # and a read-only disk is one line at once
     salvage = _scan(source)
     if not salvage.messages:
         raise BagError(f"bag {path}: no complete chunk to recover ({salvage.stopped})")
+    _prepare_target(out, overwrite)  # an old recovered bag is removed only once there is a new one to write
     try:
         counts = _write(salvage, out)
     except BagError:

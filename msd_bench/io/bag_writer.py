@@ -337,13 +337,20 @@ def _prepare_target(path: Path, overwrite: bool) -> None:
     and the MCAP files it lists — so a ``thesis.tex`` beside them (or a symlink,
     a subdirectory, an unlisted file) refuses the overwrite and names the file.
     """
+    names = check_target(path, overwrite)
+    for name in names:
+        (path / name).unlink()
+    if names:
+        path.rmdir()
+
+
+def check_target(path: Path, overwrite: bool) -> list[str]:
+    """What :func:`_prepare_target` would remove (nothing for a new path), or its one-line refusal."""
     if not os.path.lexists(path):
-        return
+        return []
     if not overwrite:
         raise BagError(f"bag {path} exists already, not overwriting (pass overwrite=True)")
-    for name in own_bag_files(path):
-        (path / name).unlink()
-    path.rmdir()
+    return own_bag_files(path)
 
 
 def own_bag_files(path: Path) -> list[str]:

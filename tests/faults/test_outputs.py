@@ -24,7 +24,7 @@ from msd_bench.commands.bag import main as bag_main
 from msd_bench.graph.bench import BenchConfig
 from msd_bench.graph.bench_report import load_results
 from msd_bench.graph.main import main as bench_main
-from msd_bench.io.bags import write_experiment
+from msd_bench.io.bags import BagRecorder, write_experiment
 from msd_bench.io.report import table_markdown
 from msd_bench.io.run_dir import MANIFEST, is_complete
 
@@ -132,6 +132,21 @@ def test_overwrite_replaces_a_bag_of_ours(tmp_path: Path, monkeypatch: pytest.Mo
     assert bag_main([*argv, "--overwrite"]) == 0
     assert sorted(p.name for p in (tmp_path / "again").iterdir()) == ["again.mcap", "metadata.yaml"]
     assert _state(tmp_path / "src") == before and outside.read_text() == "my thesis\n"
+
+
+def test_overwrite_keeps_the_old_bag_when_nothing_can_be_recovered(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    _bag(tmp_path / "src")
+    _in(tmp_path, monkeypatch)
+    assert bag_main(["bag", "recover", "src", "--output", "out"]) == 0
+    BagRecorder(tmp_path / "empty").open().close()
+    with (tmp_path / "empty" / "empty.mcap").open("r+b") as fh:
+        fh.truncate(80)  # killed before its first chunk
+    (tmp_path / "empty" / "metadata.yaml").unlink()
+    before = _state(tmp_path / "out")
+    err = _cli(capsys, bag_main, "bag", "recover", "empty", "--output", "out", "--overwrite")
+    assert "no complete chunk" in err
+    assert _state(tmp_path / "out") == before
 
 
 # --- paper / efficiency --out ---------------------------------------------------------------------
