@@ -132,7 +132,11 @@ def plant_points(cfg: EfficiencyConfig, tell: Progress) -> dict[str, list[dict[s
 def efficiency(cfg: EfficiencyConfig, progress: Progress | None = None) -> dict[str, Any]:
     """``efficiency.json``: per method, success with its interval at each real-sample budget."""
     tell = progress or (lambda stage, done, total: None)
-    lines = {**surrogate_points(cfg, tell), **plant_points(cfg, tell)}
+    return document({**surrogate_points(cfg, tell), **plant_points(cfg, tell)})
+
+
+def document(lines: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
+    """``efficiency.json`` from each method's points (the command builds it from its route files)."""
     return {
         "schema": "msd-bench/efficiency", "schema_version": 1,
         "success_sse_percent": SUCCESS_SSE,

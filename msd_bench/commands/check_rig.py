@@ -28,7 +28,9 @@ import rclpy
 from msd_bench.core.conformance import Clause, Limits
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.plant import DT, PlantParams
+from msd_bench.io.atomic import write_text_atomic
 from msd_bench.io.paths import writable_dir
+from msd_bench.io.safe_read import read_json_bounded
 from msd_bench.nodes.spin import ros_session
 from msd_msgs_py.interface import add_cli_options, from_cli
 
@@ -106,14 +108,36 @@ def run(args: argparse.Namespace) -> int:
     _check(args)
     from_cli(args)  # an inconsistent interface is one line before any ROS work
     if args.json is not None:
-        writable_dir(args.json.parent.absolute(), "--json directory")
+        probe_json(args.json)
     with ros_session([]):
         clauses = check(args)
     for c in clauses:
         print(c.line(), flush=True)
     if args.json is not None:
-        args.json.write_text(json.dumps(report(args, clauses), indent=1) + "\n")
+        write_text_atomic(args.json, json.dumps(report(args, clauses), indent=1) + "\n")
     return 0 if all(c.passed for c in clauses) else 1
+
+
+def probe_json(path: Path) -> None:
+    """Before any ROS work: ``--json`` must be new, or a check-rig report of ours (it is regenerated).
+
+    Never a directory, a symlink or another file: the check would otherwise run
+    for seconds and then fail, or replace something the tool did not write.
+    """
+    writable_dir(path.parent.absolute(), "--json directory")
+    if not os.path.lexists(path):
+        return
+    if path.is_symlink() or not path.is_file():
+        raise CheckRigError(f"--json {path} exists and is not a regular file (a directory or a symlink); "
+                            f"name a new file")
+    try:
+        doc = read_json_bounded(path, CheckRigError)
+    except CheckRigError:
+        doc = None
+    ours = isinstance(doc, dict) and isinstance(doc.get("clauses"), list) and \
+        str(doc.get("command", "")).startswith("msd-bench check-rig")
+    if not ours:
+        raise CheckRigError(f"--json {path} exists and is not a check-rig report; not overwriting it")
 
 
 def report(args: argparse.Namespace, clauses: list[Clause]) -> dict[str, Any]:

@@ -16,10 +16,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from msd_bench.app.options import add_run_arguments, run_config_from_args
-from msd_bench.core.errors import ConfigError
 
 if TYPE_CHECKING:
     from msd_bench.app.config import RunConfig
+    from msd_bench.io.run_dir import RunDir
 
 # The pipeline pulls in torch and python-control (seconds): it is imported when a run
 # starts, so `--help` and option errors answer at once.
@@ -35,18 +35,6 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def check_out(out: Path, marker: str = "table1.json") -> None:
-    """Refuse an --out that is a file, holds a report (``marker``) already, or cannot be created."""
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"--out {out} is a file, not a directory")
-    if (out / marker).exists():
-        raise ConfigError(f"{out} already holds a {marker}; choose another --out")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"cannot create --out {out}: {exc.strerror}") from None
-
-
 def run_facts(cfg: RunConfig, seconds: float, mode: str) -> dict[str, Any]:
     """What table1.json's ``run`` object records about the run."""
 
@@ -54,22 +42,46 @@ def run_facts(cfg: RunConfig, seconds: float, mode: str) -> dict[str, Any]:
             "success_sse_percent": 5.0}
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run, write, print the table."""
-    cfg = run_config_from_args(args)
-    out = Path(args.out)
-    check_out(out)
-    from msd_bench.app.output import write_all
-    from msd_bench.app.pipeline import run_paper  # torch and control: seconds to import
-    from msd_bench.progress import StageProgress
+def run_config_doc(cfg: RunConfig, **extra: Any) -> dict[str, Any]:
+    """The configuration a run directory's manifest records: a rerun resumes only the same one."""
+    from msd_bench.io.artifacts import jsonable
 
+    return {"run": jsonable(asdict(cfg)), **extra}
+
+
+def print_report(rd: RunDir, started: float) -> None:
+    """Table 1 and robustness from the run's files; then where they are (resumed runs say so)."""
+    print((rd.root / "table1.md").read_text())
+    if (rd.root / "robustness.md").is_file():
+        print((rd.root / "robustness.md").read_text())
+    if rd.resumed:
+        print(f"resumed an unfinished run: {len(rd.tasks) - len(rd.written)} of {len(rd.tasks)} tasks were "
+              f"done already", file=sys.stderr)
+    print(f"report: {rd.root}  ({time.perf_counter() - started:.0f} s)", file=sys.stderr)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Probe --out, run, write each group of files as a task, mark the run complete, print the table."""
+    cfg = run_config_from_args(args)
+    figures = not args.no_figures
+    from msd_bench.io.run_dir import RunDir
+
+    rd = RunDir.open(Path(args.out), "paper", paper_tasks(cfg, figures), run_config_doc(cfg, figures=figures))
     t0 = time.perf_counter()
-    with StageProgress("paper") as bar:
-        result = run_paper(cfg, bar.update)
-    facts = run_facts(cfg, time.perf_counter() - t0, "in-process")
-    written = write_all(out, result, facts, with_figures=not args.no_figures)
-    print(written["report"]["md"].read_text())
-    if "robustness" in written:
-        print(written["robustness"]["md"].read_text())
-    print(f"report: {out.resolve()}  ({facts['seconds']:.0f} s)", file=sys.stderr)
+    if rd.pending():  # a run that died after its last task but before the marker needs no new work
+        from msd_bench.app.output import write_all
+        from msd_bench.app.pipeline import run_paper  # torch and control: seconds to import
+        from msd_bench.progress import StageProgress
+
+        with StageProgress("paper") as bar:
+            result = run_paper(cfg, bar.update)
+        write_all(rd, result, run_facts(cfg, time.perf_counter() - t0, "in-process"), with_figures=figures)
+    rd.mark_complete()
+    print_report(rd, t0)
     return 0
+
+
+def paper_tasks(cfg: RunConfig, figures: bool) -> list[str]:
+    """The tasks of a ``paper`` run directory in writing order (``app/output.py: write_all`` writes them)."""
+    models = [f"models-id{s}" for s in cfg.id_seed_values()]
+    return ["table1", "robustness", *models, "qtables", *(["figures"] if figures else [])]

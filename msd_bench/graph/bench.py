@@ -26,6 +26,7 @@ scenarios that make sense on a node whose model is unknown
 from __future__ import annotations
 
 import json
+import os
 import re
 import time
 from collections.abc import Callable, Sequence
@@ -41,6 +42,8 @@ from msd_bench.core.registry import needs_bias_records
 from msd_bench.graph.jobs import Job, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, RecordServers, paper_plan, record_experiments
+from msd_bench.io.atomic import TEMP_PREFIX, write_text_atomic
+from msd_bench.io.paths import OutputError, writable_dir
 from msd_msgs_py.contract import PLANT_NAMESPACE, surrogate_namespace
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
@@ -356,8 +359,28 @@ def write_run_facts(cfg: BenchConfig, extra: dict[str, Any]) -> Path:
     doc = json.loads(json.dumps(asdict(cfg), default=str))
     doc["timings"] = {**previous.get("timings", {}), **cfg.timings}
     doc.update(extra)
-    path.write_text(json.dumps(doc, indent=1, default=str) + "\n")
-    return path
+    return write_text_atomic(path, json.dumps(doc, indent=1, default=str) + "\n", root=cfg.run_dir)
+
+
+BENCH_ENTRIES = frozenset({"excitation", "models", "agents", "report", "run.json"})
+"""What bench.py writes at the top of its --out: nothing else may be there."""
+
+
+def probe_out(run_dir: Path) -> Path:
+    """Before any stage: ``--out`` is created and writable, and holds nothing bench.py did not write.
+
+    A run directory is re-entered on purpose (``--stages report --out <run>``,
+    a later stage on earlier bags), so its own entries are accepted; a foreign
+    file or a symlink among them means the directory is someone else's.
+    """
+    writable_dir(run_dir, "--out")
+    for entry in sorted(os.listdir(run_dir)):
+        if entry not in BENCH_ENTRIES and not entry.startswith(TEMP_PREFIX):
+            raise OutputError(f"--out {run_dir} holds {entry!r}, which bench.py does not write; choose a new "
+                              f"or empty directory, or a run directory of bench.py")
+        if (run_dir / entry).is_symlink():
+            raise OutputError(f"--out {run_dir}: {entry} is a symlink; refusing to write through it")
+    return run_dir
 
 
 def stage_names(stages: Sequence[str]) -> tuple[str, ...]:

@@ -21,6 +21,7 @@ from msd_bench.core.model import StepModel
 from msd_bench.core.registry import needs_bias_records
 from msd_bench.core.results import AgentResult
 from msd_bench.io import artifacts
+from msd_bench.io.atomic import write_text_atomic
 from msd_bench.io.bag_records import load_records, roles_from_dir
 from msd_bench.io.bags import UNCHECKED, read_experiment
 from msd_bench.io.report import write_report, write_robustness
@@ -123,20 +124,20 @@ def _plant_ns_lines(facts: dict[str, Any]) -> str:
 def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any]:
     """Table 1 (md/csv/json), robustness and figures under ``report/``."""
     results = load_results(cfg)
-    out = cfg.run_dir / "report"
-    paths: dict[str, Any] = {"table": write_report(out, results, facts)}
+    out, root = cfg.run_dir / "report", cfg.run_dir  # every write stays in the run, no symlink followed
+    paths: dict[str, Any] = {"table": write_report(out, results, facts, root=root)}
     qtables = _qtables(cfg, results)
-    paths["figures"] = write_figures(out / "figures", figure_data(cfg, results, qtables))
+    paths["figures"] = write_figures(out / "figures", figure_data(cfg, results, qtables), root=root)
     if cfg.plant_ns is not None:  # the title names the node, not the emulator's true plant
         md = paths["table"]["md"]
         text = md.read_text().replace(f"on the true plant ({cfg.run.preset} preset)",
                                       f"on {cfg.plant_ns} (real time, measured position)", 1)
-        md.write_text(text.rstrip("\n") + "\n\n" + _plant_ns_lines(facts))
+        write_text_atomic(md, text.rstrip("\n") + "\n\n" + _plant_ns_lines(facts), root=root)
         rob = on_node_robustness(cfg, results)
     else:
         rob = {kind: robustness.evaluate(arrays["q"], learner, cfg.run.plant, seeds,
                                          cfg.run.scenario_suite(), steps=cfg.run.validation_steps,
                                          window=cfg.run.window, observer=_trained_on(cfg, kind))
                for kind, (arrays, learner, seeds) in qtables.items()}
-    paths["robustness"] = write_robustness(out, rob, {r.kind: r.label for r in results})
+    paths["robustness"] = write_robustness(out, rob, {r.kind: r.label for r in results}, root=root)
     return paths

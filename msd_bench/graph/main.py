@@ -26,6 +26,7 @@ from msd_bench.graph.bench import (
     BenchConfig,
     agent_starter,
     pipelined,
+    probe_out,
     stage_agents,
     stage_identify,
     stage_names,
@@ -40,7 +41,6 @@ from msd_bench.graph.jobs import Job, JobServer
 from msd_bench.graph.launch import caller_env, process_group, stop
 from msd_bench.graph.record import RecordServers
 from msd_bench.io.bag_records import roles_from_dir
-from msd_bench.io.paths import writable_dir
 from msd_bench.progress import StageProgress
 from msd_msgs_py.interface import add_cli_options, from_cli
 
@@ -234,7 +234,7 @@ def announce_plant_ns(cfg: BenchConfig) -> None:
 
 def run(cfg: BenchConfig) -> int:
     """All requested stages; prints Table 1 and where the report is."""
-    writable_dir(cfg.run_dir, "--out")
+    probe_out(cfg.run_dir)
     if cfg.bags is not None and "identify" in cfg.stages:
         # a killed or badly timed bag is one line now, not after the stage starts
         roles_from_dir(cfg.bags, cfg.namespace, cfg.run.plant.dt)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+import io
 import json
 import math
 import platform
@@ -24,6 +25,7 @@ import msd_bench
 from msd_bench.core import kernels
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.model import StepModel
+from msd_bench.io.atomic import write_bytes_atomic
 
 MODEL_SCHEMA = "msd-bench/model"
 QTABLE_SCHEMA = "msd-bench/qtable"
@@ -77,9 +79,15 @@ def source(path: Path) -> dict[str, str]:
     return {"path": str(path), "sha256": sha256_path(path)}
 
 
-def save_model(model: StepModel, path: Path, provenance: Provenance) -> Path:
-    """Write ``model`` as a JSON artifact; refuses to overwrite."""
-    path = _fresh(Path(path))
+def save_model(model: StepModel, path: Path, provenance: Provenance, *, root: Path | None = None,
+               overwrite: bool = False) -> Path:
+    """Write ``model`` as a JSON artifact, atomically; refuses to overwrite unless ``overwrite``.
+
+    ``root`` is the output directory the write must stay inside (no symlink
+    below it is followed); ``overwrite`` is for a run directory that vouches
+    the file is its own (a resumed task).
+    """
+    path = Path(path)
     doc = {
         "schema": MODEL_SCHEMA,
         "schema_version": SCHEMA_VERSION,
@@ -91,8 +99,7 @@ def save_model(model: StepModel, path: Path, provenance: Provenance) -> Path:
         "info": jsonable(model.info),
         "provenance": provenance.as_dict(),
     }
-    path.write_text(json.dumps(doc, indent=1) + "\n")
-    return path
+    return _fresh(path, (json.dumps(doc, indent=1) + "\n").encode(), root, overwrite)
 
 
 def load_model(path: Path) -> StepModel:
@@ -109,14 +116,15 @@ def load_model(path: Path) -> StepModel:
         raise ArtifactError(f"{path}: malformed model artifact ({exc})") from None
 
 
-def save_qtables(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> Path:
-    """Write Q-tables (and snapshots) as ``.npz`` with JSON metadata; refuses to overwrite."""
-    path = _fresh(Path(path))
+def save_qtables(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any], *,
+                 root: Path | None = None, overwrite: bool = False) -> Path:
+    """Write Q-tables (and snapshots) as ``.npz`` with JSON metadata, atomically (keywords as
+    :func:`save_model`); refuses to overwrite unless ``overwrite``."""
     doc = {"schema": QTABLE_SCHEMA, "schema_version": SCHEMA_VERSION, **jsonable(meta)}
     payload: dict[str, Any] = {"meta": np.array(json.dumps(doc)), **arrays}
-    with path.open("wb") as fh:
-        np.savez_compressed(fh, **payload)
-    return path
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **payload)
+    return _fresh(Path(path), buf.getvalue(), root, overwrite)
 
 
 def load_qtables(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
@@ -154,11 +162,11 @@ def _check_schema(doc: Any, schema: str, path: Path) -> None:
         )
 
 
-def _fresh(path: Path) -> Path:
-    if path.exists():
-        raise ArtifactError(f"{path}: already exists; refusing to overwrite")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return path
+def _fresh(path: Path, data: bytes, root: Path | None, overwrite: bool) -> Path:
+    """Write ``data`` atomically: a new file only (``os.link``, no clobbering) unless ``overwrite``."""
+    if root is None:
+        root = path.parent
+    return write_bytes_atomic(path, data, root=root, exclusive=not overwrite, error=ArtifactError)
 
 
 def jsonable(value: Any) -> Any:

@@ -25,8 +25,9 @@ from rosbags.rosbag2.metadata import parse_qos
 from rosbags.typesys import get_types_from_msg
 from rosbags.typesys.store import Typestore
 
-from msd_bench.io.bag_writer import PARAMS_RECORD, BagRecorder, _prepare_target, typestore
+from msd_bench.io.bag_writer import PARAMS_RECORD, BagRecorder, _prepare_target, check_target, typestore
 from msd_bench.io.errors import BagError
+from msd_bench.io.paths import writable_dir
 
 RECOVERED_SUFFIX = ".recovered"
 """Suffix of the directory the recovered bag is written to, next to the original."""
@@ -146,6 +147,23 @@ def _offered_qos(channel: Channel) -> list[Qos]:
         return []
 
 
+def _check_output(out: Path, source: Path, bag_dir: Path | None) -> None:
+    """Refuse an output that is the damaged recording, holds it, or lies inside its bag directory.
+
+    Why: ``--overwrite`` removes the output first, so ``recover victim --output
+    victim --overwrite`` would delete the only copy of the data to recover.
+    """
+    o = out.resolve()
+    for kept in (source, *([bag_dir] if bag_dir is not None else [])):
+        k = kept.resolve()
+        if o == k or o in k.parents:
+            raise BagError(f"output {out} is the recording being recovered or holds it ({kept}): choose "
+                           f"another output; the original is never replaced")
+    if bag_dir is not None and bag_dir.resolve() in o.parents:
+        raise BagError(f"output {out} is inside the bag being recovered ({bag_dir}): choose a directory "
+                       f"outside it")
+
+
 def recover(path: str | Path, *, output: str | Path | None = None, overwrite: bool = False) -> RecoveryReport:
     """Write the readable part of a killed recording as a new bag next to it.
 
@@ -157,10 +175,13 @@ def recover(path: str | Path, *, output: str | Path | None = None, overwrite: bo
     source = mcap_file(path)
     bag_dir = path if path.is_dir() else path.parent
     out = Path(output) if output is not None else bag_dir.with_name(bag_dir.name + RECOVERED_SUFFIX)
-    _prepare_target(out, overwrite)
+    _check_output(out, source, bag_dir if path.is_dir() else None)
+    check_target(out, overwrite)  # before the scan: a refusal costs nothing
+    writable_dir(out.parent, "output directory")  # and a read-only disk is one line at once
     salvage = _scan(source)
     if not salvage.messages:
         raise BagError(f"bag {path}: no complete chunk to recover ({salvage.stopped})")
+    _prepare_target(out, overwrite)  # an old recovered bag is removed only once there is a new one to write
     try:
         counts = _write(salvage, out)
     except BagError:

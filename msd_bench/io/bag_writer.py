@@ -41,6 +41,7 @@ import json
 import os
 import re
 import shutil
+import stat
 import struct
 import time
 from collections.abc import Mapping, Sequence
@@ -329,17 +330,57 @@ def _why(exc: OSError | WriterError) -> str:
 
 
 def _prepare_target(path: Path, overwrite: bool) -> None:
-    """Refuse an existing bag unless ``overwrite``; never delete something that is not a bag."""
-    if not path.exists():
-        return
+    """Refuse an existing bag unless ``overwrite``; then remove only a bag wholly of our making.
+
+    Why so strict: ``--overwrite`` names a bag, not a directory. A directory is
+    removed only if it holds exactly what a rosbag2 bag holds — ``metadata.yaml``
+    and the MCAP files it lists — so a ``thesis.tex`` beside them (or a symlink,
+    a subdirectory, an unlisted file) refuses the overwrite and names the file.
+    """
+    names = check_target(path, overwrite)
+    for name in names:
+        (path / name).unlink()
+    if names:
+        path.rmdir()
+
+
+def check_target(path: Path, overwrite: bool) -> list[str]:
+    """What :func:`_prepare_target` would remove (nothing for a new path), or its one-line refusal."""
+    if not os.path.lexists(path):
+        return []
     if not overwrite:
         raise BagError(f"bag {path} exists already, not overwriting (pass overwrite=True)")
-    looks_like_bag = path.is_dir() and (
-        (path / "metadata.yaml").exists() or any(path.glob("*.mcap"))
-    )
-    if not looks_like_bag:
-        raise BagError(f"{path} exists and is not a bag: refusing to delete it")
-    shutil.rmtree(path)
+    return own_bag_files(path)
+
+
+def own_bag_files(path: Path) -> list[str]:
+    """The files of the bag at ``path`` if it holds nothing else; a one-line :class:`BagError` otherwise."""
+    if path.is_symlink() or not path.is_dir():
+        raise BagError(f"{path} exists and is not a bag directory: refusing to delete it")
+    meta = path / "metadata.yaml"
+    if meta.is_symlink() or not meta.is_file():
+        raise BagError(f"{path} exists and is not a bag (no metadata.yaml): refusing to delete it")
+    listed = _listed_files(meta)
+    files = ["metadata.yaml", *listed]
+    for entry in sorted(os.listdir(path)):
+        if entry not in files or not stat.S_ISREG(os.lstat(path / entry).st_mode):
+            raise BagError(f"{path} holds {entry!r}, which is not part of the bag: refusing to delete it")
+    return [f for f in files if (path / f).exists()]
+
+
+def _listed_files(meta: Path) -> list[str]:
+    """The plain file names ``metadata.yaml`` lists as the bag's storage files."""
+    import yaml
+
+    try:
+        info = yaml.safe_load(meta.read_bytes()[:1 << 20])["rosbag2_bagfile_information"]
+        names = [str(n) for n in info["relative_file_paths"]]
+    except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
+        raise BagError(f"{meta}: unreadable ({type(exc).__name__}): not deleting the directory") from None
+    for n in names:
+        if n in ("", ".", "..", "metadata.yaml") or "/" in n or not n.endswith(".mcap"):
+            raise BagError(f"{meta} lists {n!r}, not a file of an MCAP bag: not deleting the directory")
+    return names
 
 
 class BagRecorder:

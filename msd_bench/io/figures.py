@@ -15,6 +15,8 @@ import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from msd_bench.io.atomic import save_figure_atomic
+
 FloatArray = NDArray[np.float64]
 
 
@@ -24,6 +26,7 @@ def fit_figure(
     panels: Sequence[tuple[str, FloatArray, FloatArray, float]],
     dt: float = 0.01,
     max_seconds: float = 60.0,
+    root: Path | None = None,
 ) -> Path:
     """Measured vs simulated output, one panel per record: ``(label, y, yhat, fit %)``."""
     fig, axes = plt.subplots(len(panels), 1, figsize=(9, 2.2 * len(panels) + 0.6), squeeze=False)
@@ -36,10 +39,11 @@ def fit_figure(
         ax.legend(loc="upper right", fontsize=8)
     axes[-1, 0].set_xlabel("time (s)")
     fig.suptitle(title)
-    return _save(fig, path)
+    return _save(fig, path, root)
 
 
-def qtable_figure(path: Path, title: str, first: FloatArray, last: FloatArray) -> Path:
+def qtable_figure(path: Path, title: str, first: FloatArray, last: FloatArray,
+                  root: Path | None = None) -> Path:
     """Filled contours of Q(s, a) after the first and after the last episode."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
     for ax, q, when in zip(axes, (first, last), ("after episode 1", "after the last episode"), strict=True):
@@ -51,7 +55,7 @@ def qtable_figure(path: Path, title: str, first: FloatArray, last: FloatArray) -
         ax.set_ylabel("state index")
         ax.set_title(when)
     fig.suptitle(title)
-    return _save(fig, path)
+    return _save(fig, path, root)
 
 
 def step_response_figure(
@@ -60,6 +64,7 @@ def step_response_figure(
     target: float = 1.0,
     dt: float = 0.01,
     band: float = 0.02,
+    root: Path | None = None,
 ) -> Path:
     """Position and |error| of greedy agents on the true plant (Fig. 13), a panel per agent kind.
 
@@ -88,10 +93,10 @@ def step_response_figure(
     for ax in axes[:, 0]:
         ax.set_ylabel("x (blue), |e| (red), m")
     fig.suptitle(f"Closed loop on the true plant, unit step (±{100 * band:.0f} % band shaded)")
-    return _save(fig, path)
+    return _save(fig, path, root)
 
 
-def efficiency_figure(path: Path, methods: Sequence[Mapping[str, Any]]) -> Path:
+def efficiency_figure(path: Path, methods: Sequence[Mapping[str, Any]], root: Path | None = None) -> Path:
     """Success rate against real-plant samples, log x-axis, a line per method with its 95 % band."""
     fig, ax = plt.subplots(figsize=(8, 4.8))
     for m in methods:
@@ -109,13 +114,14 @@ def efficiency_figure(path: Path, methods: Sequence[Mapping[str, Any]]) -> Path:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, loc="best")
     fig.suptitle("Data efficiency: success on the true plant vs real samples")
-    return _save(fig, path)
+    return _save(fig, path, root)
 
 
-def _save(fig: Figure, path: Path) -> Path:
+def _save(fig: Figure, path: Path, root: Path | None) -> Path:
+    """Write the PNG atomically, staying inside ``root`` (default: the figure's directory)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    try:
+        fig.tight_layout()
+        return save_figure_atomic(fig, path, root=root)
+    finally:
+        plt.close(fig)

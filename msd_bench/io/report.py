@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -12,6 +14,7 @@ from typing import Any
 from msd_bench.core.results import METRIC_KEYS, AgentResult
 from msd_bench.core.stats import rate_text, wilson
 from msd_bench.io.artifacts import jsonable
+from msd_bench.io.atomic import write_text_atomic
 
 TABLE_SCHEMA = "msd-bench/table1"
 TABLE_VERSION = 1
@@ -60,6 +63,20 @@ def _agent_json(r: AgentResult) -> dict[str, Any]:
     return doc
 
 
+_LINE_BREAKS = re.compile(r"[\n\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029]+")
+"""Every character str.splitlines breaks on (Markdown itself breaks on \\n and \\r)."""
+
+
+def md_text(value: object) -> str:
+    """``value`` on one line: text from a received ``result.json`` must not start a line of its own."""
+    return _LINE_BREAKS.sub(" ", str(value))
+
+
+def md_cell(value: object) -> str:
+    """``value`` as one Markdown table cell: one line, ``|`` escaped so it cannot open another cell."""
+    return md_text(value).replace("\\", "\\\\").replace("|", "\\|")
+
+
 def table_markdown(results: Sequence[AgentResult], run: Mapping[str, Any]) -> str:
     """Table 1 for humans: fits, samples, each metric as mean ± sd (median), success rate."""
     head = ["Agent", "Fit sim (%)", "Fit 1-step (%)", "Id. samples", *_HEADERS.values(), "Success"]
@@ -74,7 +91,7 @@ def table_markdown(results: Sequence[AgentResult], run: Mapping[str, Any]) -> st
     for r in results:
         summ = r.summary()
         cells = [
-            r.label,
+            md_cell(r.label),
             _fmt(r.fit_sim),
             _fmt(r.fit_one_step),
             str(r.identification_samples) if r.identification_samples else "—",
@@ -82,37 +99,42 @@ def table_markdown(results: Sequence[AgentResult], run: Mapping[str, Any]) -> st
             rate_text(r.n_success, r.n),
         ]
         lines.append("| " + " | ".join(cells) + " |")
-    notes = [f"- {r.label}: {r.notes}" for r in results if r.notes]
+    notes = [f"- {md_text(r.label)}: {md_text(r.notes)}" for r in results if r.notes]
     return "\n".join(lines + (["", *notes] if notes else [])) + "\n"
 
 
-def write_report(out_dir: Path, results: Sequence[AgentResult], run: Mapping[str, Any]) -> dict[str, Path]:
-    """Write ``table1.json``, ``table1.csv`` and ``table1.md`` under ``out_dir``."""
+def write_report(out_dir: Path, results: Sequence[AgentResult], run: Mapping[str, Any],
+                 root: Path | None = None) -> dict[str, Path]:
+    """Write ``table1.json``, ``table1.csv`` and ``table1.md`` under ``out_dir``, each atomically.
+
+    ``root`` is the output directory no write may leave (default ``out_dir``).
+    """
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    root = out_dir if root is None else root
     paths = {
         "json": out_dir / "table1.json",
         "csv": out_dir / "table1.csv",
         "md": out_dir / "table1.md",
     }
-    paths["json"].write_text(json.dumps(table_json(results, run), indent=1) + "\n")
-    _write_csv(paths["csv"], results)
-    paths["md"].write_text(table_markdown(results, run))
+    write_text_atomic(paths["json"], json.dumps(table_json(results, run), indent=1) + "\n", root=root)
+    write_text_atomic(paths["csv"], table_csv(results), root=root)
+    write_text_atomic(paths["md"], table_markdown(results, run), root=root)
     return paths
 
 
-def _write_csv(path: Path, results: Sequence[AgentResult]) -> None:
+def table_csv(results: Sequence[AgentResult]) -> str:
     """One line per agent kind and seed (tidy data), so any tool can re-summarise."""
     cols = ["kind", "label", "surrogate", "agent", "identification_samples",
             "fit_sim_percent", "fit_one_step_percent", "seed", "id_seed", *METRIC_KEYS, "success"]
-    with path.open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(cols)
-        for r in results:
-            for s in r.per_seed:
-                w.writerow([r.kind, r.label, r.surrogate, r.agent, r.identification_samples,
-                            _csv(r.fit_sim), _csv(r.fit_one_step), s["seed"], s["id_seed"],
-                            *(_csv(s[k]) for k in METRIC_KEYS), int(bool(s["success"]))])
+    fh = io.StringIO(newline="")
+    w = csv.writer(fh)
+    w.writerow(cols)
+    for r in results:
+        for s in r.per_seed:
+            w.writerow([r.kind, r.label, r.surrogate, r.agent, r.identification_samples,
+                        _csv(r.fit_sim), _csv(r.fit_one_step), s["seed"], s["id_seed"],
+                        *(_csv(s[k]) for k in METRIC_KEYS), int(bool(s["success"]))])
+    return fh.getvalue()
 
 
 def _fmt(v: float | None) -> str:
@@ -148,12 +170,12 @@ def robustness_markdown(rob: Mapping[str, Mapping[str, Mapping[str, Any]]],
         "Robustness — the trained tables held fixed, validated under each scenario (no retraining); "
         "cells are successes/n (Wilson 95 % interval, %; median SSE %).",
         "",
-        "| Agent | " + " | ".join(f"`{s}`" for s in scenarios) + " |",
+        "| Agent | " + " | ".join(f"`{md_cell(s)}`" for s in scenarios) + " |",
         "|" + "---|" * (len(scenarios) + 1),
     ]
     for kind, by_scenario in rob.items():
         cells = [_rob_cell(r) for r in by_scenario.values()]
-        lines.append(f"| {labels.get(kind, kind)} | " + " | ".join(cells) + " |")
+        lines.append(f"| {md_cell(labels.get(kind, kind))} | " + " | ".join(md_cell(c) for c in cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -162,10 +184,12 @@ def _rob_cell(r: Mapping[str, Any]) -> str:
     return f"{r['n_success']}/{r['n']} ({100 * lo:.0f}–{100 * hi:.0f}; {r['median_sse']:.1f})"
 
 
-def write_robustness(out_dir: Path, rob: Mapping[str, Any], labels: Mapping[str, str]) -> dict[str, Path]:
-    """``robustness.json`` (schema v2, per kind, scenario and seed) and ``robustness.md``."""
+def write_robustness(out_dir: Path, rob: Mapping[str, Any], labels: Mapping[str, str],
+                     root: Path | None = None) -> dict[str, Path]:
+    """``robustness.json`` (schema v2, per kind, scenario and seed) and ``robustness.md``, atomically."""
     out_dir = Path(out_dir)
+    root = out_dir if root is None else root
     paths = {"json": out_dir / "robustness.json", "md": out_dir / "robustness.md"}
-    paths["json"].write_text(json.dumps(robustness_json(rob, labels), indent=1) + "\n")
-    paths["md"].write_text(robustness_markdown(rob, labels))
+    write_text_atomic(paths["json"], json.dumps(robustness_json(rob, labels), indent=1) + "\n", root=root)
+    write_text_atomic(paths["md"], robustness_markdown(rob, labels), root=root)
     return paths

@@ -27,13 +27,19 @@ QTABLE_ARRAYS = ("q", "first", "last")
 
 
 def write_models(out_dir: Path, models: Mapping[str, StepModel], fits: Mapping[str, FitReport],
-                 provenance: artifacts.Provenance) -> dict[str, Path]:
-    """One JSON artifact per surrogate, with its validation fit in ``info``."""
+                 provenance: artifacts.Provenance, root: Path | None = None,
+                 overwrite: bool = False) -> dict[str, Path]:
+    """One JSON artifact per surrogate, with its validation fit in ``info``.
+
+    ``root``: the output directory no write may leave; ``overwrite``: the run
+    directory vouches the files are its own (a resumed task), see ``save_model``.
+    """
     paths = {}
     for name, model in models.items():
         info = {**model.info, "validation_fit": asdict(fits[name])} if name in fits else model.info
         tagged = replace(model, info=info)
-        paths[name] = artifacts.save_model(tagged, Path(out_dir) / f"{name}.json", provenance)
+        paths[name] = artifacts.save_model(tagged, Path(out_dir) / f"{name}.json", provenance,
+                                           root=root, overwrite=overwrite)
     return paths
 
 
@@ -43,13 +49,16 @@ def qtable_meta(learner: Any, seeds: Any, extra: Mapping[str, Any]) -> dict[str,
 
 
 def write_qtables(out_dir: Path, qtables: Mapping[str, Mapping[str, Any]],
-                  meta: Mapping[str, Any]) -> dict[str, Path]:
-    """Final tables, first/last-episode snapshots and the learner config per agent kind (``.npz``)."""
+                  meta: Mapping[str, Any], root: Path | None = None,
+                  overwrite: bool = False) -> dict[str, Path]:
+    """Final tables, first/last-episode snapshots and the learner config per agent kind (``.npz``;
+    ``root`` and ``overwrite`` as :func:`write_models`)."""
     return {
         kind: artifacts.save_qtables(
             Path(out_dir) / f"{kind}.npz",
             {k: np.asarray(v) for k, v in arrays.items() if k in QTABLE_ARRAYS},
             qtable_meta(arrays["learner"], arrays["seeds"], {**meta, "agent_kind": kind}),
+            root=root, overwrite=overwrite,
         )
         for kind, arrays in qtables.items()
     }
@@ -72,25 +81,29 @@ class FigureData:
     """Per agent kind: closed-loop positions on the plant (seeds × steps)."""
 
 
-def write_figures(fig_dir: Path, data: FigureData) -> list[Path]:
-    """Fig. 3–5 (fits), 6/7/11/12 (Q-tables of the first seed), 13 (step responses)."""
+def write_figures(fig_dir: Path, data: FigureData, root: Path | None = None) -> list[Path]:
+    """Fig. 3–5 (fits), 6/7/11/12 (Q-tables of the first seed), 13 (step responses).
+
+    ``root``: the output directory no write may leave (default ``fig_dir``).
+    """
     fig_dir = Path(fig_dir)
+    root = fig_dir if root is None else root
     paths: list[Path] = []
     if data.records is not None:
-        paths += [_fit_figure(fig_dir, name, m, data.fits.get(name), data.records)
+        paths += [_fit_figure(fig_dir, name, m, data.fits.get(name), data.records, root)
                   for name, m in data.models.items()]
     for kind, arrays in data.qtables.items():
         paths.append(figures.qtable_figure(
             fig_dir / f"qtable_{kind}.png", f"Q-table, {kind} (first seed)",
-            arrays["first"][0], arrays["last"][0]))
+            arrays["first"][0], arrays["last"][0], root=root))
     if data.responses:
         paths.append(figures.step_response_figure(
-            fig_dir / "step_responses.png", data.responses, data.target, data.dt))
+            fig_dir / "step_responses.png", data.responses, data.target, data.dt, root=root))
     return paths
 
 
 def _fit_figure(fig_dir: Path, name: str, model: StepModel, fit: FitReport | None,
-                records: Records) -> Path:
+                records: Records, root: Path) -> Path:
     """The registry says how a kind is drawn: per bias (the PLM) or on the broad record."""
     if model_kind(name).figure == "bias" and records.bias_val:
         panels = []
@@ -98,9 +111,9 @@ def _fit_figure(fig_dir: Path, name: str, model: StepModel, fit: FitReport | Non
             y, yhat = r.experiments[0].y, free_run(model, r.experiments[0])
             panels.append((f"bias {b:+g} N", y, yhat, fit_percent(y, yhat)))
         return figures.fit_figure(fig_dir / f"fit_{name}.png", f"{name} validation per bias (Fig. 3)",
-                                  panels, max_seconds=20.0)
+                                  panels, max_seconds=20.0, root=root)
     broad = records.broad_val.experiments[0]
     yhat = free_run(model, broad)
     score = fit.sim_fit if fit is not None else fit_percent(broad.y, yhat)
     return figures.fit_figure(fig_dir / f"fit_{name}.png", f"{name} free-run validation (Fig. 4/5)",
-                              [("broad record", broad.y, yhat, score)])
+                              [("broad record", broad.y, yhat, score)], root=root)

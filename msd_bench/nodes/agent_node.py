@@ -50,6 +50,7 @@ from msd_bench.core.robustness import cell
 from msd_bench.core.scenarios import Scenario
 from msd_bench.core.selection import select_tables
 from msd_bench.io import artifacts
+from msd_bench.io.atomic import write_text_atomic
 from msd_bench.io.bag_writer import write_experiment
 from msd_bench.io.run_output import qtable_meta
 from msd_bench.nodes.episode_client import Episode, EpisodeClient
@@ -353,7 +354,8 @@ class AgentNode(Node):
                "real_interactions": self.real_steps, "per_seed": self.per_seed,
                "on_node_scenarios": {sid: cell(c["sse"], c["mae"]) for sid, c in self.robust.items()},
                "x0": {sid: {str(k): v for k, v in d.items()} for sid, d in self.x0.items()}}
-        (self.out / "result.json").write_text(json.dumps(artifacts.jsonable(doc), indent=1) + "\n")
+        write_text_atomic(self.out / "result.json", json.dumps(artifacts.jsonable(doc), indent=1) + "\n",
+                          root=self.out)  # atomic: a killed agent never leaves a torn result.json
         self.get_logger().info(f"agent done: {self.out / 'result.json'}")
         self.done.set_result(0)
 

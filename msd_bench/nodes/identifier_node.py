@@ -27,6 +27,7 @@ from msd_bench.core.model import StepModel
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.registry import MODEL_KINDS, check_models, needs_bias_records
 from msd_bench.io import artifacts
+from msd_bench.io.atomic import write_text_atomic
 from msd_bench.io.bag_interface import FORCE_INPUTS, ForceSource
 from msd_bench.io.bag_records import explicit_roles, load_records, roles_from_dir
 from msd_bench.io.paths import OutputError, writable_dir
@@ -126,11 +127,10 @@ def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERF
 def _write_reports(out: Path, report: dict[str, Any], iface: PlantInterface,
                    sources: list[ForceSource]) -> Path:
     """``fits.json`` and ``inputs.json``."""
-    (out / "fits.json").write_text(json.dumps(artifacts.jsonable(report), indent=1) + "\n")
+    write_text_atomic(out / "fits.json", json.dumps(artifacts.jsonable(report), indent=1) + "\n", root=out)
     inputs = {"interface": iface.as_dict(), "bags": [s.as_dict() for s in sources]}
-    path = out / "inputs.json"
-    path.write_text(json.dumps(artifacts.jsonable(inputs), indent=1) + "\n")
-    return path
+    return write_text_atomic(out / "inputs.json", json.dumps(artifacts.jsonable(inputs), indent=1) + "\n",
+                             root=out)
 
 
 def _written(write: Callable[[], Path], out: Path) -> Path:

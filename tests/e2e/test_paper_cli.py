@@ -183,7 +183,7 @@ def test_existing_table_is_not_overwritten(run, table):
     _, out = run
     before = (out / "table1.json").read_bytes()
     proc = _paper(*TINY, "--agents", "plant", "--out", str(out), cwd=out.parent)
-    _assert_one_line_error(proc, "table1.json")
+    _assert_one_line_error(proc, "already holds a complete paper run")
     assert (out / "table1.json").read_bytes() == before
 
 
