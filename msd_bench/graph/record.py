@@ -23,8 +23,11 @@ recorded (the truth for scoring only), and the start-at-rest check reads the
 truth, since a measured x_0 is noise.
 
 Real-time mode (``lockstep=False``) records the free-running plant from the
-recorder's start to its stop, so the check is weaker: no gap in the stamps and
-at least as many samples as commands.
+recorder's start to its stop, and the face's command topic beside
+``joint_states`` (as a rosbag2 user records a rig), so the check is another:
+no gap in the stamps, and the played samples located from the recorded
+commands (the last N are the signal) and matching the signal over the cut
+(:mod:`msd_bench.io.played`).
 """
 
 from __future__ import annotations
@@ -48,6 +51,7 @@ from msd_bench.graph.jobs import Job, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, ProcessSet
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bags import bag_info, read_topic
+from msd_bench.io.played import locate_from_bag
 from msd_msgs_py.contract import (
     JOINT_STATES,
     LOCKSTEP_COMMAND_DEPTH,
@@ -75,9 +79,19 @@ _TRUTH_TOPICS = (JOINT_STATES, TRUTH_JOINT_STATES)
 """Recorded from a plant with a sensor: the measured rows and, for scoring only, the true ones."""
 
 
-def recorded_topics(truth: bool) -> tuple[TopicSpec, ...]:
-    """The topics a bag holds: ``joint_states``, plus ``truth/joint_states`` from a plant with a sensor."""
-    return _TRUTH_TOPICS if truth else _TOPICS
+def recorded_topics(truth: bool, iface: PlantInterface = MSD_INTERFACE,
+                    lockstep: bool = True) -> tuple[TopicSpec, ...]:
+    """The topics a bag holds: ``joint_states`` (+ ``truth/joint_states`` from a plant with a sensor),
+    and the face's command topic beside them in real time or when the effort is measured.
+
+    Why the commands: a measured effort's applied force is rebuilt from them, and in real time they
+    are what locates the played samples in a recording that starts before them
+    (:mod:`msd_bench.io.played`). A lock-step bag is exactly the played samples, so it goes without.
+    """
+    topics = _TRUTH_TOPICS if truth else _TOPICS
+    if not (lockstep and iface.effort_is_commanded):
+        topics = (*topics, iface.command)
+    return topics
 
 
 class RecordError(MsdBenchError):
@@ -261,9 +275,7 @@ def record_one(
     t0 = time.monotonic()
     # Both start at once; the excitation waits until the recorder's reader is in the graph,
     # then settles before playing.
-    topics = recorded_topics(truth)
-    if not iface.effort_is_commanded:
-        topics = (*topics, iface.command)  # a measured effort: the applied force is rebuilt from these
+    topics = recorded_topics(truth, iface, lockstep)
     pooled = ["-p", f"pooled:={str(lockstep).lower()}"]  # lock-step: keep matched endpoints across jobs
     rec = servers.recorder.submit(
         [*_recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
@@ -355,9 +367,12 @@ def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: 
         counts = {t: info.get(t.resolve(namespace), ("", 0))[1] for t in topics}
         if not counts[JOINT_STATES]:
             raise SampleLossError(f"experiment {spec.name}: bag {bag} has no joint_states sample")
-        # our joint by name; a measured effort must be explained by the recorded commands
+        # real time: the played samples located from the recorded commands, and checked against u
+        cut = None if dt is None else locate_from_bag(bag, iface, namespace, u, force_limit)
+        # our joint by name; a measured effort must be explained by the recorded commands (over the cut)
         experiment, _, _ = read_interface_experiment(bag, iface, namespace, force_limit=force_limit,
-                                                     force_input="held")
+                                                     force_input="held",
+                                                     played=None if cut is None else cut.rows)
     except SampleLossError:
         raise
     except MsdBenchError as err:
@@ -381,3 +396,6 @@ def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: 
     stamps = np.sort([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs])
     if len(experiment) < u.size or np.max(np.diff(stamps)) > 1.5e9 * dt:
         raise RecordError(f"experiment {spec.name}: real-time recording has gaps or too few samples")
+    if cut is None:
+        raise RecordError(f"experiment {spec.name}: bag {bag} holds no more samples than were played, "
+                          f"or not its commands: the played samples cannot be located")
