@@ -9,22 +9,29 @@ effort is therefore no marker of the experiment's start.
 
 What the excitation knows is what it sent: after the rest's zero commands it
 sends exactly the ``N`` commands of its signal on the command topic, which the
-recorder stores beside ``joint_states`` (on every face, in real time). So the
-first played command is the ``N``-th from the end of the recorded commands,
-and the first played sample is the first ``joint_states`` row logged after it
-(the plant holds the newest command over each step: :func:`held_commands`, the
-rule the ros2_control reader already uses). The cut is then checked against
-the played signal: over it, the commands held at each row must equal the
-signal rebuilt from the bag's parameters (after saturation), at
-:data:`MIN_CUT_MATCH` of the samples or more (a command that reaches the plant
-within its publish jitter of a tick is held one sample late), and better than
-at one sample earlier or later; anything else is refused with one line naming
-the bag, never guessed.
+recorder stores beside ``joint_states`` (on every face, in real time). So:
 
-A bag without the command topic (recorded before it was recorded, or on a face
-that reports the commanded effort) is cut where its effort best matches the
-played signal over the whole signal (least squares over every offset), and
-refused when that match is poor or a distant offset matches about as well.
+* the last ``N`` recorded commands must be the signal rebuilt from the bag's
+  parameters, saturated at the run's force limit (exactly: the values travel
+  as float64), or the cut is refused;
+* the first played sample is the first ``joint_states`` row logged after the
+  first played command, and the cut runs to the row that holds the last one
+  (the plant holds the newest command over each step: the rule of
+  :func:`~msd_bench.core.actuation.held_commands`, which the ros2_control
+  reader already uses). The cut holds ``N`` samples, more when the
+  excitation's timer fell behind (on a loaded machine its commands spanned up
+  to 4 % more samples than it sent); more than :data:`MAX_STRETCH` is refused;
+* the recorded effort over the cut must follow the commands held there: the
+  actuator fitted between them (:func:`~msd_bench.core.actuation.effort_agreement`)
+  must explain it by :data:`MIN_AGREEMENT` % or more, which a cut off by more
+  than a few samples fails.
+
+Anything else is refused with one line naming the bag, never guessed.
+
+A bag without the command topic (recorded before the msd face recorded it) is
+cut where its effort best matches the played signal over the whole signal
+(least squares over every offset), and refused when that match is poor or a
+distant offset matches about as well.
 """
 
 from __future__ import annotations
@@ -34,28 +41,29 @@ from pathlib import Path
 
 import numpy as np
 
-from msd_bench.core.actuation import held_commands
-from msd_bench.io.bag_interface import _command_rows
-from msd_bench.io.bag_writer import leading_stamp
-from msd_bench.io.bags import _open_bag
+from msd_bench.core.actuation import effort_agreement, held_commands
+from msd_bench.core.errors import InterfaceError, InvalidInputError
+from msd_bench.io.bag_interface import MIN_AGREEMENT, _command_rows
+from msd_bench.io.bag_writer import typestore
+from msd_bench.io.bags import _open_bag, decode_joint_state
 from msd_bench.io.errors import BagError
 from msd_msgs_py.interface import PlantInterface
 
-MIN_CUT_MATCH = 0.9
-"""Least share of the played samples whose held command must equal the signal over the cut. A
-command logged within the plant's publish jitter of a tick may be held one sample later than the
-log times say; 0.9 leaves room for that at every change of a fast PRBS, and none for a cut that is
-off by more than a sample (which mismatches at every change of the signal and beyond)."""
+MAX_STRETCH = 0.2
+"""Largest relative difference between the samples the played commands were held over and their
+number: the excitation's timer falls behind on a loaded machine (4 % measured on a shared 2-core
+box) and catches up in bursts; a fifth is a stall, not pacing, and the record is no longer the
+signal."""
 
 MIN_EFFORT_FIT = 50.0
-"""Least fit (%, normalised RMSE) of the recorded effort to the played signal for a cut found from
-the effort alone (a bag without commands): as the ros2_control reader's agreement threshold."""
+"""Least fit (%) of the recorded effort to the played signal for a cut found from the effort alone
+(a bag without commands): as the ros2_control reader's agreement threshold."""
 
-EFFORT_MARGIN = 5.0
-"""A cut from the effort is ambiguous when an offset more than :data:`NEAR` samples away fits within
-this many percentage points of the best one (a signal that looks the same shifted)."""
+ALIKE = 1.1
+"""A cut from the effort is ambiguous when an offset more than :data:`NEAR` samples from the best
+leaves at most this many times the best one's squared error (a signal that looks the same shifted)."""
 
-NEAR = 2
+NEAR = 3
 """Offsets this close to the best one are the same cut, seen through an actuator's delay and lag."""
 
 
@@ -66,12 +74,12 @@ class PlayedCut:
     start: int
     """First played sample."""
     stop: int
-    """One past the last played sample (``start`` + the signal's length)."""
+    """One past the last played sample (``start`` + the signal's length, or more: module docstring)."""
     found_by: str
     """``commands`` (the recorded command topic) or ``effort`` (a bag without it)."""
     match: float
-    """How well the cut agrees with the played signal: the share of samples whose held command
-    equals it (``commands``), or the effort's fit in % (``effort``)."""
+    """How well the recorded effort follows the cut, %: the fitted actuator's fit to the commands
+    held there (``commands``), or the effort's fit to the played signal (``effort``)."""
 
     @property
     def rows(self) -> slice:
@@ -84,77 +92,105 @@ def played_signal(signal: np.ndarray, force_limit: float) -> np.ndarray:
     return np.clip(np.asarray(signal, dtype=np.float64), -force_limit, force_limit)
 
 
+@dataclass(frozen=True)
+class _Recorded:
+    """What locating needs from a bag, state rows in stamp order: log times, effort, sample time."""
+
+    row_log: np.ndarray
+    effort: np.ndarray
+    dt: float
+    commands: tuple[np.ndarray, np.ndarray] | None
+    """(log ns, our joint's force) of the command topic; None when the bag has no command."""
+
+
 def locate_from_bag(path: Path, iface: PlantInterface, namespace: str, played: np.ndarray,
                     force_limit: float) -> PlayedCut | None:
     """The cut of a real-time bag from its recorded commands (one-line BagError if it is ambiguous).
 
     None when the bag needs no cut (no more rows than played: a lock-step bag) or holds no
-    command topic (then :func:`locate_from_effort` is the fallback).
+    command (then :func:`locate_from_effort` is the fallback).
     """
-    row_log, commands = _log_times(path, iface, namespace)
-    if row_log.size <= played.size or commands is None:
+    rec = _recorded(path, iface, namespace)
+    if rec.row_log.size <= played.size or rec.commands is None:
         return None
     topic = iface.command.resolve(namespace)
-    return locate_from_commands(path, topic, row_log, commands[0], commands[1], played, force_limit)
+    return locate_from_commands(path, topic, rec.row_log, rec.effort, rec.commands, played, force_limit,
+                                rec.dt)
 
 
-def _log_times(path: Path, iface: PlantInterface,
-               namespace: str) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
-    """Log times of the state rows (in stamp order) and (log ns, force) of the commands, if recorded."""
+def _recorded(path: Path, iface: PlantInterface, namespace: str) -> _Recorded:
+    """Our joint's rows (log time, effort) and the commands of one bag, read once."""
     state, command = iface.state.resolve(namespace), iface.command.resolve(namespace)
+    store = typestore()
     with _open_bag(path) as reader:
         conns = [c for c in reader.connections if c.topic == state]
-        stamps, logs = [], []
+        stamps, logs, efforts = [], [], []
         for _, log_ns, raw in reader.messages(connections=conns):
-            stamps.append(leading_stamp(iface.state.ros_type, raw) or 0)
+            msg = decode_joint_state(store, raw)
+            try:
+                ours = iface.pick(msg.name, msg.position, msg.velocity, msg.effort)
+            except InterfaceError as exc:
+                raise BagError(f"bag {path}: topic {state}: {exc}") from None
+            stamps.append(msg.stamp_ns)
             logs.append(int(log_ns))
+            efforts.append(ours.effort)
         commands = None
         if any(c.topic == command for c in reader.connections):
             cmd_ns, cmd_f, _ = _command_rows(path, reader, iface, command)
             commands = (cmd_ns, cmd_f) if cmd_ns.size else None  # a topic with no message: none
-    order = np.argsort(np.asarray(stamps, dtype=np.int64), kind="stable")
-    return np.asarray(logs, dtype=np.int64)[order], commands
+    t = np.asarray(stamps, dtype=np.int64)
+    order = np.argsort(t, kind="stable")
+    dt = float(np.median(np.diff(t[order]))) / 1e9 if t.size > 1 else 0.01
+    return _Recorded(np.asarray(logs, dtype=np.int64)[order], np.asarray(efforts, dtype=np.float64)[order],
+                     dt, commands)
 
 
-def locate_from_commands(path: Path, topic: str, row_log: np.ndarray, cmd_ns: np.ndarray,
-                         cmd_force: np.ndarray, played: np.ndarray, force_limit: float) -> PlayedCut:
+def locate_from_commands(path: Path, topic: str, row_log: np.ndarray, effort: np.ndarray,
+                         commands: tuple[np.ndarray, np.ndarray], played: np.ndarray, force_limit: float,
+                         dt: float) -> PlayedCut:
     """The cut from the commands: the last ``played.size`` of them are the signal (module docstring)."""
     n = played.size
-    order = np.argsort(cmd_ns, kind="stable")
-    cmd_ns, cmd_force = cmd_ns[order], cmd_force[order]
+    order = np.argsort(commands[0], kind="stable")
+    cmd_ns, cmd_force = commands[0][order], commands[1][order]
     if cmd_ns.size < n:
         raise BagError(f"bag {path}: {cmd_ns.size} commands on {topic}, fewer than the {n} the excitation "
                        f"played: cannot tell where the played samples start")
     sent = np.clip(cmd_force[-n:], -force_limit, force_limit)
-    wrong = np.flatnonzero(~np.isclose(sent, played, rtol=0.0, atol=1e-9))
+    wrong = np.flatnonzero(~(sent == played))
     if wrong.size:
         k = int(wrong[0])
         raise BagError(f"bag {path}: the last {n} commands on {topic} are not the played signal (command "
                        f"{k} of them is {sent[k]:g} N, the signal's {played[k]:g} N): the cut is ambiguous")
-    after = np.flatnonzero(row_log > cmd_ns[-n])
-    if after.size == 0 or int(after[0]) + n > row_log.size:
-        left = 0 if after.size == 0 else row_log.size - int(after[0])
-        raise BagError(f"bag {path}: the recording holds {left} samples from the first played command "
-                       f"on, fewer than the {n} played")
-    held = held_commands(row_log, cmd_ns, cmd_force, force_limit=force_limit, watchdog_s=0.0)
-    return _best_of(path, held, played, int(after[0]))
+    first, last = (np.flatnonzero(row_log > cmd_ns[i]) for i in (-n, -1))
+    if last.size == 0:
+        raise BagError(f"bag {path}: the recording ends before the last played command on {topic} acted")
+    start, held_over = int(first[0]), int(last[0]) + 1 - int(first[0])
+    if abs(held_over - n) > MAX_STRETCH * n:
+        raise BagError(f"bag {path}: the {n} played commands on {topic} were held over {held_over} samples "
+                       f"(more than {100 * MAX_STRETCH:.0f} % off): the excitation's pacing broke, so the "
+                       f"played samples do not line up with the signal")
+    stop = start + max(n, held_over)
+    if stop > row_log.size:
+        raise BagError(f"bag {path}: the recording holds {row_log.size - start} samples from the first "
+                       f"played command on, fewer than the {stop - start} played")
+    held = held_commands(row_log[start:stop], cmd_ns, cmd_force, force_limit=force_limit, watchdog_s=0.0)
+    fit = _effort_follows(path, topic, held, effort[start:stop], dt)
+    return PlayedCut(start, stop, "commands", fit)
 
 
-def _best_of(path: Path, held: np.ndarray, played: np.ndarray, start: int) -> PlayedCut:
-    """The log-time cut, checked against its neighbours one sample either side."""
-    n = played.size
-    scores = {s: float(np.mean(np.isclose(held[s:s + n], played, rtol=0.0, atol=1e-9)))
-              for s in (start - 1, start, start + 1) if s >= 0 and s + n <= held.size}
-    best = max(scores, key=lambda s: (scores[s], -abs(s - start)))
-    if scores[best] < MIN_CUT_MATCH:
-        raise BagError(f"bag {path}: the recorded commands match the played signal at only "
-                       f"{100 * scores[best]:.0f} % of the samples from sample {best} on (at least "
-                       f"{100 * MIN_CUT_MATCH:.0f} % needed): the played samples cannot be located")
-    ties = [s for s in scores if s != best and scores[s] == scores[best]]
-    if ties:
-        raise BagError(f"bag {path}: the played signal matches the recorded commands equally from "
-                       f"sample {min(best, *ties)} and {max(best, *ties)}: the cut is ambiguous")
-    return PlayedCut(best, best + n, "commands", scores[best])
+def _effort_follows(path: Path, topic: str, held: np.ndarray, effort: np.ndarray, dt: float) -> float:
+    """Fit (%) of the actuator that maps the held commands onto the effort; below the threshold: refused."""
+    if not np.isfinite(effort).any() or float(np.ptp(effort)) == 0.0:
+        return float("nan")  # no effort, or a constant one (no excitation: refused by the record's check)
+    try:
+        agreement = effort_agreement(held, effort, dt)
+    except InvalidInputError as exc:
+        raise BagError(f"bag {path}: cannot check the cut against the recorded effort: {exc}") from None
+    if agreement.fit_percent < MIN_AGREEMENT:
+        raise BagError(f"bag {path}: over the cut from the commands on {topic} the recorded effort does not "
+                       f"follow them (fit {agreement.fit_percent:.1f} % < {MIN_AGREEMENT:.0f} %): the played "
+                       f"samples cannot be located")
+    return float(agreement.fit_percent)
 
 
 def locate_from_effort(path: Path, effort: np.ndarray, played: np.ndarray) -> PlayedCut | None:
@@ -162,7 +198,8 @@ def locate_from_effort(path: Path, effort: np.ndarray, played: np.ndarray) -> Pl
 
     None when the bag needs no cut (no more samples than played). Least squares over
     every offset at once (a running sum of squares and one correlation), so a full-size
-    bag costs milliseconds.
+    bag costs milliseconds. The fit is against the rest's zero force (``1 - |e| / |played|``):
+    a signal's step from rest to its bias is what places it, and its own variance may be tiny.
     """
     effort = np.asarray(effort, dtype=np.float64)
     n = played.size
@@ -170,20 +207,20 @@ def locate_from_effort(path: Path, effort: np.ndarray, played: np.ndarray) -> Pl
         return None
     squares = np.concatenate(([0.0], np.cumsum(effort**2)))
     sse = squares[n:] - squares[:-n] - 2.0 * np.correlate(effort, played, "valid") + float(played @ played)
-    spread = float(np.linalg.norm(played - played.mean()))
-    if spread == 0.0:
-        raise BagError(f"bag {path}: the played signal is constant, so its samples cannot be located "
+    sse = np.maximum(sse, 0.0)
+    size = float(np.linalg.norm(played))
+    if size == 0.0:
+        raise BagError(f"bag {path}: the played signal is zero throughout, so its samples cannot be located "
                        f"in a recording without its commands")
-    fit = 100.0 * (1.0 - np.sqrt(np.maximum(sse, 0.0)) / spread)
-    best = int(np.argmax(fit))
-    if fit[best] < MIN_EFFORT_FIT:
-        raise BagError(f"bag {path}: the recorded effort matches the played signal by at most "
-                       f"{fit[best]:.1f} % (at least {MIN_EFFORT_FIT:.0f} % needed) and the bag has no "
-                       f"commands: the played samples cannot be located")
-    far = np.abs(np.arange(fit.size) - best) > NEAR
-    if far.any() and float(fit[far].max()) >= fit[best] - EFFORT_MARGIN:
-        other = int(np.flatnonzero(far)[np.argmax(fit[far])])
-        raise BagError(f"bag {path}: the played signal matches the recorded effort from sample {best} "
-                       f"({fit[best]:.1f} %) and from sample {other} ({fit[other]:.1f} %) alike: the cut "
-                       f"is ambiguous (record the command topic too)")
-    return PlayedCut(best, best + n, "effort", float(fit[best]))
+    best = int(np.argmin(sse))
+    fit = 100.0 * (1.0 - np.sqrt(sse[best]) / size)
+    if fit < MIN_EFFORT_FIT:
+        raise BagError(f"bag {path}: the recorded effort matches the played signal by at most {fit:.1f} % "
+                       f"(at least {MIN_EFFORT_FIT:.0f} % needed) and the bag has no commands: the played "
+                       f"samples cannot be located")
+    far = np.abs(np.arange(sse.size) - best) > NEAR
+    if far.any() and float(sse[far].min()) <= ALIKE * float(sse[best]):
+        other = int(np.flatnonzero(far)[np.argmin(sse[far])])
+        raise BagError(f"bag {path}: the played signal matches the recorded effort from sample {best} and "
+                       f"from sample {other} alike: the cut is ambiguous (record the command topic too)")
+    return PlayedCut(best, best + n, "effort", float(fit))

