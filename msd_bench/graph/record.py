@@ -51,7 +51,7 @@ from msd_bench.graph.jobs import Job, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, ProcessSet
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bags import bag_info, read_topic
-from msd_bench.io.played import locate_from_bag
+from msd_bench.io.played import confirm_by_effort, locate_from_bag
 from msd_msgs_py.contract import (
     JOINT_STATES,
     LOCKSTEP_COMMAND_DEPTH,
@@ -71,6 +71,10 @@ RECORD_WINDOW = LOCKSTEP_COMMAND_DEPTH // 2
 excitation and the recorder then work at once instead of taking turns (benchmarks/bench_record.py
 times it against one exchange per command). Half the plant's command history, for margin: 128, where
 32 recorded the paper's plan 15 % slower on this machine (measured A/B, same run)."""
+REALTIME_TAIL_S = 0.3
+"""Seconds a real-time recorder keeps recording after the excitation's last command: the row that
+holds it comes up to a sample (plus the node's publish jitter) later, and the played samples are
+located up to it (:mod:`msd_bench.io.played`); a recorder stopped at once had 2 rows to spare."""
 REST_TIMEOUT = 30.0
 """Seconds of zero force a node without reset gets to come to rest before an experiment plays anyway."""
 _TOPICS = (JOINT_STATES,)
@@ -343,13 +347,16 @@ def _expect(spec: ExperimentSpec, wait: Callable[..., Any], *args: Any) -> Any:
 
 
 def _finish_recorder(rec: Job, lockstep: bool) -> None:
-    """Let a lock-step recorder reach ``max_messages`` by itself; else close it (as Ctrl-C would)."""
+    """Let a lock-step recorder reach ``max_messages`` by itself; else close it (as Ctrl-C would),
+    in real time after :data:`REALTIME_TAIL_S`, so the rows that hold the last commands are in."""
     if lockstep:
         try:
             rec.wait(10.0)
             return
         except LaunchError:
             pass  # a message was lost: stop it cleanly, the check below names what is missing
+    else:
+        time.sleep(REALTIME_TAIL_S)
     rec.stop()
 
 
@@ -373,6 +380,8 @@ def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: 
         experiment, _, _ = read_interface_experiment(bag, iface, namespace, force_limit=force_limit,
                                                      force_input="held",
                                                      played=None if cut is None else cut.rows)
+        if cut is not None and iface.effort_is_commanded:  # a measured effort was checked when rebuilt
+            confirm_by_effort(bag, cut, experiment.u, dt or 0.01)
     except SampleLossError:
         raise
     except MsdBenchError as err:

@@ -24,7 +24,7 @@ from msd_bench.io.bag_recover import RECOVERED_SUFFIX
 from msd_bench.io.bag_timing import DEFAULT_DT, IDENTIFY, READ, TimingPolicy
 from msd_bench.io.bags import BagSamples, missing_metadata, read_samples
 from msd_bench.io.errors import BagError
-from msd_bench.io.played import locate_from_bag, locate_from_effort, played_signal
+from msd_bench.io.played import confirm_by_effort, locate_from_bag, locate_from_effort, played_signal
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
 
@@ -185,6 +185,8 @@ def _played_experiment(r: BagRole, iface: PlantInterface, namespace: str, timing
     exp, _, src = read_interface_experiment(r.path, iface, namespace, timing=timing, force_limit=force_limit,
                                             force_input=force_input, samples=r.samples,
                                             played=None if cut is None else cut.rows)
+    if cut is not None and iface.effort_is_commanded:  # a measured effort was checked when rebuilt
+        confirm_by_effort(r.path, cut, exp.u, timing.dt)
     if r.params is not None and cut is None:
         exp = align_to_played(exp, r.params, force_limit, r.path)  # no commands in the bag: by its effort
     return exp, src

@@ -36,16 +36,16 @@ distant offset matches about as well.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from msd_bench.core.actuation import effort_agreement, held_commands
-from msd_bench.core.errors import InterfaceError, InvalidInputError
+from msd_bench.core.errors import InvalidInputError
 from msd_bench.io.bag_interface import MIN_AGREEMENT, _command_rows
-from msd_bench.io.bag_writer import typestore
-from msd_bench.io.bags import _open_bag, decode_joint_state
+from msd_bench.io.bag_writer import leading_stamp
+from msd_bench.io.bags import _open_bag
 from msd_bench.io.errors import BagError
 from msd_msgs_py.interface import PlantInterface
 
@@ -79,7 +79,12 @@ class PlayedCut:
     """``commands`` (the recorded command topic) or ``effort`` (a bag without it)."""
     match: float
     """How well the recorded effort follows the cut, %: the fitted actuator's fit to the commands
-    held there (``commands``), or the effort's fit to the played signal (``effort``)."""
+    held there (``commands``, NaN until :func:`confirm_by_effort`), or the effort's fit to the
+    played signal (``effort``)."""
+    topic: str = ""
+    """The command topic the cut was found from (``commands``)."""
+    held: np.ndarray | None = field(default=None, compare=False, repr=False)
+    """The commands held at each sample of the cut (``commands``)."""
 
     @property
     def rows(self) -> slice:
@@ -92,62 +97,43 @@ def played_signal(signal: np.ndarray, force_limit: float) -> np.ndarray:
     return np.clip(np.asarray(signal, dtype=np.float64), -force_limit, force_limit)
 
 
-@dataclass(frozen=True)
-class _Recorded:
-    """What locating needs from a bag, state rows in stamp order: log times, effort, sample time."""
-
-    row_log: np.ndarray
-    effort: np.ndarray
-    dt: float
-    commands: tuple[np.ndarray, np.ndarray] | None
-    """(log ns, our joint's force) of the command topic; None when the bag has no command."""
-
-
 def locate_from_bag(path: Path, iface: PlantInterface, namespace: str, played: np.ndarray,
                     force_limit: float) -> PlayedCut | None:
     """The cut of a real-time bag from its recorded commands (one-line BagError if it is ambiguous).
 
     None when the bag needs no cut (no more rows than played: a lock-step bag) or holds no
-    command (then :func:`locate_from_effort` is the fallback).
+    command (then :func:`locate_from_effort` is the fallback). Reads log times and stamps only
+    (no message is decoded but the commands); :func:`confirm_by_effort` then checks the cut
+    against the effort the caller read.
     """
-    rec = _recorded(path, iface, namespace)
-    if rec.row_log.size <= played.size or rec.commands is None:
+    row_log, commands = _log_times(path, iface, namespace)
+    if row_log.size <= played.size or commands is None:
         return None
-    topic = iface.command.resolve(namespace)
-    return locate_from_commands(path, topic, rec.row_log, rec.effort, rec.commands, played, force_limit,
-                                rec.dt)
+    return locate_from_commands(path, iface.command.resolve(namespace), row_log, commands, played,
+                                force_limit)
 
 
-def _recorded(path: Path, iface: PlantInterface, namespace: str) -> _Recorded:
-    """Our joint's rows (log time, effort) and the commands of one bag, read once."""
+def _log_times(path: Path, iface: PlantInterface,
+               namespace: str) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """Log times of the state rows (in stamp order) and (log ns, force) of the commands, if any."""
     state, command = iface.state.resolve(namespace), iface.command.resolve(namespace)
-    store = typestore()
     with _open_bag(path) as reader:
         conns = [c for c in reader.connections if c.topic == state]
-        stamps, logs, efforts = [], [], []
+        stamps, logs = [], []
         for _, log_ns, raw in reader.messages(connections=conns):
-            msg = decode_joint_state(store, raw)
-            try:
-                ours = iface.pick(msg.name, msg.position, msg.velocity, msg.effort)
-            except InterfaceError as exc:
-                raise BagError(f"bag {path}: topic {state}: {exc}") from None
-            stamps.append(msg.stamp_ns)
+            stamps.append(leading_stamp(iface.state.ros_type, raw) or 0)
             logs.append(int(log_ns))
-            efforts.append(ours.effort)
         commands = None
         if any(c.topic == command for c in reader.connections):
             cmd_ns, cmd_f, _ = _command_rows(path, reader, iface, command)
             commands = (cmd_ns, cmd_f) if cmd_ns.size else None  # a topic with no message: none
-    t = np.asarray(stamps, dtype=np.int64)
-    order = np.argsort(t, kind="stable")
-    dt = float(np.median(np.diff(t[order]))) / 1e9 if t.size > 1 else 0.01
-    return _Recorded(np.asarray(logs, dtype=np.int64)[order], np.asarray(efforts, dtype=np.float64)[order],
-                     dt, commands)
+    order = np.argsort(np.asarray(stamps, dtype=np.int64), kind="stable")
+    return np.asarray(logs, dtype=np.int64)[order], commands
 
 
-def locate_from_commands(path: Path, topic: str, row_log: np.ndarray, effort: np.ndarray,
-                         commands: tuple[np.ndarray, np.ndarray], played: np.ndarray, force_limit: float,
-                         dt: float) -> PlayedCut:
+def locate_from_commands(path: Path, topic: str, row_log: np.ndarray,
+                         commands: tuple[np.ndarray, np.ndarray], played: np.ndarray,
+                         force_limit: float) -> PlayedCut:
     """The cut from the commands: the last ``played.size`` of them are the signal (module docstring)."""
     n = played.size
     order = np.argsort(commands[0], kind="stable")
@@ -174,23 +160,29 @@ def locate_from_commands(path: Path, topic: str, row_log: np.ndarray, effort: np
         raise BagError(f"bag {path}: the recording holds {row_log.size - start} samples from the first "
                        f"played command on, fewer than the {stop - start} played")
     held = held_commands(row_log[start:stop], cmd_ns, cmd_force, force_limit=force_limit, watchdog_s=0.0)
-    fit = _effort_follows(path, topic, held, effort[start:stop], dt)
-    return PlayedCut(start, stop, "commands", fit)
+    return PlayedCut(start, stop, "commands", float("nan"), topic, held)
 
 
-def _effort_follows(path: Path, topic: str, held: np.ndarray, effort: np.ndarray, dt: float) -> float:
-    """Fit (%) of the actuator that maps the held commands onto the effort; below the threshold: refused."""
-    if not np.isfinite(effort).any() or float(np.ptp(effort)) == 0.0:
-        return float("nan")  # no effort, or a constant one (no excitation: refused by the record's check)
+def confirm_by_effort(path: Path, cut: PlayedCut, effort: np.ndarray, dt: float) -> PlayedCut:
+    """The cut, once the effort over it follows the commands held there (else a one-line BagError).
+
+    ``effort`` is the recorded effort over the cut. The fit is the actuator's that maps the held
+    commands onto it (:func:`~msd_bench.core.actuation.effort_agreement`): a cut off by more than
+    a few samples leaves the effort unexplained. A constant effort (no excitation) or none is left
+    to the record's own check.
+    """
+    effort = np.asarray(effort, dtype=np.float64)
+    if cut.held is None or not np.isfinite(effort).any() or float(np.ptp(effort)) == 0.0:
+        return cut
     try:
-        agreement = effort_agreement(held, effort, dt)
+        agreement = effort_agreement(cut.held, effort, dt)
     except InvalidInputError as exc:
         raise BagError(f"bag {path}: cannot check the cut against the recorded effort: {exc}") from None
     if agreement.fit_percent < MIN_AGREEMENT:
-        raise BagError(f"bag {path}: over the cut from the commands on {topic} the recorded effort does not "
-                       f"follow them (fit {agreement.fit_percent:.1f} % < {MIN_AGREEMENT:.0f} %): the played "
-                       f"samples cannot be located")
-    return float(agreement.fit_percent)
+        raise BagError(f"bag {path}: over the cut from the commands on {cut.topic} the recorded effort does "
+                       f"not follow them (fit {agreement.fit_percent:.1f} % < {MIN_AGREEMENT:.0f} %): the "
+                       f"played samples cannot be located")
+    return replace(cut, match=float(agreement.fit_percent))
 
 
 def locate_from_effort(path: Path, effort: np.ndarray, played: np.ndarray) -> PlayedCut | None:

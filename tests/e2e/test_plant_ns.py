@@ -18,7 +18,7 @@ from msd_bench.core import excitation as exc
 from msd_bench.graph import launch
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bags import bag_info, read_experiment
-from msd_bench.io.played import locate_from_bag, played_signal
+from msd_bench.io.played import confirm_by_effort, locate_from_bag, played_signal
 from msd_msgs_py.interface import MSD_INTERFACE
 from tests.e2e.realtime_runs import PLANT_NS, PLM_LOOK, PLM_NS, R2C_FACE, REPO, Run
 
@@ -124,7 +124,9 @@ def test_every_bias_bag_is_cut_on_its_first_played_sample(plm_run) -> None:  # t
         assert signal is not None, bag.name
         played = played_signal(signal, 10.0)
         cut = locate_from_bag(bag, MSD_INTERFACE, PLM_NS, played, 10.0)
-        assert cut is not None and cut.found_by == "commands" and cut.match > 80.0, (bag.name, cut)
+        assert cut is not None and cut.found_by == "commands", bag.name
+        cut = confirm_by_effort(bag, cut, exp.u[cut.rows], 0.01)
+        assert cut.match > 80.0, (bag.name, cut)  # the rig's actuator explains its effort over the cut
         assert played.size <= cut.stop - cut.start <= 1.2 * played.size
         if params.get("bias") is not None:
             first_nonzero = int(np.flatnonzero(exp.u)[0])
