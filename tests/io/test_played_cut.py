@@ -19,6 +19,7 @@ import pytest
 
 from msd_bench.core import excitation as exc
 from msd_bench.core.plant import PlantParams, simulate
+from msd_bench.graph.record import recorded_topics
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bag_records import BagRole, load_records
 from msd_bench.io.bag_writer import write_interface_experiment
@@ -257,3 +258,16 @@ def test_a_record_without_excitation_names_its_bag_and_record(tmp_path: Path) ->
     with pytest.raises(BagError, match=r"flat \(train record at bias -5 N\): no excitation: the force is "
                                        r"constant at -5"):
         load_records([_role(bag)], False, "/rig")
+
+
+def test_real_time_recordings_hold_the_commands_on_every_face() -> None:
+    """The msd face records `force` beside joint_states in real time, as ros2_control records its
+    commands; a lock-step bag (exactly the played samples) goes without on the msd face."""
+    assert [t.name for t in recorded_topics(False, MSD_INTERFACE, lockstep=False)] == [
+        "joint_states", "force"]
+    assert [t.name for t in recorded_topics(True, MSD_INTERFACE, lockstep=False)] == [
+        "joint_states", "truth/joint_states", "force"]
+    assert [t.name for t in recorded_topics(False, MSD_INTERFACE, lockstep=True)] == ["joint_states"]
+    r2c = make("ros2_control")
+    assert [t.name for t in recorded_topics(False, r2c, lockstep=False)] == [
+        "joint_states", "effort_controller/commands"]
