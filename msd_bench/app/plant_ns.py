@@ -104,6 +104,21 @@ def hardware_scenario(text: str) -> Scenario:
     return sc
 
 
+def check_node_scenarios(scenarios: Sequence[str], kinds: Sequence[str], episode_s: float) -> None:
+    """Every scenario is one a rig can be given; a disturbance must start within the episode.
+
+    The timing is checked only when some kind of the run is validated under the scenarios
+    (``kinds``): without one no episode runs under them (``--agents plm`` leaves the default
+    ``disturbance=2@15`` unused), so a shortened ``--validation-steps`` is no mistake.
+    """
+    for text in scenarios:
+        sc = hardware_scenario(text)
+        if kinds and sc.disturbance != 0.0 and sc.disturbance_time >= episode_s:
+            raise ConfigError(f"scenario {sc.id!r}: the disturbance starts at {sc.disturbance_time:g} s, "
+                              f"after the {episode_s:g} s validation episode ends; shorten its time or give "
+                              f"other --node-scenarios")
+
+
 @dataclass(frozen=True)
 class Duration:
     """The real-time parts of a ``--plant-ns`` run, seconds (CPU-bound identification and training

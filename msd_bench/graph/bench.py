@@ -36,7 +36,7 @@ from typing import Any
 
 from msd_bench.app.agents import PLANT, agent_kind
 from msd_bench.app.config import RunConfig
-from msd_bench.app.plant_ns import hardware_scenario
+from msd_bench.app.plant_ns import check_node_scenarios
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.registry import needs_bias_records
 from msd_bench.graph.jobs import Job, JobServer, last_line
@@ -104,13 +104,8 @@ class BenchConfig:
                               "--plant-ns")
         if not self.realtime:
             raise ConfigError("--plant-ns runs in real time")
-        length = self.run.validation_steps * self.run.plant.dt
-        for text in self.node_scenarios:
-            sc = hardware_scenario(text)
-            if sc.disturbance != 0.0 and sc.disturbance_time >= length:
-                raise ConfigError(f"scenario {sc.id!r}: the disturbance starts at {sc.disturbance_time:g} s, "
-                                  f"after the {length:g} s validation episode ends; shorten its time or give "
-                                  f"other --node-scenarios")
+        check_node_scenarios(self.node_scenarios, self.scenario_kinds,
+                             self.run.validation_steps * self.run.plant.dt)
         stray = [k for k in self.scenario_kinds if k not in self.run.agents]
         if stray:
             raise ConfigError(f"--scenario-kinds {stray[0]!r} is not among the run's agent kinds")

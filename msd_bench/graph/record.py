@@ -23,8 +23,11 @@ recorded (the truth for scoring only), and the start-at-rest check reads the
 truth, since a measured x_0 is noise.
 
 Real-time mode (``lockstep=False``) records the free-running plant from the
-recorder's start to its stop, so the check is weaker: no gap in the stamps and
-at least as many samples as commands.
+recorder's start to its stop, and the face's command topic beside
+``joint_states`` (as a rosbag2 user records a rig), so the check is another:
+no gap in the stamps, and the played samples located from the recorded
+commands (the last N are the signal) and matching the signal over the cut
+(:mod:`msd_bench.io.played`).
 """
 
 from __future__ import annotations
@@ -48,6 +51,7 @@ from msd_bench.graph.jobs import Job, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, ProcessSet
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bags import bag_info, read_topic
+from msd_bench.io.played import confirm_by_effort, locate_from_bag
 from msd_msgs_py.contract import (
     JOINT_STATES,
     LOCKSTEP_COMMAND_DEPTH,
@@ -67,6 +71,10 @@ RECORD_WINDOW = LOCKSTEP_COMMAND_DEPTH // 2
 excitation and the recorder then work at once instead of taking turns (benchmarks/bench_record.py
 times it against one exchange per command). Half the plant's command history, for margin: 128, where
 32 recorded the paper's plan 15 % slower on this machine (measured A/B, same run)."""
+REALTIME_TAIL_S = 0.3
+"""Seconds a real-time recorder keeps recording after the excitation's last command: the row that
+holds it comes up to a sample (plus the node's publish jitter) later, and the played samples are
+located up to it (:mod:`msd_bench.io.played`); a recorder stopped at once had 2 rows to spare."""
 REST_TIMEOUT = 30.0
 """Seconds of zero force a node without reset gets to come to rest before an experiment plays anyway."""
 _TOPICS = (JOINT_STATES,)
@@ -75,9 +83,19 @@ _TRUTH_TOPICS = (JOINT_STATES, TRUTH_JOINT_STATES)
 """Recorded from a plant with a sensor: the measured rows and, for scoring only, the true ones."""
 
 
-def recorded_topics(truth: bool) -> tuple[TopicSpec, ...]:
-    """The topics a bag holds: ``joint_states``, plus ``truth/joint_states`` from a plant with a sensor."""
-    return _TRUTH_TOPICS if truth else _TOPICS
+def recorded_topics(truth: bool, iface: PlantInterface = MSD_INTERFACE,
+                    lockstep: bool = True) -> tuple[TopicSpec, ...]:
+    """The topics a bag holds: ``joint_states`` (+ ``truth/joint_states`` from a plant with a sensor),
+    and the face's command topic beside them in real time or when the effort is measured.
+
+    Why the commands: a measured effort's applied force is rebuilt from them, and in real time they
+    are what locates the played samples in a recording that starts before them
+    (:mod:`msd_bench.io.played`). A lock-step bag is exactly the played samples, so it goes without.
+    """
+    topics = _TRUTH_TOPICS if truth else _TOPICS
+    if not (lockstep and iface.effort_is_commanded):
+        topics = (*topics, iface.command)
+    return topics
 
 
 class RecordError(MsdBenchError):
@@ -261,9 +279,7 @@ def record_one(
     t0 = time.monotonic()
     # Both start at once; the excitation waits until the recorder's reader is in the graph,
     # then settles before playing.
-    topics = recorded_topics(truth)
-    if not iface.effort_is_commanded:
-        topics = (*topics, iface.command)  # a measured effort: the applied force is rebuilt from these
+    topics = recorded_topics(truth, iface, lockstep)
     pooled = ["-p", f"pooled:={str(lockstep).lower()}"]  # lock-step: keep matched endpoints across jobs
     rec = servers.recorder.submit(
         [*_recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
@@ -331,13 +347,16 @@ def _expect(spec: ExperimentSpec, wait: Callable[..., Any], *args: Any) -> Any:
 
 
 def _finish_recorder(rec: Job, lockstep: bool) -> None:
-    """Let a lock-step recorder reach ``max_messages`` by itself; else close it (as Ctrl-C would)."""
+    """Let a lock-step recorder reach ``max_messages`` by itself; else close it (as Ctrl-C would),
+    in real time after :data:`REALTIME_TAIL_S`, so the rows that hold the last commands are in."""
     if lockstep:
         try:
             rec.wait(10.0)
             return
         except LaunchError:
             pass  # a message was lost: stop it cleanly, the check below names what is missing
+    else:
+        time.sleep(REALTIME_TAIL_S)
     rec.stop()
 
 
@@ -355,9 +374,14 @@ def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: 
         counts = {t: info.get(t.resolve(namespace), ("", 0))[1] for t in topics}
         if not counts[JOINT_STATES]:
             raise SampleLossError(f"experiment {spec.name}: bag {bag} has no joint_states sample")
-        # our joint by name; a measured effort must be explained by the recorded commands
+        # real time: the played samples located from the recorded commands, and checked against u
+        cut = None if dt is None else locate_from_bag(bag, iface, namespace, u, force_limit)
+        # our joint by name; a measured effort must be explained by the recorded commands (over the cut)
         experiment, _, _ = read_interface_experiment(bag, iface, namespace, force_limit=force_limit,
-                                                     force_input="held")
+                                                     force_input="held",
+                                                     played=None if cut is None else cut.rows)
+        if cut is not None and iface.effort_is_commanded:  # a measured effort was checked when rebuilt
+            confirm_by_effort(bag, cut, experiment.u, dt or 0.01)
     except SampleLossError:
         raise
     except MsdBenchError as err:
@@ -381,3 +405,6 @@ def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: 
     stamps = np.sort([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs])
     if len(experiment) < u.size or np.max(np.diff(stamps)) > 1.5e9 * dt:
         raise RecordError(f"experiment {spec.name}: real-time recording has gaps or too few samples")
+    if cut is None:
+        raise RecordError(f"experiment {spec.name}: bag {bag} holds no more samples than were played, "
+                          f"or not its commands: the played samples cannot be located")

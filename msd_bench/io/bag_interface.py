@@ -94,6 +94,7 @@ def read_interface_experiment(
     min_agreement: float = MIN_AGREEMENT,
     force_input: str = "applied",
     samples: BagSamples | None = None,
+    played: slice | None = None,
 ) -> tuple[Experiment, dict[str, Any], ForceSource]:
     """Input and position of our joint from ``<namespace>/joint_states`` (+ commands), in stamp order.
 
@@ -103,6 +104,8 @@ def read_interface_experiment(
     (:data:`FORCE_INPUTS`) says how a measured-effort bag's input is rebuilt. ``samples``, what
     :func:`~msd_bench.io.bags.read_samples` already read from this bag under ``namespace``, spares
     the msd face with commanded effort a second read (any other face reads the bag itself).
+    ``played`` keeps only those rows (in stamp order): a real-time recording's played samples
+    (:mod:`msd_bench.io.played`), so a measured effort is fitted to the commands over them alone.
     """
     path = Path(path)
     state_topic = iface.state.resolve(namespace)
@@ -111,6 +114,8 @@ def read_interface_experiment(
             exp, params = samples.experiment(timing)
         else:
             exp, params = read_experiment(path, namespace, timing=timing)
+        if played is not None:
+            exp = exp.segment(played.start, played.stop)
         return exp, params, ForceSource(str(path), "effort", state_topic)
     command_topic = iface.command.resolve(namespace)
     with _open_bag(path) as reader:
@@ -119,6 +124,8 @@ def read_interface_experiment(
         params = _params(path, reader)
     check_timing(path, rows.stamps, READ if timing is None else timing)
     rows = rows.ordered()
+    if played is not None:
+        rows = _States(rows.stamps[played], rows.log_ns[played], rows.x[played], rows.effort[played])
     if commands is None:
         u, source = rows.effort, ForceSource(str(path), "effort", state_topic)
     else:

@@ -21,31 +21,39 @@ from msd_bench.core.operating_points import PLM_BIASES
 from msd_bench.core.records import Records
 from msd_bench.io.bag_interface import ForceSource, read_interface_experiment
 from msd_bench.io.bag_recover import RECOVERED_SUFFIX
-from msd_bench.io.bag_timing import DEFAULT_DT, IDENTIFY, READ
+from msd_bench.io.bag_timing import DEFAULT_DT, IDENTIFY, READ, TimingPolicy
 from msd_bench.io.bags import BagSamples, missing_metadata, read_samples
 from msd_bench.io.errors import BagError
+from msd_bench.io.played import confirm_by_effort, locate_from_bag, locate_from_effort, played_signal
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
 
-def align_to_played(exp: Experiment, params: Mapping[str, Any], force_limit: float = 10.0) -> Experiment:
-    """Cut a real-time recording to the samples the excitation played.
+def align_to_played(exp: Experiment, params: Mapping[str, Any], force_limit: float = 10.0,
+                    path: str | Path = "") -> Experiment:
+    """Cut a real-time recording without its commands to the samples the excitation played.
 
-    A real-time recorder runs from before the first command to after the last,
-    so the bag holds rest samples before and a hold-then-watchdog tail after.
-    The played signal is rebuilt from the bag's parameters; its first non-zero
-    force marks the same instant in the recorded effort. Lock-step bags (exactly
-    the played samples) and bags without parameters are returned unchanged.
+    The played signal is rebuilt from the bag's parameters and saturated at the
+    run's ``force_limit``; the cut is where the recorded effort best matches all
+    of it (:func:`msd_bench.io.played.locate_from_effort`; an ambiguous match is a
+    BagError naming ``path``). A bag that holds its commands is cut from them
+    instead, before it is read (:func:`load_records`). Lock-step bags (exactly the
+    played samples) and bags without parameters are returned unchanged.
     """
     signal = signal_from_params(dict(params))
     if signal is None or len(exp) <= signal.size:
         return exp
-    played = np.clip(signal, -force_limit, force_limit)
-    first_played = int(np.flatnonzero(played)[0]) if np.any(played) else 0
-    nonzero = np.flatnonzero(exp.u)
-    if nonzero.size == 0:
-        return exp
-    start = max(0, int(nonzero[0]) - first_played)
-    return exp.segment(start, start + signal.size)
+    cut = locate_from_effort(Path(path or exp.name), exp.u, played_signal(signal, force_limit))
+    return exp if cut is None else exp.segment(cut.start, cut.stop)
+
+
+def _played(role: BagRole, force_limit: float) -> np.ndarray | None:
+    """The saturated signal a bag of ours played, if it may need a cut (None: lock-step or foreign)."""
+    if role.params is None:
+        return None
+    signal = signal_from_params(dict(role.params))
+    if signal is None or (role.samples is not None and len(role.samples.rows) <= signal.size):
+        return None  # exactly the played samples (lock-step), known without reading the bag again
+    return played_signal(signal, force_limit)
 
 
 @dataclass(frozen=True)
@@ -136,26 +144,27 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
     The sample period comes from each bag's header stamps and must be the run's
     ``dt``: a bag at another rate is an error naming both periods, and bunched or
     missing samples are an error too (:func:`msd_bench.io.bag_timing.check_timing`)
-    — never resampled silently. A real-time bag is cut to the played samples by
-    :func:`align_to_played`; its first sample need not be at rest at 0 (the fits
-    estimate each record's initial state).
+    — never resampled silently. A real-time bag is cut to the played samples
+    (:mod:`msd_bench.io.played`: from its recorded commands, else from its effort by
+    :func:`align_to_played`; an ambiguous cut is an error naming the bag); its first
+    sample need not be at rest at 0 (the fits estimate each record's initial state).
+    A record whose force or position is constant after the cut is an error naming
+    the bag and the record, before any fit.
 
     ``iface`` says how the bags' plant showed itself and ``force_input`` how a measured effort's
     input is rebuilt (docs/ros2-control.md §Force); the input each bag gave is appended to
     ``sources`` when given.
     """
     data: dict[tuple[str, float | None], IOData] = {}
+    timing = replace(IDENTIFY, dt=dt)
     for r in roles:
-        exp, _, src = read_interface_experiment(r.path, iface, namespace, timing=replace(IDENTIFY, dt=dt),
-                                                force_limit=force_limit, force_input=force_input,
-                                                samples=r.samples)
+        exp, src = _played_experiment(r, iface, namespace, timing, force_limit, force_input)
         if sources is not None:
             sources.append(src)
-        if r.params is not None:
-            exp = align_to_played(exp, r.params)
         if r.settle >= len(exp) - 3:
             raise BagError(f"{r.path}: {len(exp)} samples, fewer than the {r.settle} settle samples to drop")
         trimmed = exp.segment(r.settle)  # keeps the truth of an emulator's sensor bag, if any
+        _check_excitation(r, trimmed)
         data[(r.role, r.bias)] = IOData((trimmed,), dt, {"bag": str(r.path)})
     for role in ("train", "validation"):
         if (role, None) not in data:
@@ -166,3 +175,34 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
         raise BagError(f"PLM needs training bags at biases {list(PLM_BIASES)}; missing {missing}")
     bias_val = {b: data[("validation", b)] for b in PLM_BIASES if ("validation", b) in data}
     return Records(bias_train, bias_val, data[("train", None)], data[("validation", None)])
+
+
+def _played_experiment(r: BagRole, iface: PlantInterface, namespace: str, timing: TimingPolicy,
+                       force_limit: float, force_input: str) -> tuple[Experiment, ForceSource]:
+    """One bag's experiment over its played samples, and the force it gave as input."""
+    played = _played(r, force_limit)
+    cut = None if played is None else locate_from_bag(r.path, iface, namespace, played, force_limit)
+    exp, _, src = read_interface_experiment(r.path, iface, namespace, timing=timing, force_limit=force_limit,
+                                            force_input=force_input, samples=r.samples,
+                                            played=None if cut is None else cut.rows)
+    if cut is not None and iface.effort_is_commanded:  # a measured effort was checked when rebuilt
+        confirm_by_effort(r.path, cut, exp.u, timing.dt)
+    if r.params is not None and cut is None:
+        exp = align_to_played(exp, r.params, force_limit, r.path)  # no commands in the bag: by its effort
+    return exp, src
+
+
+def record_name(role: BagRole) -> str:
+    """How errors name a record: its role and bias, e.g. ``train record at bias -5 N``."""
+    return f"{role.role} record " + ("(broad range)" if role.bias is None else f"at bias {role.bias:g} N")
+
+
+def _check_excitation(role: BagRole, exp: Experiment) -> None:
+    """A record the fits cannot use (constant force or position) is refused here, naming its bag.
+
+    Why here: the fits would refuse it too, but without knowing which bag it came from.
+    """
+    for what, values in (("force", exp.u), ("position", exp.y)):
+        if values.size and float(np.ptp(values)) == 0.0:
+            raise BagError(f"bag {role.path} ({record_name(role)}): no excitation: the {what} is constant "
+                           f"at {values[0]:g} over its {values.size} samples")

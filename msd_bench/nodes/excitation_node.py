@@ -18,6 +18,12 @@ real-time it publishes at 1/dt Hz on a steady-clock timer. A node without
 its position is still (:mod:`msd_bench.core.rest`); the signal then plays from
 wherever the mass rests (``x0`` is logged, never assumed).
 
+What a recording relies on: in real time, after the rest's zero commands and the
+settle's silence, the node sends exactly the signal's N commands, each once, and nothing
+after them, so the last N commands a recorder stored are the signal and the
+first of them marks the first played sample of a real-time bag
+(:mod:`msd_bench.io.played`).
+
 Done signal: when the whole signal is played the node logs
 ``excitation done: N commands`` and its ``done`` future completes with 0,
 so :func:`msd_bench.nodes.spin.main` returns and the process exits with

@@ -12,7 +12,7 @@ it runs, logs and is configured like every other part of the bench.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,15 +21,15 @@ from rclpy.node import Node
 from rclpy.task import Future
 
 from msd_bench.app.pipeline import identify_surrogates
-from msd_bench.core.errors import ConfigError
+from msd_bench.core.errors import ConfigError, IdentificationError, InvalidInputError
 from msd_bench.core.identify import FitReport
 from msd_bench.core.model import StepModel
 from msd_bench.core.plant import PlantParams
-from msd_bench.core.registry import MODEL_KINDS, check_models, needs_bias_records
+from msd_bench.core.registry import MODEL_KINDS, check_models, model_kind, needs_bias_records
 from msd_bench.io import artifacts
 from msd_bench.io.atomic import write_text_atomic
 from msd_bench.io.bag_interface import FORCE_INPUTS, ForceSource
-from msd_bench.io.bag_records import explicit_roles, load_records, roles_from_dir
+from msd_bench.io.bag_records import BagRole, explicit_roles, load_records, record_name, roles_from_dir
 from msd_bench.io.paths import OutputError, writable_dir
 from msd_bench.io.run_output import write_models
 from msd_bench.nodes.interface_params import declare_interface
@@ -118,10 +118,24 @@ def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERF
         if on_saved is not None:
             on_saved(name, path)
 
-    _, fits = identify_surrogates(records, cfg.models, cfg.seed, rig, cfg.nlarx_scale, on_model=save)
+    fits: dict[str, FitReport] = {}
+    for name in cfg.models:  # one at a time, so a failed fit names its model and its bags
+        try:
+            _, fit = identify_surrogates(records, (name,), cfg.seed, rig, cfg.nlarx_scale, on_model=save)
+        except (IdentificationError, InvalidInputError) as err:
+            raise IdentificationError(f"fitting {name} on {_records_of(name, roles)}: {err}") from None
+        fits.update(fit)
     report = {name: asdict(f) for name, f in fits.items()}
     _written(lambda: _write_reports(out, report, iface, sources), out)
     return report
+
+
+def _records_of(model: str, roles: Sequence[BagRole]) -> str:
+    """The records (and their bags) a model kind is fitted on and scored against, for its errors."""
+    trains = "bias" if model_kind(model).records == "bias" else "broad"
+    used = [r for r in roles if (r.role == "validation" and r.bias is None)
+            or (r.role == "train" and (r.bias is None) == (trains == "broad"))]
+    return "; ".join(f"{record_name(r)} from bag {r.path}" for r in used)
 
 
 def _write_reports(out: Path, report: dict[str, Any], iface: PlantInterface,

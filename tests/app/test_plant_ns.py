@@ -110,6 +110,15 @@ def test_plant_ns_mistakes_are_one_line(argv: list[str], needle: str, tmp_path, 
     assert needle in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
 
 
+def test_a_default_scenario_no_kind_validates_under_does_not_refuse_a_short_episode(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """``--agents plm`` validates no kind under the default ``disturbance=2@15``: 5 s episodes are fine."""
+    cfg = _config(["--plant-ns", "/rig", "--agents", "plm", "--validation-steps", "500",
+                   "--out", str(tmp_path)])
+    assert cfg.scenario_kinds == () and cfg.run.validation_steps == 500
+    with pytest.raises(ConfigError, match="after the 5 s validation episode ends"):
+        _config(["--plant-ns", "/rig", "--agents", "plm,plm+robust", "--validation-steps", "500"])
+
+
 def test_plant_ns_keeps_the_callers_domain_and_discovery(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("ROS_DOMAIN_ID", "77")
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET")

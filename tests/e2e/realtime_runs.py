@@ -1,11 +1,14 @@
-"""The two real-time ``bench.py --plant-ns`` runs of the e2e tier, run side by side in the background.
+"""The three real-time ``bench.py --plant-ns`` runs of the e2e tier, run side by side in the background.
 
-Both are the README's short configuration against a separately started
+Two are the README's short configuration against a separately started
 real-time node: our plant under ``/fakerig`` (msd face) and the rig emulator's
-ros2_control face under ``/r2crig``. Each spends almost all its time waiting
-for real time (rests, recordings, validation runs at 100 Hz; about 0.7 of a
-core for the pair, over about 200 s), so they share one domain and are told
-apart by namespace only, as two benches on one network would.
+ros2_control face under ``/r2crig``. The third is issue 21's PLM route, the
+paper's best, at its short configuration (:data:`PLM_LOOK`) against the rig
+emulator's msd face under ``/plmrig``: it records all twelve experiments, the
+five bias records included, which only the PLM needs. Each spends almost all
+its time waiting for real time (rests, recordings, validation runs at 100 Hz;
+the PLM run about 6 min of it), so they share one domain and are told apart by
+namespace only, as benches on one network would.
 
 The suite starts them with the session (:class:`BackgroundPair`, from the root
 conftest) and runs the tests that read them last, so the rest of the suite runs
@@ -31,6 +34,10 @@ from msd_bench.graph.domains import claim_domain
 REPO = Path(__file__).resolve().parents[2]
 PLANT_NS = "/fakerig"
 R2C_NS = "/r2crig"
+PLM_NS = "/plmrig"
+PLM_LOOK = ("--samples", "600", "--val-samples", "400", "--seeds", "1", "--validation-steps", "500",
+            "--agents", "plm", "--node-scenarios", "setpoint=0.5")
+"""Issue 21's short configuration of the PLM route (the command a rig owner tried)."""
 R2C_FACE = ["--interface", "ros2_control", "--controller", "effort_controller", "--joint", "slider_to_cart"]
 TARGET = os.environ.get("MSD_PLANT_NS_TARGET", "plant")
 """``plant`` (our plant node, real time, under PLANT_NS) or the path of another plant-like launch
@@ -53,9 +60,9 @@ def _target() -> tuple[str, list[str]]:
     return str(REPO / TARGET), ["-r", f"__ns:={PLANT_NS}"]
 
 
-def _bench(ns: str, out: Path, face: list[str], domain: int) -> subprocess.Popen[str]:
-    argv = [sys.executable, "launch_scripts/bench.py", "--plant-ns", ns, *face, "--out", str(out),
-            *QUICK_LOOK]
+def _bench(ns: str, out: Path, face: list[str], domain: int,
+           look: tuple[str, ...] = QUICK_LOOK) -> subprocess.Popen[str]:
+    argv = [sys.executable, "launch_scripts/bench.py", "--plant-ns", ns, *face, "--out", str(out), *look]
     # the caller's environment and ROS_DOMAIN_ID (the bench claims none with --plant-ns)
     return subprocess.Popen(argv, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env=launch.ros_env(domain))
@@ -83,10 +90,14 @@ def _claim_other_domain() -> tuple[int, IO[str]]:
 
 
 class BackgroundPair:
-    """Both runs in a thread of their own: :meth:`start`, then :meth:`result` (waits), :meth:`close`."""
+    """The runs in a thread of their own: :meth:`start`, then :meth:`result` (waits), :meth:`close`.
+
+    (Named for the first two; the PLM run joined them.)
+    """
 
     def __init__(self, root: Path, timeout: float = 1500.0) -> None:
-        self.outs = {"plant": root / "plant_ns" / "run", "r2c": root / "r2c" / "run"}
+        self.outs = {"plant": root / "plant_ns" / "run", "r2c": root / "r2c" / "run",
+                     "plm": root / "plm" / "run"}
         self.timeout = timeout
         self.domain, self._lock = _claim_other_domain()
         self._benches: list[subprocess.Popen[str]] = []
@@ -100,11 +111,11 @@ class BackgroundPair:
         return self
 
     def result(self) -> dict[str, Run]:
-        """Both runs, keyed ``plant`` and ``r2c`` (waits for them to end)."""
+        """Every run, keyed ``plant``, ``r2c`` and ``plm`` (waits for them to end)."""
         self._thread.join(self.timeout + 120.0)
         if self._error is not None:
             raise RuntimeError(f"the real-time runs could not run: {self._error!r}") from self._error
-        if self._thread.is_alive() or len(self._runs) != 2:
+        if self._thread.is_alive() or len(self._runs) != len(self.outs):
             raise RuntimeError("the real-time runs did not end")
         return self._runs
 
@@ -128,19 +139,21 @@ class BackgroundPair:
                 popen.kill()
 
     def _run(self) -> None:
-        """Start both nodes, then both bench runs; wait for both; stop the nodes."""
+        """Start the nodes, then the bench runs; wait for all; stop the nodes."""
         try:
             with launch.process_group(self.domain) as procs:
                 script, args = _target()
                 r2c_rig = ["-p", "interface:=ros2_control", "-r", f"__ns:={R2C_NS}"]
-                nodes = [procs.start(script, args, name="target"), procs.start("rig.py", r2c_rig, name="rig")]
+                nodes = [procs.start(script, args, name="target"), procs.start("rig.py", r2c_rig, name="rig"),
+                         procs.start("rig.py", ["-r", f"__ns:={PLM_NS}"], name="plm-rig")]
                 for node in nodes:
                     node.wait_for_line(r"ready", timeout=60.0)
                 if self._closed.is_set():
                     return
-                faces = {"plant": (PLANT_NS, []), "r2c": (R2C_NS, R2C_FACE)}
-                running = {name: _bench(ns, self.outs[name], face, self.domain)
-                           for name, (ns, face) in faces.items()}
+                faces = {"plant": (PLANT_NS, [], QUICK_LOOK), "r2c": (R2C_NS, R2C_FACE, QUICK_LOOK),
+                         "plm": (PLM_NS, [], PLM_LOOK)}
+                running = {name: _bench(ns, self.outs[name], face, self.domain, look)
+                           for name, (ns, face, look) in faces.items()}
                 self._benches.extend(running.values())
                 if self._closed.is_set():  # close() ran meanwhile and may have missed them
                     self._stop_benches()
