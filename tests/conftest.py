@@ -32,7 +32,8 @@ def _reads_realtime_runs(item: pytest.Item) -> bool:
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """The tests that read the real-time runs go last (stable otherwise): the runs start with the
-    session and take about 200 s of real time, which the rest of the suite spends working."""
+    session and take about 320 s of real time (three runs, the PLM route among them), which the
+    rest of the suite spends working."""
     items.sort(key=_reads_realtime_runs)
 
 
