@@ -32,9 +32,10 @@ import numpy as np
 from msd_bench.core.actuation import EffortAgreement, actuator_force, effort_agreement, held_commands
 from msd_bench.core.data import Experiment
 from msd_bench.core.errors import InterfaceError, MsdBenchError
+from msd_bench.io.bag_open import open_bag
 from msd_bench.io.bag_timing import READ, TimingPolicy, check_timing
 from msd_bench.io.bag_writer import typestore
-from msd_bench.io.bags import BagSamples, _open_bag, _params, _topic_list, decode_joint_state, read_experiment
+from msd_bench.io.bags import BagSamples, _params, _topic_list, decode_joint_state, read_experiment
 from msd_bench.io.errors import BagError
 from msd_msgs_py.contract import PLANT_NAMESPACE
 from msd_msgs_py.interface import MSD, MSD_INTERFACE, PlantInterface
@@ -113,7 +114,7 @@ def read_interface_experiment(
             exp, params = read_experiment(path, namespace, timing=timing)
         return exp, params, ForceSource(str(path), "effort", state_topic)
     command_topic = iface.command.resolve(namespace)
-    with _open_bag(path) as reader:
+    with open_bag(path) as reader:
         rows = _state_rows(path, reader, iface, state_topic)
         commands = None if iface.effort_is_commanded else _command_rows(path, reader, iface, command_topic)
         params = _params(path, reader)
