@@ -25,14 +25,20 @@ from __future__ import annotations
 
 import io
 import struct
+from dataclasses import replace
 from pathlib import Path
 from types import TracebackType
 
 import lz4.frame
 import zstandard
+from mcap.exceptions import McapError
+from mcap.records import Chunk, McapRecord
+from mcap.stream_reader import breakup_chunk
 
-MAX_CHUNK_BYTES = 256 << 20
-"""Largest uncompressed chunk read (256 MiB): rosbag2 and our writer make chunks of about 1 MiB."""
+MAX_CHUNK_BYTES = 64 << 20
+"""Largest uncompressed chunk read (64 MiB): rosbag2's MCAP writer makes chunks of 768 KiB, ours of 1 MiB."""
+_PIECE = 1 << 20
+"""Bytes decompressed per step, so memory grows with the real output, not with a claimed size."""
 
 _OP_CHUNK = 0x06
 _OP_FOOTER = 0x02
@@ -48,44 +54,52 @@ class McapBoundError(ValueError):
     """An MCAP file claims more than it holds, or more than a reader will allocate."""
 
 
-class BoundedFile(io.RawIOBase):
+MCAP_ERRORS = (McapError, struct.error, EOFError, ValueError, OSError)
+"""What the ``mcap`` library raises on a damaged file: its own ``McapError`` family (``InvalidMagic``,
+``EndOfFile``, ``RecordLengthLimitExceeded``), ``struct.error`` on a short field, ``ValueError``
+(``CRCValidationError``, a bad UTF-8 string, an unknown opcode, :class:`McapBoundError`) and
+``OSError`` (seeking to the footer of a file shorter than one)."""
+
+
+class BoundedFile:
     """A read-only file whose reads never ask for more bytes than are left in it.
 
     Why a wrapper and not a check: the libraries read lengths straight from the
     file and call ``read(length)``; clamping here keeps their own short-read
     errors (``ReaderError``, ``EndOfFile``) while a lying length costs nothing.
+    Deliberately not an ``io.RawIOBase``: ``mcap`` would wrap one in a
+    ``BufferedReader``, whose ``read(n)`` allocates ``n`` bytes first.
     """
 
     def __init__(self, path: Path) -> None:
-        super().__init__()
         self._fh = Path(path).open("rb")  # noqa: SIM115 (closed by close())
         self.size = self._fh.seek(0, io.SEEK_END)
         self._fh.seek(0)
 
     def readable(self) -> bool:
+        """Always: the file is open for reading."""
         return True
 
     def seekable(self) -> bool:
+        """Always: the file is a regular file (so ``mcap`` picks its seeking reader)."""
         return True
 
     def read(self, size: int | None = -1) -> bytes:
+        """At most ``size`` bytes, and never more than are left."""
         left = max(0, self.size - self._fh.tell())
         return self._fh.read(left if size is None or size < 0 else min(size, left))
 
-    def readinto(self, buffer: bytearray | memoryview) -> int:  # type: ignore[override]
-        data = self.read(len(buffer))
-        buffer[: len(data)] = data
-        return len(data)
-
     def seek(self, offset: int, whence: int = io.SEEK_SET) -> int:
+        """As ``file.seek``."""
         return self._fh.seek(offset, whence)
 
     def tell(self) -> int:
+        """As ``file.tell``."""
         return self._fh.tell()
 
     def close(self) -> None:
+        """Close the file."""
         self._fh.close()
-        super().close()
 
     def __enter__(self) -> BoundedFile:
         return self
@@ -123,7 +137,7 @@ def _zstd(data: bytes, limit: int) -> bytes:
     got = 0
     try:
         with zstandard.ZstdDecompressor().stream_reader(io.BytesIO(data), read_across_frames=True) as rd:
-            while got < limit and (part := rd.read(limit - got)):
+            while got < limit and (part := rd.read(min(limit - got, _PIECE))):
                 parts.append(part)
                 got += len(part)
     except zstandard.ZstdError as exc:
@@ -186,3 +200,13 @@ def _check_chunk(fh: BoundedFile, body: int, length: int) -> None:
                              f"claimed, the record holds fewer")
     if compression:
         inflate(compression, fh.read(compressed), size)
+
+
+def chunk_records(chunk: Chunk) -> list[McapRecord]:
+    """The records of an ``mcap`` chunk, decompressed by :func:`inflate` (bounded), CRC checked.
+
+    Why not ``breakup_chunk`` on the chunk itself: it sizes its output by what the chunk claims.
+    """
+    data = inflate(chunk.compression, chunk.data, chunk.uncompressed_size)
+    plain = replace(chunk, compression="", data=data)
+    return breakup_chunk(plain, validate_crc=True)
