@@ -265,8 +265,14 @@ def scratch() -> Iterator[Path]:
 
 
 def _copy(src: Path, scratch: Path) -> Path:
-    """A fresh copy of a starting point's directory; returns the copy of ``src`` in it."""
-    case = scratch / f"case{len(list(scratch.iterdir()))}"
+    """A fresh copy of a starting point's directory; returns the copy of ``src`` in it.
+
+    The previous case's copy is removed first: the examples of one test share ``scratch``, and
+    the long profile runs 10,000 of them.
+    """
+    for old in scratch.iterdir():
+        shutil.rmtree(old, ignore_errors=True)
+    case = scratch / "case"
     shutil.copytree(src.parent, case)
     return case / src.name
 
