@@ -238,7 +238,8 @@ def config_from_params(params: Mapping[str, object]) -> tuple[SignalConfig, int]
     known = {f.name for f in fields(_CONFIGS[kind])}
     unknown = sorted(str(k) for k in raw if k not in known)
     if unknown:
-        raise ConfigError(f"{kind} has no field {', '.join(unknown)} (fields: {', '.join(sorted(known))})")
+        names = ", ".join(k if k.isidentifier() else repr(k)[:40] for k in unknown[:5])
+        raise ConfigError(f"{kind} has no field {names} (fields: {', '.join(sorted(known))})")
     values = {str(k): tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
     try:
         cfg = _CONFIGS[kind](**values)

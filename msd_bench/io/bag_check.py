@@ -25,7 +25,7 @@ from mcap.records import Channel, Chunk, Footer, McapRecord, Message
 from mcap.stream_reader import CRCValidationError, StreamReader
 from mcap.summary import Summary
 
-from msd_bench.io.bag_meta import BagMetadata, read_metadata
+from msd_bench.io.bag_meta import BagMetadata, read_metadata, shown
 from msd_bench.io.bag_recover import mcap_file
 from msd_bench.io.errors import BagError
 from msd_bench.io.mcap_guard import MCAP_ERRORS, BoundedFile, chunk_records
@@ -172,7 +172,7 @@ def _check_metadata(bag_dir: Path, report: CheckReport) -> None:
         claimed[topic.name] += topic.count
     for name in sorted(set(claimed) | set(report.topics)):
         if claimed[name] != report.topics[name]:
-            report.problems.append(f"metadata.yaml says {claimed[name]} messages on {name}, "
+            report.problems.append(f"metadata.yaml says {claimed[name]} messages on {shown(name)}, "
                                    f"the data holds {report.topics[name]}")
     _check_times(meta, report)
 
@@ -198,7 +198,7 @@ def _refuse_other_storage(path: Path) -> None:
     except BagError:
         return  # reported by _check_metadata with the rest
     if storage != "mcap":
-        raise BagError(f"bag {path} is stored as {storage[:40]}: bag check reads MCAP bags only")
+        raise BagError(f"bag {path} is stored as {shown(storage)}: bag check reads MCAP bags only")
 
 
 def check_bag(path: str | Path) -> CheckReport:

@@ -174,3 +174,8 @@ def params_from_custom(bag: Path, custom: object) -> dict[str, Any]:
         raise BagError(f"bag {bag}: custom_data {PARAMS_KEY} must be a JSON object, "
                        f"got {type(value).__name__}")
     return value
+
+
+def shown(text: str) -> str:
+    """A name read from a bag, fit for a one-line message: as is when printable, else its repr."""
+    return text[:200] if text.isprintable() else repr(text)[:200]

@@ -117,7 +117,7 @@ def _scan(mcap_file: Path) -> _Salvage:
                 if isinstance(record, DataEnd | Footer):
                     break
                 if isinstance(record, Chunk):
-                    inner = chunk_records(record)  # all or nothing
+                    inner = chunk_records(record, salvage=True)  # all or nothing
                     for rec in inner:
                         _take(salvage, rec)
                     salvage.chunks += 1

@@ -24,7 +24,7 @@ from rosbags.typesys.store import Typestore
 from msd_bench.core.data import Experiment
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.io import cdr
-from msd_bench.io.bag_meta import params_from_custom
+from msd_bench.io.bag_meta import params_from_custom, shown
 from msd_bench.io.bag_open import READ_ERRORS, open_bag
 from msd_bench.io.bag_open import missing_metadata as missing_metadata
 from msd_bench.io.bag_timing import READ, TimingPolicy, check_timing
@@ -72,7 +72,7 @@ def read_topic(path: str | Path, topic: str) -> tuple[np.ndarray, list[Any]]:
 
 
 def _topic_list(reader: Reader) -> str:
-    return ", ".join(sorted({c.topic for c in reader.connections})) or "none"
+    return ", ".join(sorted({shown(c.topic) for c in reader.connections})) or "none"
 
 
 def _params(path: Path, reader: Reader) -> dict[str, Any]:
@@ -171,7 +171,7 @@ def _rows(path: Path, reader: Reader, spec: TopicSpec, topic: str, *, required: 
         raise BagError(f"bag {path} has no topic {topic} (has: {_topic_list(reader)})")
     wrong = [c.msgtype for c in conns if c.msgtype != spec.ros_type]
     if wrong:
-        raise BagError(f"bag {path}: topic {topic} has type {wrong[0]}, expected {spec.ros_type}")
+        raise BagError(f"bag {path}: topic {topic} has type {shown(wrong[0])}, expected {spec.ros_type}")
     raws, failure = _raw_messages(reader, conns)
     rows = _columns_rows(raws) if failure is None else None
     if rows is None:

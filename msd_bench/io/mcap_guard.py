@@ -202,11 +202,16 @@ def _check_chunk(fh: BoundedFile, body: int, length: int) -> None:
         inflate(compression, fh.read(compressed), size)
 
 
-def chunk_records(chunk: Chunk) -> list[McapRecord]:
+def chunk_records(chunk: Chunk, *, salvage: bool = False) -> list[McapRecord]:
     """The records of an ``mcap`` chunk, decompressed by :func:`inflate` (bounded), CRC checked.
 
     Why not ``breakup_chunk`` on the chunk itself: it sizes its output by what the chunk claims.
+    ``salvage`` (``bag recover``) takes an uncompressed chunk's data as it is, whatever size it
+    claims: the data is already in memory, and its CRC decides whether it is whole.
     """
-    data = inflate(chunk.compression, chunk.data, chunk.uncompressed_size)
+    if salvage and chunk.compression == "":
+        data = chunk.data
+    else:
+        data = inflate(chunk.compression, chunk.data, chunk.uncompressed_size)
     plain = replace(chunk, compression="", data=data)
     return breakup_chunk(plain, validate_crc=True)
