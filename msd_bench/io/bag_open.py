@@ -91,9 +91,10 @@ def check_path(path: Path) -> BagMetadata | None:
         meta = read_metadata(path)
         for name in meta.files:
             data_file(path / name)
-        if meta.compression_mode.lower() == "file":
-            raise BagError(f"bag {path} is compressed as whole files: decompress it first "
-                           f"(`ros2 bag decompress {path}`)")
+        mode = meta.compression_mode.lower()
+        if mode in ("file", "message"):  # rosbags inflates those with no bound: a bomb fills the disk
+            raise BagError(f"bag {path} is compressed by {mode}: convert it to an uncompressed bag first "
+                           f"(`ros2 bag convert`); chunk-compressed MCAP bags are read as they are")
         return meta
     data_file(path)
     if path.suffix not in BAG_SUFFIXES:

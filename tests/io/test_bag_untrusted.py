@@ -133,6 +133,8 @@ def _info(doc: dict[str, Any]) -> dict[str, Any]:
     (lambda d: _info(d).update(message_count=-3), "message_count must be a count >= 0"),
     (lambda d: _info(d).update(custom_data=["x"]), "custom_data must map strings to strings"),
     (lambda d: _info(d).update(relative_file_paths=[7]), "relative_file_paths must list file names"),
+    (lambda d: _info(d).update(compression_mode="message", compression_format="zstd"),
+     "is compressed by message"),
     (lambda d: _info(d)["custom_data"].update({"msd_bench.params": "[" * 5000 + "]" * 5000}),
      "nested too deeply"),
     (lambda d: _info(d)["custom_data"].update({"msd_bench.params": "1" * 5000}), "not valid JSON"),
