@@ -43,6 +43,8 @@ def _info(args: argparse.Namespace) -> int:
 
 def _check(args: argparse.Namespace) -> int:
     report = check_bag(args.path)
+    for warning in report.warnings:
+        print(f"warning: {args.path}: {warning}", file=sys.stderr)
     if report.ok:
         print(f"ok: {args.path}: {report.messages} messages in {report.chunks} chunks; "
               f"CRCs, index and metadata.yaml agree")

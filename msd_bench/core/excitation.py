@@ -221,7 +221,7 @@ SignalConfig = PrbsConfig | MultilevelConfig | StepsConfig
 
 
 def config_from_params(params: Mapping[str, object]) -> tuple[SignalConfig, int] | None:
-    """The signal config and seed a bag's parameters describe, checked; None if they name no signal.
+    """The signal config and seed a bag's parameters describe, checked; None if they store no config.
 
     Why separate from :func:`signal_from_params`: a reader checks every field
     (kind, names, types, bounds, seed) before anything is allocated, and can
@@ -233,6 +233,8 @@ def config_from_params(params: Mapping[str, object]) -> tuple[SignalConfig, int]
     if not isinstance(kind, str) or kind not in _CONFIGS:
         raise ConfigError(f"signal must be one of {', '.join(_CONFIGS)}, got {kind!r}")
     raw = params.get(kind)
+    if raw is None:
+        return None  # the kind is named but its config was not stored: nothing to rebuild
     if not isinstance(raw, Mapping):
         raise ConfigError(f"{kind} must be an object of the {kind} signal's fields, got {raw!r:.60}")
     known = {f.name for f in fields(_CONFIGS[kind])}

@@ -47,6 +47,8 @@ class CheckReport:
     """Chunks read front to back (each CRC-checked)."""
     problems: list[str] = field(default_factory=list)
     """One line per fault found."""
+    warnings: list[str] = field(default_factory=list)
+    """One line per disagreement that leaves the data usable (``metadata.yaml``'s times)."""
     topics: Counter[str] = field(default_factory=Counter)
     """Messages read front to back, per topic (by the channel records met on the way)."""
     first_ns: int | None = None
@@ -178,15 +180,19 @@ def _check_metadata(bag_dir: Path, report: CheckReport) -> None:
 
 
 def _check_times(meta: BagMetadata, report: CheckReport) -> None:
-    """``starting_time`` and ``duration`` must be the first log time and the span of the data."""
+    """``starting_time`` and ``duration`` should be the first log time and the span of the data.
+
+    A warning, not a fault: the readers take times from the messages, never from these fields
+    (and a bag closed on a full disk keeps the duration of what it was sent).
+    """
     if report.first_ns is None or report.last_ns is None or meta.message_count == 0:
         return
     if meta.start_ns != report.first_ns:
-        report.problems.append(f"metadata.yaml starting_time is {meta.start_ns} ns, "
+        report.warnings.append(f"metadata.yaml starting_time is {meta.start_ns} ns, "
                                f"the first message is logged at {report.first_ns} ns")
     span = report.last_ns - report.first_ns
     if meta.duration_ns != span:
-        report.problems.append(f"metadata.yaml duration is {meta.duration_ns} ns, the data spans {span} ns")
+        report.warnings.append(f"metadata.yaml duration is {meta.duration_ns} ns, the data spans {span} ns")
 
 
 def _refuse_other_storage(path: Path) -> None:

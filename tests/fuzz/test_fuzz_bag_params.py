@@ -92,8 +92,8 @@ def _rebuild(params: dict[str, Any]) -> bool:
     except ConfigError as err:
         assert str(err) and "\n" not in str(err)
         return True
-    if found is None:
-        assert "signal" not in params
+    if found is None:  # no signal named, or its config not stored: nothing to rebuild
+        assert "signal" not in params or params.get(params["signal"]) is None
         return False
     cfg, seed = found
     length = _length(cfg)

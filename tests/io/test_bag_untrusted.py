@@ -179,12 +179,23 @@ def test_bag_check_compares_every_topic_and_the_times(tmp_path: Path) -> None:
     _info(doc)["duration"]["nanoseconds"] += 1
     _info(doc)["starting_time"]["nanoseconds_since_epoch"] = 7
     _put_meta(bag, doc)
-    problems = check_bag(bag).problems
+    report = check_bag(bag)
     names = [t["topic_metadata"]["name"] for t in topics]
     for name in names:
-        assert any(f"on {name}, the data holds {N}" in p for p in problems), problems
-    assert any("duration is" in p for p in problems) and any("starting_time is 7 ns" in p for p in problems)
+        assert any(f"on {name}, the data holds {N}" in p for p in report.problems), report.problems
+    warned = report.warnings  # the times: reported, but the data is usable
+    assert any("duration is" in w for w in warned) and any("starting_time is 7 ns" in w for w in warned)
     assert bag_main(["bag", "check", str(bag)]) == 1
+
+
+def test_times_alone_are_a_warning(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bag = _bag(tmp_path / "b")
+    doc = _meta(bag)
+    _info(doc)["duration"]["nanoseconds"] += 10**9
+    _put_meta(bag, doc)
+    assert bag_main(["bag", "check", str(bag)]) == 0
+    out, err = capsys.readouterr()
+    assert out.startswith("ok: ") and "warning: " in err and "the data spans 1190000000 ns" in err
 
 
 def _sqlite_bag(path: Path) -> Path:
