@@ -259,7 +259,7 @@ def _apply(data: bytes, edits: list[Mutation]) -> bytes:
 
 @pytest.fixture()
 def scratch() -> Iterator[Path]:
-    path = Path(tempfile.mkdtemp(prefix="msd_fuzz_"))
+    path = Path(tempfile.mkdtemp(prefix="msd_fuzz_bags_"))
     yield path
     shutil.rmtree(path, ignore_errors=True)
 
