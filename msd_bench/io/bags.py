@@ -4,8 +4,10 @@ Works on our bags (written by :mod:`msd_bench.io.bag_writer`, parameters
 included) and on any rosbag2 MCAP bag with the contract's topics, e.g. one
 recorded with ``ros2 bag record`` on a rig. Every failure — a missing bag or
 topic, a wrong type, a truncated or corrupt file — is one :class:`BagError`
-line naming the bag and, where relevant, the topic. Writers are re-exported
-here so callers have one module to import.
+line naming the bag and, where relevant, the topic. Bags are opened by
+:func:`msd_bench.io.bag_open.open_bag`, which checks the path and
+``metadata.yaml`` and bounds what an MCAP file's lengths may allocate. Writers
+are re-exported here so callers have one module to import.
 """
 
 from __future__ import annotations
@@ -42,10 +44,6 @@ from msd_msgs_py.contract import JOINT_NAME, JOINT_STATES, PLANT_NAMESPACE, TRUT
 UNCHECKED = TimingPolicy(min_samples=0, rate_tolerance=float("inf"), gap_factor=float("inf"))
 """Timing policy that only refuses stamps going backwards or repeating (closed-loop runs, tests)."""
 
-_open_bag = open_bag
-"""The readers' one way to open a bag (:func:`msd_bench.io.bag_open.open_bag`)."""
-
-
 def _deserializer(store: Typestore, conn: Connection) -> Any:
     """Decode function for the connection's type, registering it from the bag if unknown."""
     if conn.msgtype not in store.types:
@@ -60,7 +58,7 @@ def read_topic(path: str | Path, topic: str) -> tuple[np.ndarray, list[Any]]:
     store = typestore()
     stamps: list[int] = []
     msgs: list[Any] = []
-    with _open_bag(path) as reader:
+    with open_bag(path) as reader:
         conns = [c for c in reader.connections if c.topic == topic]
         if not conns:
             raise BagError(f"bag {path} has no topic {topic} (has: {_topic_list(reader)})")
@@ -153,7 +151,7 @@ def read_samples(path: str | Path, namespace: str = PLANT_NAMESPACE) -> BagSampl
     path = Path(path)
     topic = JOINT_STATES.resolve(namespace)
     truth_topic = TRUTH_JOINT_STATES.resolve(namespace)
-    with _open_bag(path) as reader:
+    with open_bag(path) as reader:
         rows = _rows(path, reader, JOINT_STATES, topic)
         if not len(rows):
             raise BagError(f"bag {path}: topic {topic} has no messages")
@@ -287,7 +285,7 @@ class BagInfo:
 def bag_info(path: str | Path) -> BagInfo:
     """Topics, counts, duration, stored parameters and storage of a bag."""
     path = Path(path)
-    with _open_bag(path) as reader:
+    with open_bag(path) as reader:
         topics = {c.topic: (c.msgtype, c.msgcount) for c in reader.connections}
         duration = max(reader.duration - 1, 0) / 1e9 if reader.message_count else 0.0
         storage = "sqlite3" if isinstance(reader.storage, Sqlite3Reader) or any(
