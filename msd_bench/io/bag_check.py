@@ -14,6 +14,7 @@ allocation.
 
 from __future__ import annotations
 
+import io
 import struct
 from collections import Counter
 from dataclasses import dataclass, field
@@ -106,7 +107,9 @@ def _scan(report: CheckReport) -> None:
 
 
 def _read_header(fh: IO[bytes], offset: int) -> tuple[int, int] | None:
-    """(opcode, length) of the record at ``offset``, or None past the end."""
+    """(opcode, length) of the record at ``offset``, or None past the end (an index may name any offset)."""
+    if not 0 <= offset <= fh.seek(0, io.SEEK_END) - 9:
+        return None
     fh.seek(offset)
     raw = fh.read(9)
     if len(raw) < 9:

@@ -273,6 +273,21 @@ def _zstd_mcap(path: Path, payload: int) -> Path:
     return path
 
 
+def test_chunk_index_pointing_far_past_the_end(tmp_path: Path) -> None:
+    """Found by the long fuzz run: a chunk index offset of 2^60 made ``bag check``'s seek raise OSError."""
+    bag = _bag(tmp_path / "b")
+    mcap = _mcap(bag)
+    with mcap.open("rb") as fh:
+        summary = make_reader(fh).get_summary()
+        assert summary is not None
+    data = mcap.read_bytes()
+    start = struct.pack("<Q", summary.chunk_indexes[0].chunk_start_offset)
+    where = data.rindex(start)  # the chunk index record's chunk_start_offset field
+    _poke(mcap, where, 2**60)
+    problems = check_bag(bag).problems
+    assert any("chunk index 0 points at offset 1152921504606846976" in p for p in problems), problems
+
+
 def test_compressed_chunk_read_normally(tmp_path: Path) -> None:
     path = _zstd_mcap(tmp_path / "z.mcap", 0)
     assert bag_info(path).topics == {"/msd/position": ("std_msgs/msg/Float64", 1)}
