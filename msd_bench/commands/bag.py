@@ -26,13 +26,16 @@ EXIT_DAMAGED = 1
 
 
 def _info(args: argparse.Namespace) -> int:
+    """Everything is read before the first line is printed: a fault is one error line, not half an info."""
     info = bag_info(args.path)
+    problem = crc_problem(args.path) if info.storage == "mcap" else None
     print(f"bag:       {info.path}")
     print(f"duration:  {info.duration_s:.3f} s")
     for topic, (ros_type, count) in sorted(info.topics.items()):
         print(f"topic:     {topic}  [{ros_type}]  {count} messages")
     print(f"params:    {json.dumps(info.params, sort_keys=True) if info.params else '(none)'}")
-    problem = crc_problem(args.path)
+    if info.storage != "mcap":
+        print(f"storage:   {info.storage} (no chunk CRCs to check; bag check reads MCAP bags only)")
     if problem is not None:
         print(f"warning: {args.path}: {problem}; run `msd-bench bag check {args.path}`", file=sys.stderr)
     return 0
@@ -40,6 +43,8 @@ def _info(args: argparse.Namespace) -> int:
 
 def _check(args: argparse.Namespace) -> int:
     report = check_bag(args.path)
+    for warning in report.warnings:
+        print(f"warning: {args.path}: {warning}", file=sys.stderr)
     if report.ok:
         print(f"ok: {args.path}: {report.messages} messages in {report.chunks} chunks; "
               f"CRCs, index and metadata.yaml agree")

@@ -8,11 +8,18 @@
 
 Every generator is a pure function of its config and seed and returns one
 force per sample; the same seed always gives the same signal.
+
+Every config checks its fields' types and bounds when it is built (a signal is
+at most :data:`MAX_SIGNAL_SAMPLES` long, every force finite), so a config read
+from a file — a bag's stored parameters — is refused with one line before any
+array is allocated, whoever builds it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,6 +30,14 @@ FloatArray = NDArray[np.float64]
 
 # Feedback taps of maximum-length Fibonacci LFSRs (Xilinx XAPP052).
 _LFSR_TAPS = {7: (7, 6), 9: (9, 5), 10: (10, 7), 11: (11, 9), 15: (15, 14)}
+
+MAX_SIGNAL_SAMPLES = 10_000_000
+"""Longest signal a config may describe: 28 h at 100 Hz (80 MB of float64). Why a bound: a slip
+or a crafted bag (``steps.dwell = 1e13``) would otherwise ask for terabytes."""
+MAX_LEVELS = 10_000
+"""Most forces a multilevel or steps config may list."""
+MAX_SEED = 2**64 - 1
+"""Largest seed accepted (numpy's generators take any non-negative integer; 64 bits is plenty)."""
 
 
 @dataclass(frozen=True)
@@ -43,11 +58,14 @@ class PrbsConfig:
     """Samples of constant bias before the PRBS, so the record starts near the operating point."""
 
     def __post_init__(self) -> None:
-        _require(self.amplitude > 0, "amplitude must be > 0")
-        _require(self.n_samples > 0, "n_samples must be > 0")
-        _require(self.hold >= 1, "hold must be >= 1")
-        _require(self.settle >= 0, "settle must be >= 0")
-        _require(self.register_bits in _LFSR_TAPS, f"register_bits must be one of {sorted(_LFSR_TAPS)}")
+        _finite("bias", self.bias)
+        _require(_finite("amplitude", self.amplitude) > 0, "amplitude must be > 0")
+        _count("n_samples", self.n_samples, 1)
+        _count("hold", self.hold, 1)
+        _count("settle", self.settle, 0)
+        _require(_is_int(self.register_bits) and self.register_bits in _LFSR_TAPS,
+                 f"register_bits must be one of {sorted(_LFSR_TAPS)}, got {self.register_bits!r:.60}")
+        _total(self.settle + self.n_samples, "settle + n_samples")
 
 
 @dataclass(frozen=True)
@@ -64,9 +82,11 @@ class MultilevelConfig:
     """Longest time a level is held, samples."""
 
     def __post_init__(self) -> None:
-        _require(len(self.levels) >= 2, "levels needs at least two forces")
-        _require(self.n_samples > 0, "n_samples must be > 0")
-        _require(1 <= self.min_dwell <= self.max_dwell, "need 1 <= min_dwell <= max_dwell")
+        object.__setattr__(self, "levels", _levels(self.levels, 2))
+        _count("n_samples", self.n_samples, 1)
+        _count("min_dwell", self.min_dwell, 1)
+        _count("max_dwell", self.max_dwell, 1)
+        _require(self.min_dwell <= self.max_dwell, "need 1 <= min_dwell <= max_dwell")
 
 
 @dataclass(frozen=True)
@@ -79,21 +99,27 @@ class StepsConfig:
     """Samples per level."""
 
     def __post_init__(self) -> None:
-        _require(len(self.levels) >= 1, "levels needs at least one force")
-        _require(self.dwell >= 1, "dwell must be >= 1")
+        object.__setattr__(self, "levels", _levels(self.levels, 1))
+        _count("dwell", self.dwell, 1)
+        _total(len(self.levels) * self.dwell, "len(levels) * dwell")
 
 
 def prbs_bits(n_bits: int, register_bits: int, seed: int) -> NDArray[np.int8]:
-    """``n_bits`` values in {-1, +1} from a maximum-length LFSR started at a seeded state."""
+    """``n_bits`` values in {-1, +1} from a maximum-length LFSR started at a seeded state.
+
+    A maximum-length register returns to its start state after ``2^bits - 1``
+    steps, so one period is computed bit by bit and repeated: the same bits as
+    running the register ``n_bits`` times, without a Python loop of millions.
+    """
     a, b = _LFSR_TAPS[register_bits]
     period = (1 << register_bits) - 1
     state = 1 + (seed % period)  # never the all-zero lock-up state
-    out = np.empty(n_bits, dtype=np.int8)
-    for i in range(n_bits):
+    out = np.empty(min(n_bits, period), dtype=np.int8)
+    for i in range(out.size):
         bit = ((state >> (a - 1)) ^ (state >> (b - 1))) & 1
         state = ((state << 1) | bit) & period
         out[i] = 1 if bit else -1
-    return out
+    return np.resize(out, n_bits) if n_bits > out.size else out
 
 
 def prbs(cfg: PrbsConfig, seed: int) -> FloatArray:
@@ -130,27 +156,115 @@ def _require(ok: bool, message: str) -> None:
         raise ConfigError(message)
 
 
+def _is_int(value: object) -> bool:
+    """An integer that is not a bool (``True`` as a sample count is a slip, not 1)."""
+    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+
+
+def _finite(name: str, value: object) -> float:
+    """``value`` as a float, if it is a finite real number (not a bool, not a string)."""
+    number = finite_or_nan(value)
+    if not math.isfinite(number):
+        raise ConfigError(f"{name} must be a finite number, got {value!r:.60}")
+    return number
+
+
+def finite_or_nan(value: object) -> float:
+    """``value`` as a float if it is a real number (not a bool); NaN otherwise, and for ints beyond float."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, int | float | np.integer | np.floating):
+        return math.nan
+    return _as_float(value)
+
+
+def _as_float(value: float | np.integer | np.floating) -> float:
+    try:
+        return float(value)
+    except OverflowError:  # an int beyond float's range
+        return math.nan
+
+
+def _count(name: str, value: object, low: int) -> None:
+    """A sample count: an integer in ``[low, MAX_SIGNAL_SAMPLES]``."""
+    if not _is_int(value):
+        raise ConfigError(f"{name} must be an integer number of samples, got {value!r:.60}")
+    if int(value) < low:  # type: ignore[call-overload]
+        raise ConfigError(f"{name} must be >= {low}, got {value}")
+    if int(value) > MAX_SIGNAL_SAMPLES:  # type: ignore[call-overload]
+        raise ConfigError(f"{name} must be <= {MAX_SIGNAL_SAMPLES}, got {value}")
+
+
+def _total(samples: int, what: str) -> None:
+    """Refuse a signal longer than :data:`MAX_SIGNAL_SAMPLES` before it is allocated."""
+    if samples > MAX_SIGNAL_SAMPLES:
+        raise ConfigError(f"the signal would be {what} = {samples} samples, more than {MAX_SIGNAL_SAMPLES}")
+
+
+def _levels(levels: object, fewest: int) -> tuple[float, ...]:
+    """``levels`` as a tuple of finite forces, between ``fewest`` and :data:`MAX_LEVELS` of them."""
+    if not isinstance(levels, tuple | list | np.ndarray):
+        raise ConfigError(f"levels must be a list of forces, got {type(levels).__name__}")
+    if not fewest <= len(levels) <= MAX_LEVELS:
+        need = "at least one force" if fewest == 1 else f"at least {fewest} forces"
+        raise ConfigError(f"levels needs {need} and at most {MAX_LEVELS}, got {len(levels)}")
+    return tuple(_finite(f"levels[{i}]", v) for i, v in enumerate(levels))
+
+
+def check_seed(seed: object) -> int:
+    """A generator seed: an integer in ``[0, MAX_SEED]`` (numpy refuses negative seeds)."""
+    if not _is_int(seed) or not 0 <= int(seed) <= MAX_SEED:  # type: ignore[call-overload]
+        raise ConfigError(f"seed must be an integer in [0, 2**64 - 1], got {seed!r:.60}")
+    return int(seed)  # type: ignore[call-overload,no-any-return]
+
+
 _CONFIGS: dict[str, type] = {"prbs": PrbsConfig, "multilevel": MultilevelConfig, "steps": StepsConfig}
+SignalConfig = PrbsConfig | MultilevelConfig | StepsConfig
 
 
-def signal_from_params(params: dict[str, object]) -> FloatArray | None:
+def config_from_params(params: Mapping[str, object]) -> tuple[SignalConfig, int] | None:
+    """The signal config and seed a bag's parameters describe, checked; None if they store no config.
+
+    Why separate from :func:`signal_from_params`: a reader checks every field
+    (kind, names, types, bounds, seed) before anything is allocated, and can
+    name the bag in its own error. Raises :class:`ConfigError` naming the field.
+    """
+    if "signal" not in params:
+        return None
+    kind = params["signal"]
+    if not isinstance(kind, str) or kind not in _CONFIGS:
+        raise ConfigError(f"signal must be one of {', '.join(_CONFIGS)}, got {kind!r}")
+    raw = params.get(kind)
+    if raw is None:
+        return None  # the kind is named but its config was not stored: nothing to rebuild
+    if not isinstance(raw, Mapping):
+        raise ConfigError(f"{kind} must be an object of the {kind} signal's fields, got {raw!r:.60}")
+    known = {f.name for f in fields(_CONFIGS[kind])}
+    unknown = sorted(str(k) for k in raw if k not in known)
+    if unknown:
+        names = ", ".join(k if k.isidentifier() else repr(k)[:40] for k in unknown[:5])
+        raise ConfigError(f"{kind} has no field {names} (fields: {', '.join(sorted(known))})")
+    values = {str(k): tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
+    try:
+        cfg = _CONFIGS[kind](**values)
+    except ConfigError as exc:
+        raise ConfigError(f"{kind}: {exc}") from None
+    seed = check_seed(params.get("seed", 0))
+    return cfg, seed
+
+
+def signal_from_params(params: Mapping[str, object]) -> FloatArray | None:
     """Regenerate a played signal from the parameters a bag stores; None if it stores none.
 
     A bag written by our recorder says which generator played (``signal``), its
     config (under the signal's name) and its ``seed``, so the exact command
     sequence can be rebuilt — e.g. to find where a real-time recording started.
+    Every field is checked first (:func:`config_from_params`).
     """
-    kind = params.get("signal")
-    raw = params.get(str(kind))
-    if kind not in _CONFIGS or not isinstance(raw, dict):
+    found = config_from_params(params)
+    if found is None:
         return None
-    fields = {k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
-    try:
-        cfg = _CONFIGS[str(kind)](**fields)
-    except TypeError as exc:
-        raise ConfigError(f"bag parameters do not describe a {kind} signal: {exc}") from None
+    cfg, seed = found
     if isinstance(cfg, PrbsConfig):
-        return prbs(cfg, int(params.get("seed", 0)))  # type: ignore[call-overload]
+        return prbs(cfg, seed)
     if isinstance(cfg, MultilevelConfig):
-        return multilevel(cfg, int(params.get("seed", 0)))  # type: ignore[call-overload]
+        return multilevel(cfg, seed)
     return steps(cfg)

@@ -32,9 +32,11 @@ import numpy as np
 from msd_bench.core.actuation import EffortAgreement, actuator_force, effort_agreement, held_commands
 from msd_bench.core.data import Experiment
 from msd_bench.core.errors import InterfaceError, MsdBenchError
+from msd_bench.io.bag_meta import shown
+from msd_bench.io.bag_open import open_bag
 from msd_bench.io.bag_timing import READ, TimingPolicy, check_timing
 from msd_bench.io.bag_writer import typestore
-from msd_bench.io.bags import BagSamples, _open_bag, _params, _topic_list, decode_joint_state, read_experiment
+from msd_bench.io.bags import BagSamples, _params, _topic_list, decode_joint_state, read_experiment
 from msd_bench.io.errors import BagError
 from msd_msgs_py.contract import PLANT_NAMESPACE
 from msd_msgs_py.interface import MSD, MSD_INTERFACE, PlantInterface
@@ -118,7 +120,7 @@ def read_interface_experiment(
             exp = exp.segment(played.start, played.stop)
         return exp, params, ForceSource(str(path), "effort", state_topic)
     command_topic = iface.command.resolve(namespace)
-    with _open_bag(path) as reader:
+    with open_bag(path) as reader:
         rows = _state_rows(path, reader, iface, state_topic)
         commands = None if iface.effort_is_commanded else _command_rows(path, reader, iface, command_topic)
         params = _params(path, reader)
@@ -159,7 +161,8 @@ def _state_rows(path: Path, reader: Any, iface: PlantInterface, topic: str) -> _
         raise BagError(f"bag {path} has no topic {topic} (has: {_topic_list(reader)})")
     wrong = [c.msgtype for c in conns if c.msgtype != iface.state.ros_type]
     if wrong:
-        raise BagError(f"bag {path}: topic {topic} has type {wrong[0]}, expected {iface.state.ros_type}")
+        raise BagError(f"bag {path}: topic {topic} has type {shown(wrong[0])}, "
+                       f"expected {iface.state.ros_type}")
     store = typestore()
     stamps, logs, xs, efforts = [], [], [], []
     for _, log_ns, raw in reader.messages(connections=conns):
@@ -192,7 +195,8 @@ def _command_rows(path: Path, reader: Any, iface: PlantInterface, topic: str) ->
             f"or pass --effort commanded to identify from the measured effort")
     wrong = [c.msgtype for c in conns if c.msgtype != iface.command.ros_type]
     if wrong:
-        raise BagError(f"bag {path}: topic {topic} has type {wrong[0]}, expected {iface.command.ros_type}")
+        raise BagError(f"bag {path}: topic {topic} has type {shown(wrong[0])}, "
+                       f"expected {iface.command.ros_type}")
     store = typestore()
     times, forces = [], []
     for _, log_ns, raw in reader.messages(connections=conns):

@@ -8,6 +8,7 @@ none of that: the caller names each bag's role and bias and the settle length.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -16,7 +17,14 @@ from typing import Any
 import numpy as np
 
 from msd_bench.core.data import Experiment, IOData
-from msd_bench.core.excitation import signal_from_params
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.excitation import (
+    PrbsConfig,
+    SignalConfig,
+    config_from_params,
+    finite_or_nan,
+    signal_from_params,
+)
 from msd_bench.core.operating_points import PLM_BIASES
 from msd_bench.core.records import Records
 from msd_bench.io.bag_interface import ForceSource, read_interface_experiment
@@ -111,10 +119,29 @@ def bag_dirs(bags_dir: Path) -> list[Path]:
 
 
 def _role_of(path: Path, params: Mapping[str, Any], samples: BagSamples) -> BagRole:
-    signal = params.get("signal")
-    settle = int(params.get(str(signal), {}).get("settle", 0)) if signal == "prbs" else 0
+    """The bag's role from its stored parameters, every field checked first (:func:`check_params`)."""
+    found = check_params(path, params)
+    settle = found[0].settle if found is not None and isinstance(found[0], PrbsConfig) else 0
     bias = params.get("bias")
     return BagRole(path, str(params["role"]), None if bias is None else float(bias), settle, params, samples)
+
+
+def check_params(path: Path, params: Mapping[str, Any]) -> tuple[SignalConfig, int] | None:
+    """The signal config and seed of a bag's parameters, or a one-line BagError naming bag and field.
+
+    Why before anything else: these parameters come from a file, and they size
+    the signal rebuilt from them (:func:`align_to_played`); the bounds are the
+    excitation's own (:func:`msd_bench.core.excitation.config_from_params`).
+    """
+    role, bias = params.get("role"), params.get("bias")
+    if "role" in params and not isinstance(role, str):
+        raise BagError(f"bag {path}: parameter role must be a string, got {role!r:.60}")
+    if bias is not None and not math.isfinite(finite_or_nan(bias)):
+        raise BagError(f"bag {path}: parameter bias must be a finite number or null, got {bias!r:.60}")
+    try:
+        return config_from_params(params)
+    except ConfigError as exc:
+        raise BagError(f"bag {path}: parameter {exc}") from None
 
 
 def explicit_roles(bias_bags: Sequence[str], broad_bag: str, val_bag: str, settle: int) -> list[BagRole]:

@@ -12,22 +12,25 @@ record. The salvage is written as a new bag *beside* the original
 from __future__ import annotations
 
 import json
-import struct
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import IO, cast
 
-from mcap.exceptions import McapError
 from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Metadata, Schema
-from mcap.stream_reader import CRCValidationError, StreamReader, breakup_chunk
+from mcap.stream_reader import CRCValidationError, StreamReader
 from rosbags.interfaces import Qos
 from rosbags.rosbag2 import ReaderError
 from rosbags.rosbag2.metadata import parse_qos
 from rosbags.typesys import get_types_from_msg
+from rosbags.typesys.base import TypesysError
 from rosbags.typesys.store import Typestore
 
+from msd_bench.io.bag_open import data_file
 from msd_bench.io.bag_writer import PARAMS_RECORD, BagRecorder, _prepare_target, check_target, typestore
 from msd_bench.io.errors import BagError
+from msd_bench.io.mcap_guard import MCAP_ERRORS, BoundedFile, chunk_records
 from msd_bench.io.paths import writable_dir
+from msd_bench.io.safe_read import loads_bounded
 
 RECOVERED_SUFFIX = ".recovered"
 """Suffix of the directory the recovered bag is written to, next to the original."""
@@ -69,15 +72,19 @@ class _Salvage:
 
 
 def mcap_file(path: Path) -> Path:
-    """The one MCAP file of a bag directory (or the file itself)."""
-    if path.is_file():
-        return path
-    if not path.is_dir():
+    """The one MCAP file of a bag directory (or the file itself), a regular file.
+
+    A dangling symlink, a directory named ``x.mcap`` or a FIFO is one BagError
+    line (opening them was a traceback, or a read that never returns).
+    """
+    if path.is_dir():
+        files = sorted(path.glob("*.mcap"))
+        if len(files) != 1:
+            raise BagError(f"bag {path}: expected one .mcap file, found {len(files)}")
+        return data_file(files[0])
+    if not path.exists() and not path.is_symlink():
         raise BagError(f"bag {path} does not exist")
-    files = sorted(path.glob("*.mcap"))
-    if len(files) != 1:
-        raise BagError(f"bag {path}: expected one .mcap file, found {len(files)}")
-    return files[0]
+    return data_file(path)
 
 
 def _take(salvage: _Salvage, record: object) -> None:
@@ -93,16 +100,25 @@ def _take(salvage: _Salvage, record: object) -> None:
 
 
 def _scan(mcap_file: Path) -> _Salvage:
-    """Read records until the data section ends or a record is truncated or corrupt."""
+    """Read records until the data section ends or a record is truncated or corrupt.
+
+    Through :mod:`.mcap_guard`: no record length or chunk size read from the
+    file can make the scan allocate more than the file (or one bounded chunk).
+    """
     salvage = _Salvage()
-    with mcap_file.open("rb") as fh:
-        reader = StreamReader(fh, emit_chunks=True, validate_crcs=True)
+    try:
+        fh = BoundedFile(mcap_file)
+    except OSError as exc:
+        raise BagError(f"bag file {mcap_file}: cannot read ({exc.strerror or exc})") from None
+    with fh:
+        reader = StreamReader(cast(IO[bytes], fh), emit_chunks=True, validate_crcs=True,
+                              record_size_limit=fh.size)
         try:
             for record in reader.records:
                 if isinstance(record, DataEnd | Footer):
                     break
                 if isinstance(record, Chunk):
-                    inner = breakup_chunk(record, validate_crc=True)  # all or nothing
+                    inner = chunk_records(record, salvage=True)  # all or nothing
                     for rec in inner:
                         _take(salvage, rec)
                     salvage.chunks += 1
@@ -110,9 +126,25 @@ def _scan(mcap_file: Path) -> _Salvage:
                     _take(salvage, record)
         except CRCValidationError as exc:
             salvage.stopped = f"corrupt chunk ({exc})"
-        except (McapError, struct.error, EOFError, ValueError, UnicodeDecodeError) as exc:
-            salvage.stopped = f"truncated or corrupt record after chunk {salvage.chunks} ({exc!r})"
+        except MCAP_ERRORS as exc:
+            salvage.stopped = f"truncated or corrupt record after chunk {salvage.chunks} ({exc!r:.300})"
+    _check_params(mcap_file, salvage)
     return salvage
+
+
+def _check_params(mcap_file: Path, salvage: _Salvage) -> None:
+    """Keep the parameters record only if it is a bounded JSON object; say so when it is dropped."""
+    if salvage.params is None:
+        return
+    try:
+        value = loads_bounded(salvage.params, f"bag file {mcap_file}: parameters record", BagError)
+    except BagError as exc:
+        value, why = None, str(exc)
+    else:
+        why = "" if isinstance(value, dict) else "parameters record is not a JSON object"
+    if why:
+        salvage.params = None
+        salvage.stopped += f"; parameters not copied ({why})"
 
 
 def _store_for(schemas: dict[int, Schema]) -> Typestore:
@@ -173,7 +205,8 @@ def recover(path: str | Path, *, output: str | Path | None = None, overwrite: bo
     """
     path = Path(path)
     source = mcap_file(path)
-    bag_dir = path if path.is_dir() else path.parent
+    whole = path.absolute()  # `bag recover x.mcap` inside the bag: its directory has a name
+    bag_dir = whole if path.is_dir() else whole.parent
     out = Path(output) if output is not None else bag_dir.with_name(bag_dir.name + RECOVERED_SUFFIX)
     _check_output(out, source, bag_dir if path.is_dir() else None)
     check_target(out, overwrite)  # before the scan: a refusal costs nothing
@@ -186,8 +219,9 @@ def recover(path: str | Path, *, output: str | Path | None = None, overwrite: bo
         counts = _write(salvage, out)
     except BagError:
         raise
-    except (ValueError, KeyError) as exc:
-        raise BagError(f"bag {path}: cannot rewrite salvaged messages ({exc})") from None
+    except (ValueError, KeyError, TypesysError) as exc:  # TypesysError: a malformed message definition
+        text = " ".join(str(exc).split())[:300]
+        raise BagError(f"bag {path}: cannot rewrite salvaged messages ({text})") from None
     return RecoveryReport(source, out, sum(counts.values()), salvage.chunks, salvage.stopped, counts)
 
 

@@ -4,30 +4,31 @@ Works on our bags (written by :mod:`msd_bench.io.bag_writer`, parameters
 included) and on any rosbag2 MCAP bag with the contract's topics, e.g. one
 recorded with ``ros2 bag record`` on a rig. Every failure — a missing bag or
 topic, a wrong type, a truncated or corrupt file — is one :class:`BagError`
-line naming the bag and, where relevant, the topic. Writers are re-exported
-here so callers have one module to import.
+line naming the bag and, where relevant, the topic. Bags are opened by
+:func:`msd_bench.io.bag_open.open_bag`, which checks the path and
+``metadata.yaml`` and bounds what an MCAP file's lengths may allocate. Writers
+are re-exported here so callers have one module to import.
 """
 
 from __future__ import annotations
 
 import copy
-import json
-import struct
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from rosbags.interfaces import Connection
-from rosbags.rosbag2 import Reader, ReaderError
-from rosbags.serde import SerdeError
+from rosbags.rosbag2 import Reader
+from rosbags.rosbag2.storage_sqlite3 import Sqlite3Reader
 from rosbags.typesys.store import Typestore
 
 from msd_bench.core.data import Experiment
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.io import cdr
+from msd_bench.io.bag_meta import params_from_custom, shown
+from msd_bench.io.bag_open import READ_ERRORS, open_bag
+from msd_bench.io.bag_open import missing_metadata as missing_metadata
 from msd_bench.io.bag_timing import READ, TimingPolicy, check_timing
 from msd_bench.io.bag_writer import (  # noqa: F401  (re-exported: one module for callers)
     PARAMS_KEY,
@@ -43,37 +44,6 @@ from msd_msgs_py.contract import JOINT_NAME, JOINT_STATES, PLANT_NAMESPACE, TRUT
 UNCHECKED = TimingPolicy(min_samples=0, rate_tolerance=float("inf"), gap_factor=float("inf"))
 """Timing policy that only refuses stamps going backwards or repeating (closed-loop runs, tests)."""
 
-_READ_ERRORS = (ReaderError, SerdeError, OSError, EOFError, struct.error, KeyError, IndexError, ValueError)
-"""What reading a damaged bag raises: each becomes the one-line BagError naming the bag (a message cut
-short inside an intact file is rosbags' SerdeError)."""
-
-
-def missing_metadata(path: Path) -> BagError:
-    """The one line for a bag directory without ``metadata.yaml`` (a killed recording)."""
-    return BagError(
-        f"bag {path} has no metadata.yaml: an interrupted recording? "
-        f"try `msd-bench bag recover {path}`"
-    )
-
-
-@contextmanager
-def _open_bag(path: str | Path) -> Iterator[Reader]:
-    """A rosbags reader whose every failure becomes one :class:`BagError` line naming the bag."""
-    path = Path(path)
-    if not path.exists():
-        raise BagError(f"bag {path} does not exist")
-    if path.is_dir() and not (path / "metadata.yaml").exists():
-        raise missing_metadata(path)
-    try:
-        with Reader(path) as reader:
-            yield reader
-    except MsdBenchError:
-        raise
-    except _READ_ERRORS as exc:
-        text = " ".join(str(exc).split()) or type(exc).__name__
-        raise BagError(f"bag {path} is truncated or corrupt: {text}") from None
-
-
 def _deserializer(store: Typestore, conn: Connection) -> Any:
     """Decode function for the connection's type, registering it from the bag if unknown."""
     if conn.msgtype not in store.types:
@@ -88,7 +58,7 @@ def read_topic(path: str | Path, topic: str) -> tuple[np.ndarray, list[Any]]:
     store = typestore()
     stamps: list[int] = []
     msgs: list[Any] = []
-    with _open_bag(path) as reader:
+    with open_bag(path) as reader:
         conns = [c for c in reader.connections if c.topic == topic]
         if not conns:
             raise BagError(f"bag {path} has no topic {topic} (has: {_topic_list(reader)})")
@@ -100,22 +70,12 @@ def read_topic(path: str | Path, topic: str) -> tuple[np.ndarray, list[Any]]:
 
 
 def _topic_list(reader: Reader) -> str:
-    return ", ".join(sorted({c.topic for c in reader.connections})) or "none"
-
-
-def _custom(reader: Reader) -> dict[str, str]:
-    return dict(getattr(reader.storage, "metadata").custom or {})  # noqa: B009 (rosbags attr)
+    return ", ".join(sorted({shown(c.topic) for c in reader.connections})) or "none"
 
 
 def _params(path: Path, reader: Reader) -> dict[str, Any]:
-    text = _custom(reader).get(PARAMS_KEY)
-    if text is None:
-        return {}
-    try:
-        value = json.loads(text)
-    except json.JSONDecodeError:
-        raise BagError(f"bag {path}: custom_data {PARAMS_KEY} is not valid JSON") from None
-    return dict(value) if isinstance(value, dict) else {}
+    """The experiment parameters in the bag's ``custom_data``, bounded and checked (:mod:`.bag_meta`)."""
+    return params_from_custom(path, getattr(reader.storage, "metadata").custom)  # noqa: B009 (rosbags attr)
 
 
 @dataclass(frozen=True)
@@ -191,7 +151,7 @@ def read_samples(path: str | Path, namespace: str = PLANT_NAMESPACE) -> BagSampl
     path = Path(path)
     topic = JOINT_STATES.resolve(namespace)
     truth_topic = TRUTH_JOINT_STATES.resolve(namespace)
-    with _open_bag(path) as reader:
+    with open_bag(path) as reader:
         rows = _rows(path, reader, JOINT_STATES, topic)
         if not len(rows):
             raise BagError(f"bag {path}: topic {topic} has no messages")
@@ -209,7 +169,7 @@ def _rows(path: Path, reader: Reader, spec: TopicSpec, topic: str, *, required: 
         raise BagError(f"bag {path} has no topic {topic} (has: {_topic_list(reader)})")
     wrong = [c.msgtype for c in conns if c.msgtype != spec.ros_type]
     if wrong:
-        raise BagError(f"bag {path}: topic {topic} has type {wrong[0]}, expected {spec.ros_type}")
+        raise BagError(f"bag {path}: topic {topic} has type {shown(wrong[0])}, expected {spec.ros_type}")
     raws, failure = _raw_messages(reader, conns)
     rows = _columns_rows(raws) if failure is None else None
     if rows is None:
@@ -231,7 +191,7 @@ def _raw_messages(reader: Reader, conns: list[Connection]) -> tuple[list[bytes],
     try:
         for _, _, raw in reader.messages(connections=conns):
             raws.append(raw)
-    except Exception as exc:  # raised again by the caller, unchanged
+    except READ_ERRORS as exc:  # raised again by the caller, unchanged
         return raws, exc
     return raws, None
 
@@ -318,12 +278,16 @@ class BagInfo:
     """Time between first and last message log time."""
     params: dict[str, Any]
     """Stored experiment parameters (empty when none)."""
+    storage: str = "mcap"
+    """``mcap`` or ``sqlite3``: only MCAP bags have chunk CRCs for ``bag info`` to check."""
 
 
 def bag_info(path: str | Path) -> BagInfo:
-    """Topics, counts, duration and stored parameters of a bag."""
+    """Topics, counts, duration, stored parameters and storage of a bag."""
     path = Path(path)
-    with _open_bag(path) as reader:
+    with open_bag(path) as reader:
         topics = {c.topic: (c.msgtype, c.msgcount) for c in reader.connections}
         duration = max(reader.duration - 1, 0) / 1e9 if reader.message_count else 0.0
-        return BagInfo(path, topics, duration, _params(path, reader))
+        storage = "sqlite3" if isinstance(reader.storage, Sqlite3Reader) or any(
+            isinstance(s, Sqlite3Reader) for s in getattr(reader.storage, "storages", ())) else "mcap"
+        return BagInfo(path, topics, duration, _params(path, reader), storage)

@@ -46,8 +46,9 @@ import numpy as np
 from msd_bench.core.actuation import effort_agreement, held_commands
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.io.bag_interface import MIN_AGREEMENT, _command_rows
+from msd_bench.io.bag_meta import shown
+from msd_bench.io.bag_open import READ_ERRORS, open_bag
 from msd_bench.io.bag_writer import leading_stamp
-from msd_bench.io.bags import _open_bag
 from msd_bench.io.errors import BagError
 from msd_msgs_py.interface import PlantInterface
 
@@ -112,8 +113,17 @@ def locate_from_bag(path: Path, iface: PlantInterface, namespace: str, played: n
 def _log_times(path: Path, iface: PlantInterface,
                namespace: str) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
     """Log times of the state rows (in stamp order) and (log ns, force) of the commands, if any."""
+    try:
+        return _read_log_times(path, iface, namespace)
+    except READ_ERRORS as exc:
+        raise BagError(f"bag {path}: unreadable while locating the played samples "
+                       f"({shown(str(exc))})") from None
+
+
+def _read_log_times(path: Path, iface: PlantInterface,
+                    namespace: str) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
     state, command = iface.state.resolve(namespace), iface.command.resolve(namespace)
-    with _open_bag(path) as reader:
+    with open_bag(path) as reader:
         conns = [c for c in reader.connections if c.topic == state]
         stamps, logs = [], []
         for _, log_ns, raw in reader.messages(connections=conns):

@@ -58,7 +58,7 @@ def loads_bounded(
         value = json.loads(text)
     except RecursionError:
         raise error(f"{what}: JSON nested too deeply (limit {max_depth} levels)") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+    except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, an integer of over 4300 digits
         raise error(f"{what}: not valid JSON ({exc})") from None
     if json_depth(value) > max_depth:
         raise error(f"{what}: JSON nested too deeply (limit {max_depth} levels)")

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
 
-from msd_bench.io import bags, cdr
+from msd_bench.io import bag_open, bags, cdr
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bag_records import load_records, roles_from_dir
 from msd_bench.io.bag_writer import BagRecorder, typestore, write_experiment, write_interface_experiment
@@ -241,13 +241,13 @@ def _experiment_bags(root: Path) -> Path:
 
 def _count_opens(monkeypatch: pytest.MonkeyPatch) -> Counter[str]:
     opened: Counter[str] = Counter()
-    real = bags.Reader
+    real = bag_open._Reader
 
     def counting(path: Any, *args: Any, **kwargs: Any) -> Reader:
         opened[Path(path).name] += 1
         return real(path, *args, **kwargs)
 
-    monkeypatch.setattr(bags, "Reader", counting)
+    monkeypatch.setattr(bag_open, "_Reader", counting)
     return opened
 
 

@@ -40,5 +40,5 @@ def test_signal_rebuilt_from_stored_parameters() -> None:
     cfg = exc.MultilevelConfig(n_samples=500)
     params = {"signal": "multilevel", "seed": 4, "multilevel": {**asdict(cfg), "levels": list(cfg.levels)}}
     assert np.array_equal(exc.signal_from_params(params), exc.multilevel(cfg, 4))
-    with pytest.raises(ConfigError, match="do not describe a prbs signal"):
+    with pytest.raises(ConfigError, match="prbs has no field colour"):
         exc.signal_from_params({"signal": "prbs", "prbs": {"colour": "red"}})
