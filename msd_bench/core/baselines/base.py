@@ -212,7 +212,7 @@ def make_observer(model: StepModel, op: OperatingPoint, noise: ObserverNoise) ->
 @numba.njit(cache=True)
 def nearest(forces: FloatArray, u: float) -> float:
     """The alphabet force nearest ``u`` (ties to the lower one): the 5-force actuator."""
-    best = forces[0]
+    best: float = forces[0]
     for f in forces:
         if abs(f - u) < abs(best - u):
             best = f

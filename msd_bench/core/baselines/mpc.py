@@ -76,6 +76,8 @@ class MpcLaw(NamedTuple):
     """Set-point, m."""
     move_weight: float
     """Weight of the squared force change at a block start."""
+    order: IntArray
+    """Row i: the force indices nearest force i first (children are searched in that order)."""
 
 
 @dataclass(frozen=True)
@@ -112,11 +114,21 @@ def design(model: StepModel, target: float, force: float, dt: float,
     if abs(dt - model.dt) > 1e-12:
         raise ConfigError(f"design dt {dt} differs from the model's {model.dt}")
     op = base.operating_point(model, target)
-    law = MpcLaw(model.kernel, blocks, base.alphabet(force), float(target), float(opt.move_weight))
+    forces = base.alphabet(force)
+    law = MpcLaw(model.kernel, blocks, forces, float(target), float(opt.move_weight), search_order(forces))
     facts = {"blocks": [int(b) for b in blocks], "horizon_s": float(blocks.sum() * dt),
              "plans": int(5 ** blocks.size), "move_weight": opt.move_weight, "u_eq": op.u_eq,
              "observer_noise": opt.noise._asdict()}
     return MpcDesign(law, base.make_observer(model, op, opt.noise), facts, model.name)
+
+
+def search_order(forces: FloatArray) -> IntArray:
+    """Per force, every force index sorted by distance from it (stable: ties keep alphabet order).
+
+    Why: the search tries first the force its parent block used (at the root: the
+    last command), which is usually near the best plan, so the bound is tight early.
+    """
+    return np.array([np.argsort(np.abs(forces - f), kind="stable") for f in forces], dtype=np.int64)
 
 
 class Workspace(NamedTuple):
@@ -127,25 +139,43 @@ class Workspace(NamedTuple):
     costs: FloatArray
     """Partial cost at the start of each depth."""
     choice: IntArray
-    """The force index tried at each depth."""
+    """How many children have been tried at each depth (-1: none yet)."""
+    picked: IntArray
+    """The force index of the child being expanded at each depth."""
+    best: IntArray
+    """The best plan so far (force index per block); kept between samples as the next warm start."""
 
 
 def workspace(law: MpcLaw) -> Workspace:
     """Scratch arrays for ``law``'s tree."""
     depth = law.blocks.size
-    return Workspace(np.zeros((depth + 1, 4)), np.zeros(depth + 1), np.zeros(depth, dtype=np.int64))
+    return Workspace(np.zeros((depth + 1, 4)), np.zeros(depth + 1), np.zeros(depth, dtype=np.int64),
+                     np.zeros(depth, dtype=np.int64), np.full(depth, -1, dtype=np.int64))
 
 
 @numba.njit(cache=True)
 def plan(w: MpcLaw, ws: Workspace, s0: FloatArray, bias: float, u_last: float) -> float:
-    """The first force of the cheapest plan from state ``s0`` (exact minimum, branch and bound)."""
+    """The first force of the cheapest plan from state ``s0`` (exact minimum, branch and bound).
+
+    Children of a block are searched nearest-first around the force the last
+    sample's best plan had in that block (a warm start: the first plan searched
+    is the last one, so the bound is tight from the start); before any plan,
+    around the last command. Among equally cheap plans the first one searched
+    wins (deterministic).
+    """
     depth = w.blocks.size
     na = w.forces.size
+    if ws.best[0] < 0:
+        root = 0
+        for i in range(na):
+            if abs(w.forces[i] - u_last) < abs(w.forces[root] - u_last):
+                root = i
+        ws.best[:] = root
     ws.states[0, :] = s0
     ws.costs[0] = 0.0
     ws.choice[:] = -1
     best = np.inf
-    best_first = 0
+    found = ws.best.copy()
     level = 0
     while level >= 0:
         ws.choice[level] += 1
@@ -153,8 +183,9 @@ def plan(w: MpcLaw, ws: Workspace, s0: FloatArray, bias: float, u_last: float) -
             ws.choice[level] = -1
             level -= 1
             continue
-        a = w.forces[ws.choice[level]]
-        prev = u_last if level == 0 else w.forces[ws.choice[level - 1]]
+        ws.picked[level] = w.order[ws.best[level], ws.choice[level]]
+        a = w.forces[ws.picked[level]]
+        prev = u_last if level == 0 else w.forces[ws.picked[level - 1]]
         c = ws.costs[level] + w.move_weight * (a - prev) * (a - prev)
         s = ws.states[level + 1]
         s[:] = ws.states[level]
@@ -167,11 +198,12 @@ def plan(w: MpcLaw, ws: Workspace, s0: FloatArray, bias: float, u_last: float) -
             continue
         if level == depth - 1:
             best = c
-            best_first = ws.choice[0]
+            found[:] = ws.picked
             continue
         ws.costs[level + 1] = c
         level += 1
-    first: float = w.forces[best_first]
+    ws.best[:] = found
+    first: float = w.forces[found[0]]
     return first
 
 
@@ -182,6 +214,7 @@ def act(w: MpcLaw, ob: Observer, ws: Workspace, ost: FloatArray, cs: FloatArray,
     if first:
         base.observe_first(ob, ost, y)
         cs[0] = 0.0
+        ws.best[:] = -1
     else:
         base.observe(ob, ost, cs[0], y)
     u = plan(w, ws, ost[:4], ost[4], cs[0])
@@ -200,7 +233,8 @@ def rollout_under(plant: Kernel, w: MpcLaw, ob: Observer, cond: Conditions,
     ost = np.zeros(5)
     cs = np.zeros(1)
     depth = w.blocks.size
-    ws = Workspace(np.zeros((depth + 1, 4)), np.zeros(depth + 1), np.zeros(depth, dtype=np.int64))
+    ws = Workspace(np.zeros((depth + 1, 4)), np.zeros(depth + 1), np.zeros(depth, dtype=np.int64),
+                     np.zeros(depth, dtype=np.int64), np.full(depth, -1, dtype=np.int64))
     queue = np.zeros(cond.delay + 1)
     for j in range(n):
         state[:] = 0.0

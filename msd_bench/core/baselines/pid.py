@@ -208,7 +208,7 @@ def act(g: PidGains, cs: FloatArray, y: float, first: bool) -> float:
         cs[0] += g.ki * g.dt * e
     u = min(max(u, -g.force), g.force)
     if g.forces.size > 0:
-        return base.nearest(g.forces, u)
+        u = float(base.nearest(g.forces, u))
     return u
 
 
