@@ -203,12 +203,12 @@ def act(g: PidGains, cs: FloatArray, y: float, first: bool) -> float:
     a = g.tf / (g.tf + g.dt)
     cs[1] = a * cs[1] - g.kd / (g.tf + g.dt) * (y - cs[2])
     cs[2] = y
-    u = g.u_eq + g.kp * e + cs[0] + cs[1]
+    u: float = g.u_eq + g.kp * e + cs[0] + cs[1]
     if not ((u > g.force and e > 0.0) or (u < -g.force and e < 0.0)):
         cs[0] += g.ki * g.dt * e
     u = min(max(u, -g.force), g.force)
     if g.forces.size > 0:
-        u = float(base.nearest(g.forces, u))
+        u = base.nearest(g.forces, u)
     return u
 
 
