@@ -61,7 +61,7 @@ def run(kinds: Sequence[str], id_seeds: Sequence[int], pinned: bool, draws: int,
         opts: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """Per kind: nominal set-point cells and scenario cells pooled over identification seeds."""
     cfg = RunConfig()
-    scenarios = suite(tuple(f"setpoint={s}" for s in SETPOINTS if s != 1.0))
+    scenarios = suite(tuple(f"setpoint={s:g}" for s in SETPOINTS if s != 1.0))
     parsed = [designs.parse_kind(k) for k in kinds]
     parts: dict[str, list[dict[str, dict[str, Any]]]] = {k: [] for k in kinds}
     for id_seed in id_seeds:

@@ -161,15 +161,15 @@ def test_lqr_closed_loop_of_the_design_is_stable(built):
 
 def test_mpc_horizon_is_at_least_one_second_and_short_ones_are_refused(built):
     d = built["plm+mpc"]
-    assert d.facts["horizon_s"] >= 1.0 and int(d.law.blocks.sum()) >= 100
+    assert d.facts["horizon_s"] >= 1.0 and int(d.law.blocks.sum()) + d.law.tail >= 100
     with pytest.raises(ConfigError, match="shorter than"):
-        mpc.design(_model("plm"), 1.0, P.F, P.dt, mpc.MpcOptions(blocks=(5, 10)))
+        mpc.design(_model("plm"), 1.0, P.F, P.dt, mpc.MpcOptions(blocks=(5, 10), tail=50))
 
 
 def test_mpc_plan_is_the_exact_minimum_over_every_block_plan():
     """Branch and bound must return the first force of the best of all 5^depth plans."""
     m = _model("plm")
-    d = mpc.design(m, 1.0, P.F, P.dt, mpc.MpcOptions(blocks=(10, 30, 60)))
+    d = mpc.design(m, 1.0, P.F, P.dt, mpc.MpcOptions(blocks=(10, 30, 60), tail=0))
     s0 = np.array([0.6, 0.59, 5.0, 0.0])
     forces = QConfig().actions()
     best, best_cost = 0.0, np.inf
@@ -181,10 +181,10 @@ def test_mpc_plan_is_the_exact_minimum_over_every_block_plan():
                     cost += d.law.move_weight * (f - prev) ** 2
                     prev = f
                     for _ in range(n):
-                        cost += (kernels.advance_loaded(m.kernel, s, f, 0.0) - 1.0) ** 2
+                        cost += (kernels.advance_loaded(m.kernel, s, f, 0.3) - 0.9) ** 2
                 if cost < best_cost:
                     best, best_cost = forces[i], cost
-    assert mpc.plan(d.law, mpc.workspace(d.law), s0, 0.0, 5.0) == best
+    assert mpc.plan(d.law, mpc.workspace(d.law), s0, 0.3, 5.0, 0.9) == best
 
 
 def test_designs_are_deterministic_and_artifacts_are_plain(built):

@@ -55,10 +55,16 @@ MIN_HORIZON_S = 1.0
 class MpcOptions:
     """The search's shape and cost (chosen on the design identification seeds, docs/baselines.md)."""
 
-    blocks: tuple[int, ...] = (4, 12, 24, 60)
-    """Samples per block, first to last; their sum is the horizon (at least 1 s)."""
+    blocks: tuple[int, ...] = (4, 12, 24)
+    """Samples per searched block, first to last."""
+    tail: int = 60
+    """Samples of the hold-mode tail after the blocks; blocks plus tail are the horizon (at least 1 s)."""
     move_weight: float = 1e-6
     """Weight of the squared force change at each block start, m²/N²."""
+    ki: float = 0.5
+    """Integral action on the reference, 1/s (0: none; see the module docstring)."""
+    max_shift: float = 0.3
+    """Largest reference shift the integral may make, m."""
     noise: ObserverNoise = field(default_factory=ObserverNoise)
     """What the observer's Kalman gain is designed for."""
 
@@ -78,6 +84,16 @@ class MpcLaw(NamedTuple):
     """Weight of the squared force change at a block start."""
     order: IntArray
     """Row i: the force indices nearest force i first (children are searched in that order)."""
+    tail: int
+    """Samples of the hold-mode tail after the last block (0: none)."""
+    hold: float
+    """The model's equilibrium force at the set-point, N (what the tail modulates)."""
+    ki: float
+    """Integral gain on the reference: the plans track ``target - ki * integral of (x_hat - target)``, 1/s."""
+    max_shift: float
+    """Largest shift of the reference the integral may make, m."""
+    dt: float
+    """Sample time, s."""
 
 
 @dataclass(frozen=True)
@@ -107,16 +123,20 @@ def design(model: StepModel, target: float, force: float, dt: float,
     blocks = np.asarray(opt.blocks, dtype=np.int64)
     if blocks.ndim != 1 or blocks.size == 0 or np.any(blocks < 1):
         raise ConfigError(f"MPC blocks must be positive sample counts, got {opt.blocks}")
-    if blocks.sum() * dt < MIN_HORIZON_S - 1e-12:
-        raise ConfigError(f"MPC horizon {blocks.sum() * dt:g} s is shorter than {MIN_HORIZON_S} s")
+    if not 0 <= opt.tail <= 10_000:
+        raise ConfigError(f"MPC tail must be 0..10000 samples, got {opt.tail}")
+    horizon = int(blocks.sum()) + int(opt.tail)
+    if horizon * dt < MIN_HORIZON_S - 1e-12:
+        raise ConfigError(f"MPC horizon {horizon * dt:g} s is shorter than {MIN_HORIZON_S} s")
     if not opt.move_weight >= 0:
         raise ConfigError(f"MPC move_weight must be >= 0, got {opt.move_weight}")
     if abs(dt - model.dt) > 1e-12:
         raise ConfigError(f"design dt {dt} differs from the model's {model.dt}")
     op = base.operating_point(model, target)
     forces = base.alphabet(force)
-    law = MpcLaw(model.kernel, blocks, forces, float(target), float(opt.move_weight), search_order(forces))
-    facts = {"blocks": [int(b) for b in blocks], "horizon_s": float(blocks.sum() * dt),
+    law = MpcLaw(model.kernel, blocks, forces, float(target), float(opt.move_weight), search_order(forces),
+                 int(opt.tail), op.u_eq, float(opt.ki), float(opt.max_shift), float(dt))
+    facts = {"blocks": [int(b) for b in blocks], "tail": int(opt.tail), "horizon_s": float(horizon * dt),
              "plans": int(5 ** blocks.size), "move_weight": opt.move_weight, "u_eq": op.u_eq,
              "observer_noise": opt.noise._asdict()}
     return MpcDesign(law, base.make_observer(model, op, opt.noise), facts, model.name)
@@ -154,8 +174,29 @@ def workspace(law: MpcLaw) -> Workspace:
 
 
 @numba.njit(cache=True)
-def plan(w: MpcLaw, ws: Workspace, s0: FloatArray, bias: float, u_last: float) -> float:
-    """The first force of the cheapest plan from state ``s0`` (exact minimum, branch and bound).
+def _hold_tail(w: MpcLaw, s: FloatArray, bias: float, ref: float, c: float, best: float) -> float:
+    """``c`` plus the tracking cost of the tail in hold mode (stops adding once it reaches ``best``).
+
+    Hold mode is the 5-force actuator's way of holding still: a first-order
+    sigma-delta modulation of the force that holds the model at the set-point
+    (its equilibrium force minus the bias estimate), i.e. the bracketing
+    alphabet forces in the right duty cycle.
+    """
+    want = w.hold - bias
+    acc = 0.0
+    for _ in range(w.tail):
+        a = base.nearest(w.forces, want + acc)
+        acc += want - a
+        e = kernels.advance_loaded(w.model, s, a, bias) - ref
+        c += e * e
+        if c >= best:
+            break
+    return c
+
+
+@numba.njit(cache=True)
+def plan(w: MpcLaw, ws: Workspace, s0: FloatArray, bias: float, u_last: float, ref: float) -> float:
+    """The first force of the cheapest plan tracking ``ref`` from ``s0`` (exact minimum, branch and bound).
 
     Children of a block are searched nearest-first around the force the last
     sample's best plan had in that block (a warm start: the first plan searched
@@ -190,15 +231,17 @@ def plan(w: MpcLaw, ws: Workspace, s0: FloatArray, bias: float, u_last: float) -
         s = ws.states[level + 1]
         s[:] = ws.states[level]
         for _ in range(w.blocks[level]):
-            e = kernels.advance_loaded(w.model, s, a, bias) - w.target
+            e = kernels.advance_loaded(w.model, s, a, bias) - ref
             c += e * e
             if c >= best:
                 break
         if c >= best:
             continue
         if level == depth - 1:
-            best = c
-            found[:] = ws.picked
+            c = _hold_tail(w, s, bias, ref, c, best)
+            if c < best:
+                best = c
+                found[:] = ws.picked
             continue
         ws.costs[level + 1] = c
         level += 1
@@ -210,14 +253,18 @@ def plan(w: MpcLaw, ws: Workspace, s0: FloatArray, bias: float, u_last: float) -
 @numba.njit(cache=True)
 def act(w: MpcLaw, ob: Observer, ws: Workspace, ost: FloatArray, cs: FloatArray, y: float,
         first: bool) -> float:
-    """The force for measurement ``y``; ``ost`` is the observer's state, ``cs`` = [last u]."""
+    """The force for measurement ``y``; ``ost`` is the observer's state, ``cs`` = [last u, integral]."""
     if first:
         base.observe_first(ob, ost, y)
-        cs[0] = 0.0
+        cs[:] = 0.0
         ws.best[:] = -1
     else:
         base.observe(ob, ost, cs[0], y)
-    u = plan(w, ws, ost[:4], ost[4], cs[0])
+    ref = w.target - w.ki * cs[1]
+    u = plan(w, ws, ost[:4], ost[4], cs[0], ref)
+    shift = w.ki * (cs[1] + w.dt * (ost[0] - w.target))
+    if abs(shift) <= w.max_shift:  # clamped integral: it cannot wind up beyond the largest shift
+        cs[1] += w.dt * (ost[0] - w.target)
     cs[0] = u
     return u
 
@@ -231,7 +278,7 @@ def rollout_under(plant: Kernel, w: MpcLaw, ob: Observer, cond: Conditions,
     us = np.empty((n, n_steps))
     state = np.zeros(4)
     ost = np.zeros(5)
-    cs = np.zeros(1)
+    cs = np.zeros(2)
     depth = w.blocks.size
     ws = Workspace(np.zeros((depth + 1, 4)), np.zeros(depth + 1), np.zeros(depth, dtype=np.int64),
                      np.zeros(depth, dtype=np.int64), np.full(depth, -1, dtype=np.int64))
@@ -258,7 +305,7 @@ class Mpc:
         self.law, self.observer = d.law, d.observer
         self.ws = workspace(d.law)
         self.ost = base.observer_state()
-        self.cs = np.zeros(1)
+        self.cs = np.zeros(2)
         self.first = True
 
     def reset(self) -> None:
