@@ -55,9 +55,9 @@ MIN_HORIZON_S = 1.0
 class MpcOptions:
     """The search's shape and cost (chosen on the design identification seeds, docs/baselines.md)."""
 
-    blocks: tuple[int, ...] = (4, 12, 24)
+    blocks: tuple[int, ...] = (4, 12, 24, 60)
     """Samples per searched block, first to last."""
-    tail: int = 60
+    tail: int = 0
     """Samples of the hold-mode tail after the blocks; blocks plus tail are the horizon (at least 1 s)."""
     move_weight: float = 1e-6
     """Weight of the squared force change at each block start, m²/N²."""
