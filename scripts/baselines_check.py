@@ -27,7 +27,7 @@ from typing import Any
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import identify_surrogates, make_records
 from msd_bench.core.baselines import designs
-from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.model import StepModel
 from msd_bench.core.robustness import merge
 from msd_bench.core.scenarios import parse, suite
@@ -52,7 +52,10 @@ def options(pairs: Sequence[Sequence[str]]) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for kind, item in pairs:
         key, _, raw = item.partition("=")
-        value: Any = tuple(int(v) for v in raw.split("/")) if "/" in raw else float(raw)
+        try:
+            value: Any = tuple(int(v) for v in raw.split("/")) if "/" in raw else float(raw)
+        except ValueError:
+            raise ConfigError(f"--opt {kind} {item!r}: need key=number or key=n1/n2/... (blocks)") from None
         out.setdefault(kind, {})[key] = value
     return out
 
@@ -105,7 +108,7 @@ def main() -> int:
         if args.json is not None and args.json.exists():
             raise MsdBenchError(f"{args.json} exists; not overwriting it")
         result = run(args.kinds, args.id_seeds, args.pinned, args.draws, options(args.opt))
-    except (MsdBenchError, ValueError) as e:
+    except MsdBenchError as e:
         print(f"baselines_check: {e}", file=sys.stderr)
         return 2
     report(result)

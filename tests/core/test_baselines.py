@@ -211,6 +211,8 @@ def test_bad_kinds_and_unholdable_setpoints_are_one_line_errors():
         designs.parse_kind("pid")
     with pytest.raises(ConfigError, match="set-point"):
         pid.design(_model("glm"), 3.0, P.F, P.dt)
+    with pytest.raises(ConfigError, match=r"unknown option\(s\) wc; known: alpha, crossover"):
+        designs.make("pid", _model("glm"), 1.0, P.F, P.dt, wc=3.0)
     weak = plant_model(PlantParams(F=1.0))
     with pytest.raises(ConfigError, match="cannot hold the set-point"):
         lqr.design(weak, 1.5, 1.0, P.dt)

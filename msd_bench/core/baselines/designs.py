@@ -12,7 +12,7 @@ frozen design with ``as_dict()``; a compiled batch rollout with
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import replace
+from dataclasses import fields, replace
 from typing import Any, NamedTuple, Protocol
 
 import numpy as np
@@ -53,6 +53,8 @@ class Entry(NamedTuple):
     """The compiled batch rollout of a design on a plant kernel."""
     summary: str
     """One line for reports."""
+    options: type
+    """The design's options dataclass (its fields are the keyword options ``design`` accepts)."""
 
 
 def _pid(quantised: bool) -> Callable[..., Design]:
@@ -87,13 +89,15 @@ def _mpc_rollout(plant: Kernel, d: mpc.MpcDesign, cond: Conditions,
 
 DESIGNS: dict[str, Entry] = {
     "pid": Entry(_pid(True), pid.Pid, _pid_rollout,
-                 "PID at a phase margin and crossover, output the nearest of the 5 forces"),
+                 "PID at a phase margin and crossover, output the nearest of the 5 forces", pid.PidOptions),
     "pid-continuous": Entry(_pid(False), pid.Pid, _pid_rollout,
-                            "the same PID, any force in ±F"),
+                            "the same PID, any force in ±F", pid.PidOptions),
     "lqr": Entry(_lqr, lqr.Lqr, _lqr_rollout,
-                 "LQR with integral action at the set-point, Kalman observer with force bias, 5 forces"),
+                 "LQR with integral action at the set-point, Kalman observer with force bias, 5 forces",
+                 lqr.LqrOptions),
     "mpc": Entry(_mpc, mpc.Mpc, _mpc_rollout,
-                 "finite-alphabet MPC over 1 s, move-blocked tree, Kalman observer with force bias"),
+                 "finite-alphabet MPC over 1 s, move-blocked tree, Kalman observer with force bias",
+                 mpc.MpcOptions),
 }
 """Every baseline design by name."""
 
@@ -115,8 +119,14 @@ def parse_kind(kind: str) -> tuple[str, str]:
 
 
 def make(name: str, model: StepModel, target: float, force: float, dt: float, **options: Any) -> Design:
-    """Design ``name`` on ``model`` for ``target`` (deterministic)."""
-    return entry(name).design(model, target, force, dt, **options)
+    """Design ``name`` on ``model`` for ``target`` (deterministic); an unknown option is a one-line error."""
+    e = entry(name)
+    known = {f.name for f in fields(e.options)} - {"quantised"}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise ConfigError(f"baseline {name}: unknown option(s) {', '.join(unknown)}; known: "
+                          f"{', '.join(sorted(known))}")
+    return e.design(model, target, force, dt, **options)
 
 
 def rollouts(name: str, d: Design, nominal: PlantParams, sc: Scenario, seeds: Sequence[int],
