@@ -10,7 +10,7 @@ import pytest
 from msd_bench.core import kernels
 from msd_bench.core.baselines import base, designs, lqr, mpc, pid
 from msd_bench.core.closed_loop import Conditions, nominal, quantise
-from msd_bench.core.errors import ConfigError
+from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.metrics import compute
 from msd_bench.core.model import StepModel, plant_model
 from msd_bench.core.plant import PlantParams
@@ -216,6 +216,14 @@ def test_bad_kinds_and_unholdable_setpoints_are_one_line_errors():
     weak = plant_model(PlantParams(F=1.0))
     with pytest.raises(ConfigError, match="cannot hold the set-point"):
         lqr.design(weak, 1.5, 1.0, P.dt)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_stepwise_controllers_refuse_a_non_finite_measurement(built, kind):
+    ctrl = designs.entry(designs.parse_kind(kind)[1]).controller(built[kind])
+    ctrl.act(0.0)
+    with pytest.raises(InvalidInputError, match="measured position must be finite"):
+        ctrl.act(float("nan"))
 
 
 def test_evaluate_counts_one_run_per_condition_and_one_per_noise_draw():

@@ -33,7 +33,7 @@ from scipy.optimize import brentq
 
 from msd_bench.core import kernels
 from msd_bench.core.closed_loop import Conditions, _advance
-from msd_bench.core.errors import ConfigError
+from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.kernels import KIND_PLANT, Kernel
 from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import QConfig
@@ -42,6 +42,14 @@ FloatArray = NDArray[np.float64]
 
 _FD_STEP = 1e-6
 """Central-difference step for the linearisation (m or N): the kernels are smooth there."""
+
+
+def measured(y: float) -> float:
+    """A measurement a stepwise controller accepts: finite, else a one-line error before any state moves."""
+    value = float(y)
+    if not math.isfinite(value):
+        raise InvalidInputError(f"measured position must be finite, got {y!r}")
+    return value
 
 
 def alphabet(force: float) -> FloatArray:

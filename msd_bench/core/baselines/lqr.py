@@ -206,6 +206,6 @@ class Lqr:
 
     def act(self, y: float) -> float:
         """The force for the measured position ``y`` (m)."""
-        u = float(act(self.law, self.observer, self.ost, self.cs, float(y), self.first))
+        u = float(act(self.law, self.observer, self.ost, self.cs, base.measured(y), self.first))
         self.first = False
         return u

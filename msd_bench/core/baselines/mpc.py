@@ -314,6 +314,6 @@ class Mpc:
 
     def act(self, y: float) -> float:
         """The force for the measured position ``y`` (m)."""
-        u = float(act(self.law, self.observer, self.ws, self.ost, self.cs, float(y), self.first))
+        u = float(act(self.law, self.observer, self.ws, self.ost, self.cs, base.measured(y), self.first))
         self.first = False
         return u

@@ -252,6 +252,6 @@ class Pid:
 
     def act(self, y: float) -> float:
         """The force for the measured position ``y`` (m)."""
-        u = float(act(self.gains, self.cs, float(y), self.first))
+        u = float(act(self.gains, self.cs, base.measured(y), self.first))
         self.first = False
         return u
