@@ -1,0 +1,157 @@
+"""The common shape of the baseline designs: one table, one design call, one rollout, one evaluation.
+
+A protocol that puts every controller (Q-learners and these) behind one face
+needs, per design: ``design(model, target, force, dt, **options)`` returning a
+frozen design with ``as_dict()``; a compiled batch rollout with
+``greedy_under``'s semantics; and a stepwise controller (``reset()``,
+``act(y) -> force``). :data:`DESIGNS` is that table; agent kinds are spelled
+``<surrogate>+<design>`` (``glm+pid``, ``greybox+lqr``, ``plm+mpc``) and
+:func:`parse_kind` splits them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import fields, replace
+from typing import Any, NamedTuple, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from msd_bench.core.baselines import lqr, mpc, pid
+from msd_bench.core.closed_loop import Conditions
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.kernels import Kernel
+from msd_bench.core.metrics import compute
+from msd_bench.core.model import StepModel, plant_model
+from msd_bench.core.plant import PlantParams
+from msd_bench.core.robustness import cell, conditions, sensor_noise
+from msd_bench.core.scenarios import Scenario, suite
+
+FloatArray = NDArray[np.float64]
+Design = pid.PidDesign | lqr.LqrDesign | mpc.MpcDesign
+
+
+class Controller(Protocol):
+    """The stepwise face an agent node drives."""
+
+    def reset(self) -> None:
+        """Back to rest: the next measurement starts a new run."""
+
+    def act(self, y: float) -> float:
+        """The force for the measured position ``y``."""
+
+
+class Entry(NamedTuple):
+    """One design in the table."""
+
+    design: Callable[..., Design]
+    """``design(model, target, force, dt, **options)``."""
+    controller: Callable[[Any], Controller]
+    """The stepwise form of a design."""
+    rollout: Callable[[Kernel, Any, Conditions, FloatArray], tuple[FloatArray, FloatArray]]
+    """The compiled batch rollout of a design on a plant kernel."""
+    summary: str
+    """One line for reports."""
+    options: type
+    """The design's options dataclass (its fields are the keyword options ``design`` accepts)."""
+
+
+def _pid(quantised: bool) -> Callable[..., Design]:
+    def make(model: StepModel, target: float, force: float, dt: float, **options: Any) -> Design:
+        opt = replace(pid.PidOptions(**options), quantised=quantised)
+        return pid.design(model, target, force, dt, opt)
+    return make
+
+
+def _lqr(model: StepModel, target: float, force: float, dt: float, **options: Any) -> Design:
+    return lqr.design(model, target, force, dt, lqr.LqrOptions(**options))
+
+
+def _mpc(model: StepModel, target: float, force: float, dt: float, **options: Any) -> Design:
+    return mpc.design(model, target, force, dt, mpc.MpcOptions(**options))
+
+
+def _pid_rollout(plant: Kernel, d: pid.PidDesign, cond: Conditions,
+                 noise: FloatArray) -> tuple[FloatArray, FloatArray]:
+    return pid.rollout_under(plant, d.gains, cond, noise)
+
+
+def _lqr_rollout(plant: Kernel, d: lqr.LqrDesign, cond: Conditions,
+                 noise: FloatArray) -> tuple[FloatArray, FloatArray]:
+    return lqr.rollout_under(plant, d.law, d.observer, cond, noise)
+
+
+def _mpc_rollout(plant: Kernel, d: mpc.MpcDesign, cond: Conditions,
+                 noise: FloatArray) -> tuple[FloatArray, FloatArray]:
+    return mpc.rollout_under(plant, d.law, d.observer, cond, noise)
+
+
+DESIGNS: dict[str, Entry] = {
+    "pid": Entry(_pid(True), pid.Pid, _pid_rollout,
+                 "PID at a phase margin and crossover, output the nearest of the 5 forces", pid.PidOptions),
+    "pid-continuous": Entry(_pid(False), pid.Pid, _pid_rollout,
+                            "the same PID, any force in ±F", pid.PidOptions),
+    "lqr": Entry(_lqr, lqr.Lqr, _lqr_rollout,
+                 "LQR with integral action at the set-point, Kalman observer with force bias, 5 forces",
+                 lqr.LqrOptions),
+    "mpc": Entry(_mpc, mpc.Mpc, _mpc_rollout,
+                 "finite-alphabet MPC over 1 s, move-blocked tree, Kalman observer with force bias",
+                 mpc.MpcOptions),
+}
+"""Every baseline design by name."""
+
+
+def entry(name: str) -> Entry:
+    """The design called ``name``; a one-line error listing the known ones otherwise."""
+    if name not in DESIGNS:
+        raise ConfigError(f"unknown baseline design {name!r}; known: {', '.join(DESIGNS)}")
+    return DESIGNS[name]
+
+
+def parse_kind(kind: str) -> tuple[str, str]:
+    """``"glm+pid"`` -> ``("glm", "pid")``; the design part must be a known design."""
+    surrogate, sep, name = kind.rpartition("+")
+    if not sep or not surrogate:
+        raise ConfigError(f"baseline kind {kind!r} must be <surrogate>+<design>, e.g. glm+pid")
+    entry(name)
+    return surrogate, name
+
+
+def make(name: str, model: StepModel, target: float, force: float, dt: float, **options: Any) -> Design:
+    """Design ``name`` on ``model`` for ``target`` (deterministic); an unknown option is a one-line error."""
+    e = entry(name)
+    known = {f.name for f in fields(e.options)} - {"quantised"}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise ConfigError(f"baseline {name}: unknown option(s) {', '.join(unknown)}; known: "
+                          f"{', '.join(sorted(known))}")
+    return e.design(model, target, force, dt, **options)
+
+
+def rollouts(name: str, d: Design, nominal: PlantParams, sc: Scenario, seeds: Sequence[int],
+             steps: int) -> tuple[FloatArray, FloatArray]:
+    """True positions and commands under ``sc``: one run per noise draw, one run without a sensor.
+
+    A deterministic design on one model has one run per condition; only sensor
+    noise draws (one per seed, as the Q-learners' cells draw them) make more.
+    """
+    draws = list(seeds) if sc.has_sensor and sc.noise > 0.0 else list(seeds)[:1]
+    plant = sc.plant(nominal)
+    noise = sensor_noise(sc, draws, steps)
+    return entry(name).rollout(plant_model(plant).kernel, d, conditions(sc, plant.dt), noise)
+
+
+def evaluate(name: str, model: StepModel, nominal: PlantParams, seeds: Sequence[int],
+             scenarios: Sequence[Scenario] | None = None, steps: int = 3000, window: int = 500,
+             **options: Any) -> dict[str, dict[str, Any]]:
+    """Per scenario id, the cell of :func:`robustness.cell`, designing once per set-point."""
+    designs: dict[float, Design] = {}
+    out: dict[str, dict[str, Any]] = {}
+    for sc in scenarios if scenarios is not None else suite():
+        if sc.setpoint not in designs:
+            designs[sc.setpoint] = make(name, model, sc.setpoint, nominal.F, nominal.dt, **options)
+        xs, _ = rollouts(name, designs[sc.setpoint], nominal, sc, seeds, steps)
+        m = [compute(x, sc.setpoint, nominal.dt, window) for x in xs]
+        out[sc.id] = cell([r.sse for r in m], [r.mae for r in m])
+    return out

@@ -1,0 +1,211 @@
+"""LQR baseline with integral action, on the identified model linearised at the set-point.
+
+Design: the model (the grey-box for ``greybox+lqr``; any kind works) is
+linearised at its equilibrium at the set-point (:func:`base.operating_point`),
+augmented with the integral of the position error ``xi+ = xi + dt (x - x*)``,
+and python-control's ``dlqr`` gives the state feedback. Weights by Bryson's
+rule — each term divided by the square of its acceptable size (position,
+velocity, integral, force) — so the constants read in units.
+
+Observer (ours, not the robust Q-learner's): the fixed-gain filter of
+:mod:`~msd_bench.core.baselines.base`, which runs the *nonlinear* identified
+model as its predictor and corrects it with a steady-state Kalman gain
+designed on the linearisation augmented with a force-bias state. Why not the
+robust agent's ``model`` observer: its gains were tuned for a 50-sample lead
+error feeding a Q-table; here the feedback needs the velocity and an unbiased
+position, which a Kalman design with a bias state gives by construction.
+The bias estimate only keeps the estimate unbiased (under a load or a wrong
+equilibrium force); the offset is removed by the integral action.
+
+Output: ``u_eq - K z`` saturated to ±F and quantised to the paper's five
+forces; the integral is frozen while the command is saturated and the error
+would drive it further (conditional integration, as the PID).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import control
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from msd_bench.core.baselines import base
+from msd_bench.core.baselines.base import Observer, ObserverNoise
+from msd_bench.core.closed_loop import Conditions, quantise
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.kernels import Kernel
+from msd_bench.core.model import StepModel
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class LqrOptions:
+    """Bryson's-rule sizes (chosen on the design identification seeds, docs/baselines.md)."""
+
+    position: float = 0.05
+    """Acceptable position error, m."""
+    velocity: float = 0.5
+    """Acceptable velocity, m/s."""
+    integral: float = 0.05
+    """Acceptable integral of the position error, m s."""
+    force: float = 10.0
+    """Acceptable force deviation from the equilibrium force, N."""
+    noise: ObserverNoise = field(default_factory=ObserverNoise)
+    """What the observer's Kalman gain is designed for."""
+
+
+class LqrLaw(NamedTuple):
+    """The state feedback as compiled code reads it."""
+
+    k: FloatArray
+    """Gains on the model's used slots' deviations, then on the error integral."""
+    s_eq: FloatArray
+    """The model's slots at the equilibrium."""
+    u_eq: float
+    """Equilibrium force, N."""
+    target: float
+    """Set-point, m."""
+    force: float
+    """Saturation ±F, N."""
+    dt: float
+    """Sample time, s."""
+    forces: FloatArray
+    """Alphabet the output is quantised to."""
+
+
+@dataclass(frozen=True)
+class LqrDesign:
+    """An LQR design: the law, its observer and the facts of the design."""
+
+    law: LqrLaw
+    """The compiled feedback."""
+    observer: Observer
+    """The compiled observer (on the model designed on)."""
+    facts: dict[str, Any]
+    """Weights, closed-loop pole radius of the linear design, the observer's gains."""
+    surrogate: str
+    """The model it was designed on."""
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready artifact."""
+        w = self.law
+        return {"design": "lqr", "surrogate": self.surrogate, "k": w.k.tolist(), "s_eq": w.s_eq.tolist(),
+                "u_eq": w.u_eq, "target": w.target, "force": w.force, "dt": w.dt,
+                "forces": w.forces.tolist(), "observer_gain": self.observer.gain.tolist(), **self.facts}
+
+
+def augmented(op: base.OperatingPoint, dt: float) -> tuple[FloatArray, FloatArray]:
+    """The linearisation with the error integral appended as a last state."""
+    n = op.b.size
+    a = np.zeros((n + 1, n + 1))
+    a[:n, :n] = op.a
+    a[n, 0] = dt
+    a[n, n] = 1.0
+    b = np.zeros((n + 1, 1))
+    b[:n, 0] = op.b
+    return a, b
+
+
+def weights(op: base.OperatingPoint, opt: LqrOptions) -> tuple[FloatArray, FloatArray]:
+    """Bryson's Q (position, velocity, integral) and R (force) for the augmented state."""
+    n = op.b.size
+    pos = np.zeros(n + 1)
+    pos[0] = 1.0
+    vel = np.zeros(n + 1)
+    vel[:n] = op.velocity
+    integ = np.zeros(n + 1)
+    integ[n] = 1.0
+    q = (np.outer(pos, pos) / opt.position ** 2 + np.outer(vel, vel) / opt.velocity ** 2
+         + np.outer(integ, integ) / opt.integral ** 2)
+    return q, np.array([[1.0 / opt.force ** 2]])
+
+
+def design(model: StepModel, target: float, force: float, dt: float,
+           options: LqrOptions | None = None) -> LqrDesign:
+    """The LQR with integral action and its observer on ``model`` at ``target`` (deterministic)."""
+    opt = options or LqrOptions()
+    if min(opt.position, opt.velocity, opt.integral, opt.force) <= 0:
+        raise ConfigError("LQR options: every Bryson size must be > 0")
+    if abs(dt - model.dt) > 1e-12:
+        raise ConfigError(f"design dt {dt} differs from the model's {model.dt}")
+    op = base.operating_point(model, target)
+    a, b = augmented(op, dt)
+    q, r = weights(op, opt)
+    k, _, poles = control.dlqr(a, b, q, r)
+    law = LqrLaw(np.ascontiguousarray(k[0]), op.s_eq, op.u_eq, float(target), float(force), float(dt),
+                 base.alphabet(force))
+    facts = {"sizes": {"position": opt.position, "velocity": opt.velocity, "integral": opt.integral,
+                       "force": opt.force},
+             "observer_noise": opt.noise._asdict(),
+             "closed_loop_pole_radius": float(np.max(np.abs(poles)))}
+    return LqrDesign(law, base.make_observer(model, op, opt.noise), facts, model.name)
+
+
+@numba.njit(cache=True)
+def act(w: LqrLaw, ob: Observer, ost: FloatArray, cs: FloatArray, y: float, first: bool) -> float:
+    """The force for measurement ``y``; ``ost`` is the observer's state, ``cs`` = [integral, last u]."""
+    if first:
+        base.observe_first(ob, ost, y)
+        cs[:] = 0.0
+    else:
+        base.observe(ob, ost, cs[1], y)
+    n = w.s_eq.size
+    e = ost[0] - w.target
+    u = w.u_eq - w.k[n] * cs[0]
+    for i in range(n):
+        u -= w.k[i] * (ost[i] - w.s_eq[i])
+    if not ((u > w.force and e < 0.0) or (u < -w.force and e > 0.0)):
+        cs[0] += w.dt * e
+    u = base.nearest(w.forces, min(max(u, -w.force), w.force))
+    cs[1] = u
+    return u
+
+
+@numba.njit(cache=True)
+def rollout_under(plant: Kernel, w: LqrLaw, ob: Observer, cond: Conditions,
+                  noise: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Each run from rest under ``cond`` (greedy_under's semantics); (true x, commanded u)."""
+    n, n_steps = noise.shape
+    xs = np.empty((n, n_steps))
+    us = np.empty((n, n_steps))
+    state = np.zeros(4)
+    ost = np.zeros(5)
+    cs = np.zeros(2)
+    queue = np.zeros(cond.delay + 1)
+    for j in range(n):
+        state[:] = 0.0
+        queue[:] = 0.0
+        x = 0.0
+        y = quantise(x + noise[j, 0], cond.quant)
+        for k in range(n_steps):
+            u = act(w, ob, ost, cs, y, k == 0)
+            xs[j, k] = x
+            us[j, k] = u
+            x = base.plant_side(plant, state, queue, k, u, cond)
+            if k + 1 < n_steps:
+                y = quantise(x + noise[j, k + 1], cond.quant)
+    return xs, us
+
+
+class Lqr:
+    """The stepwise form for an agent node: ``reset()``, then ``act(y)`` once per sample."""
+
+    def __init__(self, d: LqrDesign) -> None:
+        self.law, self.observer = d.law, d.observer
+        self.ost = base.observer_state()
+        self.cs = np.zeros(2)
+        self.first = True
+
+    def reset(self) -> None:
+        """Back to rest: the next measurement starts a new run."""
+        self.first = True
+
+    def act(self, y: float) -> float:
+        """The force for the measured position ``y`` (m)."""
+        u = float(act(self.law, self.observer, self.ost, self.cs, base.measured(y), self.first))
+        self.first = False
+        return u
