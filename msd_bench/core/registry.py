@@ -170,7 +170,7 @@ def check_params(kernel: str, params: NDArray[np.float64], label: str) -> None:
     what = f"model {label!r} ({kernel})"
     n = len(params)
     if not len(layout.head) <= n <= layout.max_size:
-        raise InvalidInputError(f"{what}: {n} parameters; its layout {layout.names()} has "
+        raise InvalidInputError(f"{what}: got {n} parameter value(s); its layout {layout.names()} has "
                                 f"{layout.count_rule()}")
     _check_slots(what, layout.head, params, 0)
     n_blocks = layout.blocks[0]

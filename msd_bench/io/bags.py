@@ -231,7 +231,7 @@ def _raw_messages(reader: Reader, conns: list[Connection]) -> tuple[list[bytes],
     try:
         for _, _, raw in reader.messages(connections=conns):
             raws.append(raw)
-    except Exception as exc:  # raised again by the caller, unchanged
+    except _READ_ERRORS as exc:  # raised again by the caller, unchanged (after the rows read)
         return raws, exc
     return raws, None
 
