@@ -165,9 +165,10 @@ def _fit(value: Any, what: str, path: Path) -> FitReport:
             ok = _is_int(v)
         else:  # float or float | None: None is how NaN was written
             ok = v is None or _is_number(v)
-            v = (math.nan if hint is float else None) if v is None else float(v)
         if not ok:
             raise RunFileError(f"{path}: fit {what} field {name} has the wrong type ({type(v).__name__})")
+        if hint not in (str, int):
+            v = (math.nan if hint is float else None) if v is None else float(v)
         out[name] = v
     try:
         return FitReport(**out)

@@ -13,6 +13,7 @@ caller's one-line error naming the file.
 
 from __future__ import annotations
 
+import tokenize
 import warnings
 import zipfile
 import zlib
@@ -34,9 +35,10 @@ MAX_NPZ_MEMBERS = 64
 DTYPE_KINDS = "fU"
 """Accepted dtype kinds: floating point (the tables) and unicode strings (the metadata)."""
 
-_READ_ERRORS = (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError)
+_READ_ERRORS = (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, tokenize.TokenError)
 """What zipfile (damaged archive, bad CRC, truncated or corrupt deflate stream) and numpy's
-header parser (bad magic, unparsable or mis-typed header dictionary) raise."""
+header parser (bad magic, unparsable or mis-typed header dictionary; ``TokenError`` from the
+tokenizer its Python-2 header fallback runs on a header that is not a literal) raise."""
 
 _UNREAD = 0x1 | 0x20 | 0x40
 """ZIP flag bits of members never read: encrypted, compressed patched data, strong encryption
