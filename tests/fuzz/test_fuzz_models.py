@@ -15,6 +15,7 @@ far from it (random JSON as the document or as one of its fields).
 
 from __future__ import annotations
 
+import faulthandler
 import json
 import math
 import os
@@ -88,6 +89,7 @@ def run_forked(doc: Any, forces: list[float], child: Child = _load_and_step, han
         if pid == 0:  # the child: never returns into pytest
             code = 4
             try:
+                faulthandler.disable()  # a crash is the verdict, reported by the parent, not a dump
                 vm = int(Path("/proc/self/status").read_text().split("VmSize:")[1].split()[0]) << 10
                 resource.setrlimit(resource.RLIMIT_AS, (vm + HEADROOM, resource.RLIM_INFINITY))
                 signal.alarm(hang_s)
