@@ -9,8 +9,10 @@ raises a one-line :class:`ConfigError` naming the choices for anything else.
 
 Adding a kind: write its fitter (a module of its own in ``core``), add one
 entry to :data:`MODEL_KINDS` below, and (only if it needs new compiled maths)
-a kernel in :mod:`msd_bench.core.kernels`. The agent kinds ``<name>`` and
-``<name>+improved`` follow from the entry (:mod:`msd_bench.app.agents`).
+a kernel in :mod:`msd_bench.core.kernels` with its parameter layout in
+:data:`KERNEL_LAYOUTS` (the count rule and every slot's bounds, which every
+model is checked against before its kernel runs). The agent kinds ``<name>``
+and ``<name>+improved`` follow from the entry (:mod:`msd_bench.app.agents`).
 
 Fitters import their science lazily: listing or checking kinds must not pull
 in torch (the NLARX) or python-control.
