@@ -88,7 +88,19 @@ def run(files: list[str], examples: int | None) -> dict[str, Any]:
         "wall_seconds": round(wall, 1),
         "pytest_exit": proc.returncode,
         "pytest_tail": proc.stdout.strip().splitlines()[-1:] if proc.returncode else [],
+        "failing_cases": failing_cases(proc.stdout),
     }
+
+
+def failing_cases(text: str, context: int = 12) -> list[str]:
+    """The falsifying examples Hypothesis printed (each with the lines after it), so a failed long
+    run can be reproduced from its JSON alone."""
+    lines = text.splitlines()
+    out: list[str] = []
+    for i, line in enumerate(lines):
+        if "Failing test case" in line or "Falsifying example" in line:
+            out += [*lines[max(0, i - 3): i + context], "..."]
+    return out[:200]
 
 
 def _examples(node: str, counts: dict[str, int]) -> int | None:

@@ -126,7 +126,7 @@ def _learner(meta: dict[str, Any], path: Path) -> QConfig:
     for key, value in doc.items():
         hint = hints.get(key)
         if hint is not None and not _fits_hint(value, hint):
-            raise RunFileError(f"{path}: learner field {key} has the wrong type ({type(value).__name__})")
+            raise RunFileError(f"{path}: learner field {key!r} has the wrong type ({type(value).__name__})")
     try:
         return learner_from_meta(meta)
     except MsdBenchError as exc:
@@ -155,7 +155,7 @@ def _fit(value: Any, what: str, path: Path) -> FitReport:
     hints = typing.get_type_hints(FitReport)
     known = {f.name for f in fields(FitReport)}
     if unknown := sorted(set(value) - known):
-        raise RunFileError(f"{path}: fit {what} has unknown field(s) {', '.join(map(str, unknown[:5]))}")
+        raise RunFileError(f"{path}: fit {what} has unknown field(s) {', '.join(map(repr, unknown[:5]))}")
     out: dict[str, Any] = {}
     for name, v in value.items():
         hint = hints[name]

@@ -179,7 +179,7 @@ def load_qtables(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     _check_schema(meta, QTABLE_SCHEMA, path)
     for name, array in members.items():
         if array.dtype != np.float64 or array.ndim != 3 or not np.all(np.isfinite(array)):
-            raise ArtifactError(f"{path}: member {name} must be a 3-D array of finite float64 "
+            raise ArtifactError(f"{path}: member {name!r} must be a 3-D array of finite float64 "
                                 f"(tables x states x actions), got {array.dtype} of shape {array.shape}")
     return members, meta
 

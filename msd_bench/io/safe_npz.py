@@ -76,7 +76,7 @@ def _checked_members(zf: zipfile.ZipFile, path: Path, error: type[MsdBenchError]
         raise error(f"{path}: archive members must be uniquely named .npy arrays, got {names[:8]}")
     for info in infos:
         if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED) or info.flag_bits & _UNREAD:
-            raise error(f"{path}: member {info.filename} is encrypted or uses compression method "
+            raise error(f"{path}: member {info.filename!r} is encrypted or uses compression method "
                         f"{info.compress_type} (only stored or deflated members are read)")
     total = sum(i.file_size for i in infos)
     if total > max_bytes:
@@ -89,7 +89,7 @@ def _member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path,
     """One ``.npy`` member: its header checked against its stated size before its data is read."""
     with zf.open(info) as fh:
         shape, fortran, dtype = _header(fh)
-        what = f"{path}: member {info.filename}"
+        what = f"{path}: member {info.filename!r}"
         if dtype.kind not in DTYPE_KINDS or dtype.fields is not None or dtype.subdtype is not None:
             raise error(f"{what} has dtype {dtype.str}; only float and string arrays are read")
         if any(n < 0 for n in shape):

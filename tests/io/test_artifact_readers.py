@@ -189,9 +189,9 @@ def _learner_meta(**learner: Any) -> dict[str, Any]:
 
 @pytest.mark.parametrize(("meta", "q", "match"), [
     (_learner_meta(), _q(99), r"q has shape \(1, 99, 5\)"),
-    (_learner_meta(n_states="100"), _q(), "learner field n_states has the wrong type"),
+    (_learner_meta(n_states="100"), _q(), "learner field 'n_states' has the wrong type"),
     (_learner_meta(n_states=10**30), _q(), "need"),
-    (_learner_meta(alpha=None), _q(), "learner field alpha"),
+    (_learner_meta(alpha=None), _q(), "learner field 'alpha'"),
     (_learner_meta(unknown=1), _q(), "does not fit this msd-bench"),
     ({**_learner_meta(), "seeds": [True]}, _q(), "seeds must be a non-empty list of integers"),
     ({**_learner_meta(), "seeds": [0, 1]}, _q(), "2 seed"),
@@ -246,12 +246,14 @@ FIT = {"model": "glm", "sim_fit": 90.0, "one_step_fit": 99.0, "n_identification"
     ({"glm": {**FIT, "extra": 1}}, "unknown field"),
     ({"glm": {k: v for k, v in FIT.items() if k != "sim_fit"}}, "lacks field"),
     ({"glm": [1]}, "must be an object"),
+    ({"glm": {"\n": None}}, r"unknown field\(s\) '\\n'"),  # found by the fuzz tier: a key is quoted
 ])
 def test_a_corrupt_fits_json_is_one_line(tmp_path: Path, doc: Any, match: str) -> None:
     path = tmp_path / "fits.json"
     path.write_text(json.dumps(doc))
-    with pytest.raises(run_files.RunFileError, match=match):
+    with pytest.raises(run_files.RunFileError, match=match) as info:
         run_files.read_fits(path)
+    assert "\n" not in str(info.value)
 
 
 def test_good_run_files_are_read(tmp_path: Path) -> None:
