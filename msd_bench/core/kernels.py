@@ -42,6 +42,12 @@ Parameter layouts (``Kernel.params``):
   with ``phi = [x_k/xs, x_{k-1}/xs, u_k/us, u_{k-1}/us]`` and
   ``x_{k+1} = xs (c0 + w.phi + sum_j alpha_j sigmoid(b_j.phi + b0_j))``.
   The paper form has ``w = 0``.
+
+The kernels index these vectors without checks; every vector's length, count
+rule (NLARX: ``S`` in slot 1) and bounds are stated once per kind in
+:data:`msd_bench.core.registry.KERNEL_LAYOUTS`, which every
+:class:`msd_bench.core.model.StepModel` is checked against before a kernel
+sees it.
 """
 
 from __future__ import annotations

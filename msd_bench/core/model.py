@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from msd_bench.core import kernels
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.plant import DT, PlantParams
+from msd_bench.core.registry import COEF_MAX, check_params
 
 if TYPE_CHECKING:  # python-control is heavy: loaded only when a transfer function is asked for
     import control
@@ -31,6 +32,9 @@ if TYPE_CHECKING:  # python-control is heavy: loaded only when a transfer functi
     from msd_bench.core.linear import LinearFit
 
 FloatArray = NDArray[np.float64]
+
+DT_MAX = 1e3
+"""Longest sample time, s, a model may state (every fit uses the rig's 0.01 s)."""
 
 NOMINAL_FORCE = PlantParams().F
 """Force limit of a surrogate whose maker does not say: the nominal plant's F."""
@@ -59,13 +63,17 @@ class StepModel:
     def __post_init__(self) -> None:
         if self.kind not in kernels.KIND_NAMES:
             raise InvalidInputError(f"unknown model kind {self.kind}; known: {kernels.KIND_NAMES}")
-        p = np.ascontiguousarray(self.params, dtype=np.float64)
+        try:
+            p = np.ascontiguousarray(self.params, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError):
+            raise InvalidInputError(f"model {self.name!r}: parameters must be numbers") from None
         if p.ndim != 1 or not np.all(np.isfinite(p)):
             raise InvalidInputError(f"model {self.name!r}: parameters must be a finite 1-D array")
-        for what, value in (("dt", self.dt), ("force_limit", self.force_limit)):
-            if not (math.isfinite(value) and value > 0):
-                raise InvalidInputError(f"model {self.name!r}: {what} must be finite and > 0, "
+        for what, value, hi in (("dt", self.dt, DT_MAX), ("force_limit", self.force_limit, COEF_MAX)):
+            if not (math.isfinite(value) and 0 < value <= hi):
+                raise InvalidInputError(f"model {self.name!r}: {what} must be in (0, {hi:g}], "
                                         f"got {value}")
+        check_params(kernels.KIND_NAMES[self.kind], p, self.name)
         if self.kind == kernels.KIND_PLANT:
             _check_plant(p, self.dt, self.force_limit)
         object.__setattr__(self, "params", p)
@@ -137,9 +145,6 @@ def plant_model(params: PlantParams) -> StepModel:
 
 def _check_plant(p: FloatArray, dt: float, force_limit: float) -> None:
     """A plant model's dt and force limit are its own parameters; a mismatch is a mistake."""
-    if p.size != kernels.PLANT_SIZE:
-        raise InvalidInputError(f"plant parameters must have {kernels.PLANT_SIZE} values "
-                                f"{kernels.Plant._fields}, got {p.size}")
     plant = kernels.Plant(*(float(v) for v in p))
     if (plant.dt, plant.F) != (dt, force_limit):
         raise InvalidInputError(

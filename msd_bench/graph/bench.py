@@ -350,7 +350,9 @@ def _follow_saved(job: Job, on_saved: Callable[[str], None], deadline: float, po
 def write_run_facts(cfg: BenchConfig, extra: dict[str, Any]) -> Path:
     """``run.json``: the configuration, the stage timings and anything else worth keeping."""
     path = cfg.run_dir / "run.json"
-    previous = json.loads(path.read_text()) if path.is_file() else {}
+    from msd_bench.graph.run_files import read_run_facts  # the report's readers: loaded by then
+
+    previous = read_run_facts(path) if path.is_file() else {}  # corrupt: one line, not overwritten
     doc = json.loads(json.dumps(asdict(cfg), default=str))
     doc["timings"] = {**previous.get("timings", {}), **cfg.timings}
     doc.update(extra)

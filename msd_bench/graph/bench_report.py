@@ -8,12 +8,11 @@ bags), so the report can be rebuilt at any time with
 
 from __future__ import annotations
 
-import json
 from typing import Any
 
 import numpy as np
 
-from msd_bench.app.agents import PLANT, agent_kind, budget_note, learner_from_meta
+from msd_bench.app.agents import PLANT, agent_kind, budget_note
 from msd_bench.app.scoring import agent_result
 from msd_bench.core import robustness
 from msd_bench.core.identify import FitReport
@@ -28,6 +27,7 @@ from msd_bench.io.report import write_report, write_robustness
 from msd_bench.io.run_output import FigureData, write_figures
 
 from .bench import BenchConfig
+from .run_files import read_fits, read_qtables, read_result
 
 
 def load_results(cfg: BenchConfig) -> list[AgentResult]:
@@ -38,12 +38,12 @@ def load_results(cfg: BenchConfig) -> list[AgentResult]:
         path = cfg.run_dir / "agents" / kind / "result.json"
         if not path.is_file():
             continue
-        doc = json.loads(path.read_text())
+        doc = read_result(path)
         fit = fits.get(agent_kind(kind).surrogate)
-        notes = [] if doc["training"] == "in-process" else [f"trained {doc['training']}"]
+        notes = [] if doc.training == "in-process" else [f"trained {doc.training}"]
         notes.append(budget_note(kind, cfg.run.dyna_episodes))
-        rows.append(agent_result(kind, doc["per_seed"], {cfg.id_seed: fit} if fit else {},
-                                 int(doc["real_interactions"]), notes))
+        rows.append(agent_result(kind, doc.per_seed, {cfg.id_seed: fit} if fit else {},
+                                 doc.real_interactions, notes))
     return rows
 
 
@@ -51,15 +51,15 @@ def _fits(cfg: BenchConfig) -> dict[str, FitReport]:
     path = cfg.run_dir / "models" / "fits.json"
     if not path.is_file():
         return {}
-    return {name: FitReport(**doc) for name, doc in json.loads(path.read_text()).items()}
+    return read_fits(path)
 
 
 def _qtables(cfg: BenchConfig, results: list[AgentResult]) -> dict[str, tuple[dict[str, Any], Any, Any]]:
     """Per agent kind: its Q-table arrays, the learner config and the seeds stored beside them."""
     out = {}
     for r in results:
-        arrays, meta = artifacts.load_qtables(cfg.run_dir / "agents" / r.kind / "qtables.npz")
-        out[r.kind] = (arrays, learner_from_meta(meta), [int(s) for s in meta["seeds"]])
+        tables = read_qtables(cfg.run_dir / "agents" / r.kind / "qtables.npz")
+        out[r.kind] = (tables.arrays, tables.learner, tables.seeds)
     return out
 
 
@@ -99,9 +99,9 @@ def on_node_robustness(cfg: BenchConfig, results: list[AgentResult]) -> dict[str
     rob: dict[str, dict[str, Any]] = {}
     chosen = [r for r in results if r.kind in cfg.scenario_kinds and cfg.node_scenarios] or results
     for r in chosen:
-        doc = json.loads((cfg.run_dir / "agents" / r.kind / "result.json").read_text())
+        doc = read_result(cfg.run_dir / "agents" / r.kind / "result.json")
         cells = {"nominal": robustness.cell([s["sse"] for s in r.per_seed], [s["mae"] for s in r.per_seed])}
-        cells.update(doc.get("on_node_scenarios", {}))
+        cells.update(doc.on_node_scenarios)
         rob[r.kind] = cells
     return rob
 

@@ -25,7 +25,10 @@ import msd_bench
 from msd_bench.core import kernels
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.model import StepModel
+from msd_bench.core.registry import KERNEL_LAYOUTS
 from msd_bench.io.atomic import write_bytes_atomic
+from msd_bench.io.safe_npz import read_npz_bounded
+from msd_bench.io.safe_read import loads_bounded, read_json_bounded
 
 MODEL_SCHEMA = "msd-bench/model"
 QTABLE_SCHEMA = "msd-bench/qtable"
@@ -103,17 +106,54 @@ def save_model(model: StepModel, path: Path, provenance: Provenance, *, root: Pa
 
 
 def load_model(path: Path) -> StepModel:
-    """Read a model artifact written by :func:`save_model`."""
-    doc = _read_json(Path(path), MODEL_SCHEMA)
+    """Read a model artifact written by :func:`save_model`, trusting nothing in it.
+
+    Every field is type-checked and the parameter vector is checked against
+    its kind's layout (:data:`msd_bench.core.registry.KERNEL_LAYOUTS`) before
+    a kernel sees it: a crafted file is a one-line ArtifactError, never a
+    crash of the compiled step.
+    """
+    path = Path(path)
+    doc = _read_json(path, MODEL_SCHEMA)
     kinds = {v: k for k, v in kernels.KIND_NAMES.items()}
-    if doc.get("kind") not in kinds:
-        raise ArtifactError(f"{path}: unknown model kind {doc.get('kind')!r}")
+    kind = doc.get("kind")
+    if not isinstance(kind, str) or kind not in kinds:
+        raise ArtifactError(f"{path}: unknown model kind {_short(kind)}; known: {', '.join(kinds)}")
+    params = _model_params(doc.get("params"), kind, path)
+    name, info = doc.get("name"), doc.get("info", {})
+    if not isinstance(name, str) or not isinstance(info, dict):
+        raise ArtifactError(f"{path}: malformed model artifact (name must be a string, info an object)")
+    limits = {k: _number(doc[k], k, path) for k in ("dt", "force_limit") if k in doc}  # older: defaults
     try:
-        limits = {k: float(doc[k]) for k in ("dt", "force_limit") if k in doc}  # older artifacts: defaults
-        return StepModel(kinds[doc["kind"]], np.asarray(doc["params"], float), doc["name"], doc["info"],
-                         **limits)
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ArtifactError(f"{path}: malformed model artifact ({exc})") from None
+        return StepModel(kinds[kind], params, name, info, **limits)
+    except MsdBenchError as exc:
+        raise ArtifactError(f"{path}: {exc}") from None
+
+
+def _model_params(value: Any, kind: str, path: Path) -> np.ndarray:
+    """The ``params`` list as float64, refused before conversion if longer than its layout allows."""
+    most = KERNEL_LAYOUTS[kind].max_size
+    if not isinstance(value, list) or len(value) > most:
+        got = f"{len(value)} values" if isinstance(value, list) else _short(value)
+        raise ArtifactError(f"{path}: params must be a list of at most {most} numbers for kind {kind}, "
+                            f"got {got}")
+    return np.array([_number(v, f"params[{i}]", path) for i, v in enumerate(value)], dtype=np.float64)
+
+
+def _number(value: Any, what: str, path: Path) -> float:
+    """A JSON number as a float (a bool, a string or an int beyond float range is refused)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ArtifactError(f"{path}: {what} must be a number, got {_short(value)}")
+    try:
+        return float(value)
+    except OverflowError:
+        raise ArtifactError(f"{path}: {what} is beyond the float range") from None
+
+
+def _short(value: Any, limit: int = 60) -> str:
+    """``repr(value)`` cut short, so a crafted value cannot make the error line megabytes long."""
+    text = repr(value) if not isinstance(value, list | dict) or len(value) < 50 else type(value).__name__
+    return text if len(text) <= limit else text[:limit] + "..."
 
 
 def save_qtables(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any], *,
@@ -128,27 +168,34 @@ def save_qtables(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]
 
 
 def load_qtables(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """Read a Q-table artifact: its arrays and its metadata."""
+    """Read a Q-table artifact: its arrays and its metadata, every size bounded.
+
+    The archive is read by :func:`msd_bench.io.safe_npz.read_npz_bounded`
+    (uncompressed sizes checked before anything is decompressed or allocated),
+    its metadata by :func:`msd_bench.io.safe_read.loads_bounded`; every other
+    member must be a 3-D table stack (tables x states x actions) of finite
+    float64 values.
+    """
     path = Path(path)
     if not path.is_file():
         raise ArtifactError(f"{path}: no such Q-table artifact")
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            meta = json.loads(str(data["meta"]))
-            arrays = {k: data[k] for k in data.files if k != "meta"}
-    except (OSError, ValueError, KeyError) as exc:
-        raise ArtifactError(f"{path}: unreadable Q-table artifact ({exc})") from None
+    members = read_npz_bounded(path, ArtifactError)
+    text = members.pop("meta", None)
+    if text is None or text.dtype.kind != "U" or text.shape != ():
+        raise ArtifactError(f"{path}: Q-table artifact has no metadata string (member meta)")
+    meta = loads_bounded(str(text), str(path), ArtifactError)
     _check_schema(meta, QTABLE_SCHEMA, path)
-    return arrays, meta
+    for name, array in members.items():
+        if array.dtype != np.float64 or array.ndim != 3 or not np.all(np.isfinite(array)):
+            raise ArtifactError(f"{path}: member {name!r} must be a 3-D array of finite float64 "
+                                f"(tables x states x actions), got {array.dtype} of shape {array.shape}")
+    return members, meta
 
 
 def _read_json(path: Path, schema: str) -> dict[str, Any]:
     if not path.is_file():
         raise ArtifactError(f"{path}: no such artifact")
-    try:
-        doc = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ArtifactError(f"{path}: not a JSON artifact ({exc})") from None
+    doc = read_json_bounded(path, ArtifactError)
     _check_schema(doc, schema, path)
     return doc  # type: ignore[no-any-return]
 
@@ -156,10 +203,9 @@ def _read_json(path: Path, schema: str) -> dict[str, Any]:
 def _check_schema(doc: Any, schema: str, path: Path) -> None:
     if not isinstance(doc, dict) or doc.get("schema") != schema:
         raise ArtifactError(f"{path}: not a {schema} artifact")
-    if doc.get("schema_version") != SCHEMA_VERSION:
-        raise ArtifactError(
-            f"{path}: schema version {doc.get('schema_version')} is not {SCHEMA_VERSION}"
-        )
+    version = doc.get("schema_version")
+    if version != SCHEMA_VERSION or isinstance(version, bool | float):
+        raise ArtifactError(f"{path}: schema version {_short(version)} is not {SCHEMA_VERSION}")
 
 
 def _fresh(path: Path, data: bytes, root: Path | None, overwrite: bool) -> Path:

@@ -58,8 +58,8 @@ def loads_bounded(
         value = json.loads(text)
     except RecursionError:
         raise error(f"{what}: JSON nested too deeply (limit {max_depth} levels)") from None
-    except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, an integer of over 4300 digits
-        raise error(f"{what}: not valid JSON ({exc})") from None
+    except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, an int of over 4300 digits
+        raise error(f"{what}: not valid JSON ({str(exc)[:200]})") from None
     if json_depth(value) > max_depth:
         raise error(f"{what}: JSON nested too deeply (limit {max_depth} levels)")
     return value

@@ -48,7 +48,7 @@ def test_artifact_errors_are_one_line(tmp_path: Path) -> None:
     with pytest.raises(artifacts.ArtifactError, match="refusing to overwrite"):
         artifacts.save_model(_model(), path, artifacts.Provenance())
     (tmp_path / "bad.json").write_text("{not json")
-    with pytest.raises(artifacts.ArtifactError, match="not a JSON artifact"):
+    with pytest.raises(artifacts.ArtifactError, match="not valid JSON"):
         artifacts.load_model(tmp_path / "bad.json")
     doc = json.loads(path.read_text())
     doc["schema_version"] = 99

@@ -68,7 +68,7 @@ def test_missing_model_path_is_one_config_line(ctx):
 
 @pytest.mark.parametrize(("content", "match"), [
     (None, "no such artifact"),
-    ("{not json", "not a JSON artifact"),
+    ("{not json", "not valid JSON"),
     ('{"schema": "other"}', "not a msd-bench/model artifact"),
 ])
 def test_bad_model_path_is_one_artifact_line(ctx, tmp_path, content, match):
