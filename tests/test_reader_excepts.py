@@ -30,12 +30,19 @@ run-directory files, the gym's model backend)."""
 BROAD = {"Exception", "BaseException"}
 
 
+def _reraises(handler: ast.ExceptHandler) -> bool:
+    """A handler that cleans up and ends in a bare ``raise`` swallows nothing (a temporary file's
+    removal on any failure, Ctrl-C included)."""
+    last = handler.body[-1]
+    return isinstance(last, ast.Raise) and last.exc is None
+
+
 def broad_handlers(source: str) -> list[tuple[int, str]]:
     """``(line, what)`` of each bare ``except:`` and each handler naming Exception or BaseException
-    (alone or in a tuple)."""
+    (alone or in a tuple), unless it ends by re-raising what it caught."""
     found = []
     for node in ast.walk(ast.parse(source)):
-        if not isinstance(node, ast.ExceptHandler):
+        if not isinstance(node, ast.ExceptHandler) or _reraises(node):
             continue
         if node.type is None:
             found.append((node.lineno, "bare except:"))
@@ -57,6 +64,8 @@ def test_reader_has_no_broad_except(path: Path) -> None:
 @pytest.mark.parametrize("source, expected", [
     ("try:\n    pass\nexcept:\n    pass\n", [(3, "bare except:")]),
     ("try:\n    pass\nexcept Exception:\n    pass\n", [(3, "except Exception")]),
+    ("try:\n    pass\nexcept BaseException:\n    cleanup()\n    raise\n", []),
+    ("try:\n    pass\nexcept BaseException as e:\n    raise ValueError() from e\n", [(3, "except BaseException")]),
     ("try:\n    pass\nexcept (OSError, BaseException) as e:\n    pass\n", [(3, "except BaseException")]),
     ("try:\n    pass\nexcept builtins.Exception:\n    pass\n", [(3, "except Exception")]),
     ("try:\n    pass\nexcept (OSError, ValueError):\n    pass\n", []),
