@@ -62,14 +62,16 @@ def parse_outcomes(junit: Path) -> dict[str, str]:
     return outcomes
 
 
-def run(files: list[str], examples: int | None) -> dict[str, Any]:
-    """Run pytest on ``files`` under the long profile; the JSON document."""
+def run(files: list[str], examples: int | None, select: str | None = None) -> dict[str, Any]:
+    """Run pytest on ``files`` (``select``: its ``-k`` expression) under the long profile; the JSON."""
+    load_before = os.getloadavg()[0]
     env = {**os.environ, "MSD_FUZZ_PROFILE": "long"}
     if examples is not None:
         env["MSD_FUZZ_EXAMPLES"] = str(examples)
     with tempfile.TemporaryDirectory() as tmp:
         junit = Path(tmp) / "junit.xml"
-        cmd = [sys.executable, "-m", "pytest", *files, "-q", "-p", "no:cacheprovider",
+        cmd = [sys.executable, "-m", "pytest", *files, *(["-k", select] if select else []), "-q",
+               "-p", "no:cacheprovider",
                "--hypothesis-show-statistics", f"--junitxml={junit}"]
         t0 = time.monotonic()
         proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True)
@@ -81,6 +83,7 @@ def run(files: list[str], examples: int | None) -> dict[str, Any]:
              for node, outcome in sorted(outcomes.items())}
     return {
         "command": " ".join([*prefix, "python", *cmd[1:-1]]),
+        **provenance(load_before),
         "profile": "long", "examples_setting": examples or 10_000,
         "tests": tests,
         "failed": sorted(n for n, t in tests.items() if t["outcome"] in ("failed", "error")),
@@ -90,6 +93,26 @@ def run(files: list[str], examples: int | None) -> dict[str, Any]:
         "pytest_tail": proc.stdout.strip().splitlines()[-1:] if proc.returncode else [],
         "failing_cases": failing_cases(proc.stdout),
     }
+
+
+def merge(paths: list[Path]) -> dict[str, Any]:
+    """Several runs as one document, keyed by each run's command (the generated docs list them all)."""
+    runs = {}
+    for path in paths:
+        one = json.loads(path.read_text())
+        for run_doc in (one["runs"].values() if "runs" in one else [one]):
+            runs[run_doc["command"]] = run_doc
+    failed = sorted(n for r in runs.values() for n in r["failed"])
+    return {"runs": runs, "failed": failed, "pytest_exit": max(r["pytest_exit"] for r in runs.values()),
+            "total_examples": sum(r["total_examples"] for r in runs.values())}
+
+
+def provenance(load_before: float) -> dict[str, Any]:
+    """Commit, machine and the load at the start: the generated docs cite them beside the counts."""
+    sys.path.insert(0, str(REPO / "scripts"))
+    from make_results import commit, machine
+
+    return {"commit": commit(), "machine": machine(), "loadavg_1min_before": round(load_before, 2)}
 
 
 def failing_cases(text: str, context: int = 12) -> list[str]:
@@ -114,7 +137,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("files", nargs="*", help="fuzz files (default: every tests/fuzz/test_*.py)")
     parser.add_argument("--examples", type=int,
                         help="examples per property (default: the long profile's 10,000)")
+    parser.add_argument("-k", dest="select", help="pytest's -k: run only the properties it selects "
+                        "(a slow property can then get fewer cases than a fast one, in runs of their own)")
     parser.add_argument("--out", type=Path, help="also write the JSON here")
+    parser.add_argument("--merge", type=Path, nargs="+", metavar="RUN_JSON",
+                        help="instead of running: combine earlier runs' JSON files into one document")
     args = parser.parse_args(argv)
     if args.examples is not None and args.examples < 1:
         print("fuzz_long: error: --examples must be >= 1", file=sys.stderr)
@@ -122,8 +149,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.out is not None and args.out.exists():
         print(f"fuzz_long: error: --out {args.out} already exists; refusing to overwrite", file=sys.stderr)
         return 2
-    files = args.files or sorted(str(p.relative_to(REPO)) for p in FUZZ.glob("test_*.py"))
-    doc = run(files, args.examples)
+    if args.merge:
+        doc = merge(args.merge)
+    else:
+        files = args.files or sorted(str(p.relative_to(REPO)) for p in FUZZ.glob("test_*.py"))
+        doc = run(files, args.examples, args.select)
     text = json.dumps(doc, indent=1)
     print(text)
     if args.out is not None:

@@ -1,4 +1,5 @@
-"""Rewrite the README's result tables from ``docs/results/*.json``; ``--check`` fails on drift.
+"""Rewrite the result tables of the README and docs/*.md from ``docs/results/*.json``; ``--check`` fails
+on drift.
 
 A block in README.md looks like::
 
@@ -269,10 +270,36 @@ def view_robust_floors(doc: dict[str, Any], name: str) -> str:
     return "\n".join([*lines, "", note, "", _source(doc, name)]) + "\n"
 
 
+def _fuzz_runs(doc: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """The runs of a fuzz_long document: one run (its own output) or several by file."""
+    runs: dict[str, dict[str, Any]] = doc.get("runs", {"all": doc})
+    return runs
+
+
+def view_fuzzlong(doc: dict[str, Any], name: str) -> str:
+    """``benchmarks/fuzz_long.py`` counts: per property its random cases and outcome, per run its source."""
+    lines = ["| property | random cases | outcome |", "|---|---|---|"]
+    sources = []
+    for run in _fuzz_runs(doc).values():
+        for node, t in run["tests"].items():
+            if t["examples"] is not None:
+                prop = node.removeprefix("tests/fuzz/")
+                lines.append(f"| `{prop}` | {t['examples']:,} | {t['outcome']} |")
+        m = run.get("machine", {})
+        where = (f" at commit `{str(run['commit'])[:10]}` on {m.get('cpu', '?')} "
+                 f"({m.get('cores', '?')} cores), 1-minute load {run.get('loadavg_1min_before', '?')} "
+                 "at the start" if "commit" in run else "")
+        sources.append(f"`{run['command']}`{where}, {run['wall_seconds']} s")
+    total = sum(r["total_examples"] for r in _fuzz_runs(doc).values())
+    lines += ["", f"{total:,} random cases in all. _Generated from `docs/results/{name}.json`: "
+              + "; ".join(sources) + "._"]
+    return "\n".join(lines) + "\n"
+
+
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency,
     "peers": view_peers, "fits": view_fits, "stoploop": view_stoploop, "performance": view_performance,
-    "robust_floors": view_robust_floors}
+    "robust_floors": view_robust_floors, "fuzzlong": view_fuzzlong}
 
 
 def render(readme: str, results_dir: Path) -> str:
@@ -289,25 +316,39 @@ def render(readme: str, results_dir: Path) -> str:
     return BLOCK.sub(block, readme)
 
 
+def documents(readme: Path | None) -> list[Path]:
+    """The pages to render: ``--readme`` alone if given, else README.md and every docs/*.md with a block."""
+    if readme is not None:
+        return [readme]
+    docs = sorted(p for p in (REPO / "docs").glob("*.md") if BLOCK.search(p.read_text()))
+    return [REPO / "README.md", *docs]
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--check", action="store_true", help="exit 1 if the README differs from the JSON")
-    p.add_argument("--readme", type=Path, default=REPO / "README.md")
+    p.add_argument("--check", action="store_true", help="exit 1 if a page differs from the JSON")
+    p.add_argument("--readme", type=Path, default=None,
+                   help="one page to render (default: README.md and every docs/*.md with a block)")
     p.add_argument("--results", type=Path, default=REPO / "docs" / "results")
     args = p.parse_args(argv)
-    text = args.readme.read_text()
-    new = render(text, args.results)
-    if args.check:
+    pages = documents(args.readme)
+    blocks = 0
+    for page in pages:
+        text = page.read_text()
+        new = render(text, args.results)
+        blocks += len(BLOCK.findall(new))
+        if not args.check:
+            if new != text:
+                page.write_text(new)
+            continue
         if new != text:
             first = next(m for m, n in zip(BLOCK.finditer(text), BLOCK.finditer(new), strict=False)
                          if m.group(0) != n.group(0))
-            print(f"readme_results: README block {first['name']}:{first['view']} differs from "
+            print(f"readme_results: {page.name} block {first['name']}:{first['view']} differs from "
                   f"docs/results/{first['name']}.json; run python scripts/readme_results.py", file=sys.stderr)
             return 1
-        print(f"readme_results: {len(BLOCK.findall(text))} blocks agree with docs/results")
-        return 0
-    args.readme.write_text(new)
-    print(f"readme_results: rewrote {len(BLOCK.findall(new))} blocks")
+    verb = "agree with" if args.check else "rendered from"
+    print(f"readme_results: {blocks} blocks in {len(pages)} pages {verb} docs/results")
     return 0
 
 
