@@ -8,9 +8,12 @@ states; only ``act`` is timed, after one warm-up call that compiles it, both
 in wall-clock time (``perf_counter_ns``: what a node's period sees, including
 preemption on a shared machine) and in the thread's CPU time
 (``thread_time_ns``: the search's own cost on one core). Prints one JSON
-object, the 1-minute load average at the start included.
+object, the 1-minute load average at the start, the commit and the machine
+included; ``--out`` also writes it (never over an existing file) for
+``scripts/readme_results.py`` to render into docs/baselines.md.
 
     .venv/bin/python benchmarks/bench_mpc.py [--model tests/data/pinned/plm.json] [--steps 3000]
+        [--out docs/results/bench_mpc.json]
 """
 
 from __future__ import annotations
@@ -21,19 +24,24 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")  # one thread, before numba is i
 
 import argparse
 import json
+import shlex
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import Any, NoReturn
 
 import numpy as np
 
 from msd_bench.core import kernels
 from msd_bench.core.baselines import mpc
 from msd_bench.core.closed_loop import quantise
+from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.plant import PlantParams
 from msd_bench.io.artifacts import load_model
 
-PINNED = Path(__file__).resolve().parents[1] / "tests" / "data" / "pinned" / "plm.json"
+REPO = Path(__file__).resolve().parents[1]
+PINNED = REPO / "tests" / "data" / "pinned" / "plm.json"
 
 
 def timed_run(ctrl: mpc.Mpc, plant: kernels.Plant, steps: int,
@@ -59,6 +67,40 @@ def stats(ns: list[int]) -> dict[str, float]:
             "p99_ms": float(np.percentile(ms, 99)), "max_ms": float(ms.max())}
 
 
+def provenance() -> dict[str, Any]:
+    """Command, commit and machine: the generated docs cite them beside the figures."""
+    sys.path.insert(0, str(REPO / "scripts"))
+    from make_results import commit, machine
+
+    return {"command": "benchmarks/bench_mpc.py " + shlex.join(sys.argv[1:]), "commit": commit(),
+            "machine": machine()}
+
+
+def fail(message: str) -> NoReturn:
+    """A usage mistake: one line on stderr, exit 2, no traceback."""
+    print(f"bench_mpc: error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def refuse_existing(out: Path | None) -> None:
+    """A one-line exit 2 before any work when ``--out`` would overwrite a file or has no directory."""
+    if out is None:
+        return
+    if out.exists():
+        fail(f"{out} exists; not overwriting it")
+    if not out.parent.is_dir():
+        fail(f"{out}: directory {out.parent} does not exist")
+
+
+def write(out: Path, text: str) -> None:
+    """Write the document to a new file only (``x``): what another run wrote is never replaced."""
+    try:
+        with out.open("x") as f:
+            f.write(text + "\n")
+    except OSError as e:
+        fail(f"cannot write {out}: {e.strerror}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", type=Path, default=PINNED, help="surrogate artifact the MPC searches on")
@@ -67,11 +109,17 @@ def main() -> None:
     ap.add_argument("--noise", type=float, default=0.002, help="sensor noise sigma, m")
     ap.add_argument("--blocks", type=int, nargs="+", help="searched blocks (default: MpcOptions')")
     ap.add_argument("--tail", type=int, help="hold-mode tail samples (default: MpcOptions')")
+    ap.add_argument("--out", type=Path, help="also write the JSON here (must not exist)")
     args = ap.parse_args()
+    refuse_existing(args.out)
+    try:
+        model = load_model(args.model)
+    except MsdBenchError as e:
+        fail(str(e))
     load1 = os.getloadavg()[0]
+    start = time.monotonic()
     p = PlantParams()
     plant = kernels.Plant(*(float(v) for v in p.as_array()))
-    model = load_model(args.model)
     opt = mpc.MpcOptions()
     opt = replace(opt, blocks=tuple(args.blocks) if args.blocks else opt.blocks,
                   tail=opt.tail if args.tail is None else args.tail)
@@ -85,13 +133,17 @@ def main() -> None:
         wall += w
         cpu += c
     on_wall, on_cpu = stats(wall), stats(cpu)
-    print(json.dumps({"model": str(args.model), "blocks": list(opt.blocks), "tail": opt.tail,
+    text = json.dumps({**provenance(), "seconds": round(time.monotonic() - start, 1),
+                      "model": str(args.model), "blocks": list(opt.blocks), "tail": opt.tail,
                       "steps": len(wall), "setpoints": args.setpoints,
                       "load1_at_start": load1, "threads": os.environ["NUMBA_NUM_THREADS"],
                       "wall": on_wall, "thread_cpu": on_cpu, "floor": {"mean_ms": 2.0, "p99_ms": 4.0},
                       "within_floor_wall": on_wall["mean_ms"] <= 2.0 and on_wall["p99_ms"] <= 4.0,
                       "within_floor_cpu": on_cpu["mean_ms"] <= 2.0 and on_cpu["p99_ms"] <= 4.0},
-                     indent=2))
+                     indent=2)
+    print(text)
+    if args.out is not None:
+        write(args.out, text)
 
 
 if __name__ == "__main__":

@@ -8,18 +8,24 @@ used (``--pinned``). Each baseline kind (``glm+pid``, ``glm+pid-continuous``,
 validated on the true plant under the scenario suite; a deterministic design
 has one run per identification seed and condition, and one per noise draw
 under sensor noise (``--draws`` draws per id seed). Prints per kind the
-nominal successes at ±0.5, ±1, ±1.5 m and every scenario cell, and (``--json``)
-writes them. Design options are passed as ``--opt kind key=value`` (e.g.
-``--opt glm+pid crossover=3``).
+nominal successes at ±0.5, ±1, ±1.5 m and every scenario cell; ``--json`` writes
+the cells, ``--out`` one provenance-stamped document (command, commit, machine,
+seconds, kinds, id seeds, per scenario per kind n, successes, median MAE and
+SSE, and each kind's design facts at 1 m per id seed) that
+``scripts/readme_results.py`` renders into docs/baselines.md. Design options
+are passed as ``--opt kind key=value`` (e.g. ``--opt glm+pid crossover=3``).
 
     .venv/bin/python scripts/baselines_check.py [--id-seeds 90 91 92] [--pinned] [--json out.json]
+        [--out docs/results/baselines_design.json]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -35,7 +41,10 @@ from msd_bench.io.artifacts import load_model
 
 KINDS = ("glm+pid", "glm+pid-continuous", "greybox+lqr", "plm+mpc")
 SETPOINTS = (-1.5, -1.0, -0.5, 0.5, 1.0, 1.5)
-PINNED = Path(__file__).resolve().parents[1] / "tests" / "data" / "pinned"
+REPO = Path(__file__).resolve().parents[1]
+PINNED = REPO / "tests" / "data" / "pinned"
+ARRAYS = ("forces", "observer_gain", "k", "s_eq")
+"""Design-artifact arrays left out of ``--out``: the document records tuning facts, not gains to reuse."""
 
 
 def models_for(id_seed: int, surrogates: Sequence[str], pinned: bool) -> dict[str, StepModel]:
@@ -61,12 +70,14 @@ def options(pairs: Sequence[Sequence[str]]) -> dict[str, dict[str, Any]]:
 
 
 def run(kinds: Sequence[str], id_seeds: Sequence[int], pinned: bool, draws: int,
-        opts: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
-    """Per kind: nominal set-point cells and scenario cells pooled over identification seeds."""
+        opts: dict[str, dict[str, Any]]) -> tuple[dict[str, dict[str, Any]], dict[str, list[dict[str, Any]]]]:
+    """Per kind: nominal set-point cells and scenario cells pooled over identification seeds, and the
+    design facts at 1 m per identification seed."""
     cfg = RunConfig()
     scenarios = suite(tuple(f"setpoint={s:g}" for s in SETPOINTS if s != 1.0))
     parsed = [designs.parse_kind(k) for k in kinds]
     parts: dict[str, list[dict[str, dict[str, Any]]]] = {k: [] for k in kinds}
+    facts: dict[str, list[dict[str, Any]]] = {k: [] for k in kinds}
     for id_seed in id_seeds:
         models = models_for(id_seed, sorted({s for s, _ in parsed}), pinned)
         noise_seeds = [id_seed * 1000 + i for i in range(draws)]
@@ -74,10 +85,37 @@ def run(kinds: Sequence[str], id_seeds: Sequence[int], pinned: bool, draws: int,
             cells = designs.evaluate(name, models[surrogate], cfg.plant, noise_seeds, scenarios,
                                      cfg.validation_steps, **opts.get(kind, {}))
             parts[kind].append(cells)
+            at_1m = facts_at_1m(name, models[surrogate], opts.get(kind, {}))
+            facts[kind].append({"id_seed": id_seed, **at_1m})
             print(f"id seed {id_seed} {kind}: nominal set-points "
                   + " ".join(f"{s:+g}:{_sid(s)}={cells[_sid(s)]['median_sse']:.2f}%" for s in SETPOINTS),
                   file=sys.stderr, flush=True)
-    return {k: merge(p) for k, p in parts.items()}
+    return {k: merge(p) for k, p in parts.items()}, facts
+
+
+def facts_at_1m(name: str, model: StepModel, opts: dict[str, Any]) -> dict[str, Any]:
+    """One kind's design at 1 m (``as_dict`` without its arrays), e.g. the PID's achieved phase margin
+    and crossover, so the document shows what the constants gave."""
+    cfg = RunConfig()
+    d = designs.make(name, model, 1.0, cfg.plant.F, cfg.plant.dt, **opts)
+    return {k: v for k, v in d.as_dict().items() if k not in ARRAYS}
+
+
+def document(result: dict[str, dict[str, Any]], facts: dict[str, list[dict[str, Any]]],
+             args: argparse.Namespace, seconds: float) -> dict[str, Any]:
+    """The ``--out`` document: provenance, then per scenario per kind the cell without its run lists."""
+    sys.path.insert(0, str(REPO / "scripts"))
+    from make_results import commit, machine
+
+    kinds = list(result)
+    scenarios = list(result[kinds[0]])
+    keep = ("n", "n_success", "median_mae", "median_sse")
+    return {"command": "scripts/baselines_check.py " + shlex.join(sys.argv[1:]), "commit": commit(),
+            "machine": machine(), "seconds": round(seconds, 1), "kinds": kinds,
+            "id_seeds": list(args.id_seeds), "pinned": args.pinned, "draws": args.draws,
+            "options": options(args.opt), "setpoints": list(SETPOINTS), "scenarios": scenarios,
+            "cells": {sid: {k: {f: result[k][sid][f] for f in keep} for k in kinds} for sid in scenarios},
+            "designs": facts}
 
 
 def _sid(setpoint: float) -> str:
@@ -103,18 +141,32 @@ def main() -> int:
     ap.add_argument("--draws", type=int, default=4, help="sensor-noise draws per id seed and noisy scenario")
     ap.add_argument("--opt", nargs=2, action="append", default=[], metavar=("KIND", "KEY=VALUE"))
     ap.add_argument("--json", type=Path, help="also write the cells here (must not exist)")
+    ap.add_argument("--out", type=Path, help="write the provenance-stamped document here (must not exist)")
     args = ap.parse_args()
+    start = time.monotonic()
     try:
-        if args.json is not None and args.json.exists():
-            raise MsdBenchError(f"{args.json} exists; not overwriting it")
-        result = run(args.kinds, args.id_seeds, args.pinned, args.draws, options(args.opt))
+        for path in (args.json, args.out):
+            if path is not None and path.exists():
+                raise MsdBenchError(f"{path} exists; not overwriting it")
+            if path is not None and not path.parent.is_dir():
+                raise MsdBenchError(f"{path}: directory {path.parent} does not exist")
+        opts = options(args.opt)
+        result, facts = run(args.kinds, args.id_seeds, args.pinned, args.draws, opts)
     except MsdBenchError as e:
         print(f"baselines_check: {e}", file=sys.stderr)
         return 2
     report(result)
-    if args.json is not None:
-        with args.json.open("x") as f:
-            json.dump(result, f, indent=1)
+    try:
+        if args.json is not None:
+            with args.json.open("x") as f:
+                json.dump(result, f, indent=1)
+        if args.out is not None:
+            with args.out.open("x") as f:
+                json.dump(document(result, facts, args, time.monotonic() - start), f, indent=1)
+                f.write("\n")
+    except OSError as e:
+        print(f"baselines_check: cannot write {e.filename}: {e.strerror}", file=sys.stderr)
+        return 2
     return 0
 
 
