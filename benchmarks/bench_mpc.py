@@ -101,6 +101,12 @@ def write(out: Path, text: str) -> None:
         fail(f"cannot write {out}: {e.strerror}")
 
 
+def shown(path: Path) -> str:
+    """The model's path relative to the repository when inside it, so the document names no clone."""
+    resolved = path.resolve()
+    return str(resolved.relative_to(REPO)) if resolved.is_relative_to(REPO) else str(path)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", type=Path, default=PINNED, help="surrogate artifact the MPC searches on")
@@ -134,7 +140,7 @@ def main() -> None:
         cpu += c
     on_wall, on_cpu = stats(wall), stats(cpu)
     text = json.dumps({**provenance(), "seconds": round(time.monotonic() - start, 1),
-                      "model": str(args.model), "blocks": list(opt.blocks), "tail": opt.tail,
+                      "model": shown(args.model), "blocks": list(opt.blocks), "tail": opt.tail,
                       "steps": len(wall), "setpoints": args.setpoints,
                       "load1_at_start": load1, "threads": os.environ["NUMBA_NUM_THREADS"],
                       "wall": on_wall, "thread_cpu": on_cpu, "floor": {"mean_ms": 2.0, "p99_ms": 4.0},
