@@ -296,10 +296,133 @@ def view_fuzzlong(doc: dict[str, Any], name: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _mm(metres: float) -> str:
+    return f"{1000 * metres:.0f} mm"
+
+
+def _span(values: list[float], fmt: Callable[[float], str]) -> str:
+    """``a`` or ``a–b``: a range over identification seeds or cells, one figure when they agree."""
+    lo, hi = fmt(min(values)), fmt(max(values))
+    return lo if lo == hi else f"{lo.split(' ')[0]}–{hi}"
+
+
+def _design_rows(doc: dict[str, Any]) -> list[str]:
+    """``nominal`` (1 m), the other set-points from the lowest, then the rest in the suite's order."""
+    sids: list[str] = doc["scenarios"]
+    points = sorted((s for s in sids if s.startswith("setpoint=")), key=lambda s: float(s.split("=")[1]))
+    rest = [s for s in sids if s != "nominal" and s not in points]
+    return [s for s in sids if s == "nominal"] + points + rest
+
+
+def _design_successes(doc: dict[str, Any]) -> list[str]:
+    """Nominal successes at the six set-points per kind, and every cell that lost a run."""
+    cells, kinds = doc["cells"], doc["kinds"]
+    points = [s for s in cells if s == "nominal" or s.startswith("setpoint=")]
+    per_kind = ", ".join(f"`{k}` {sum(cells[s][k]['n_success'] for s in points)}/"
+                         f"{sum(cells[s][k]['n'] for s in points)}" for k in kinds)
+    out = [f"- Nominal successes over the {len(points)} set-points, per kind: {per_kind}."]
+    lost = [f"`{k}` `{s}` {cells[s][k]['n_success']}/{cells[s][k]['n']}" for s in cells for k in kinds
+            if cells[s][k]["n_success"] < cells[s][k]["n"]]
+    out.append("- Cells that lost a run: " + "; ".join(lost) + "." if lost else
+               "- Every run of every cell succeeds (SSE < 5 %).")
+    return out
+
+
+def _design_mae(doc: dict[str, Any]) -> list[str]:
+    """Median MAE at 1 m best first, at ±1.5 m, under the loads and drift; the worst median SSE."""
+    cells, kinds = doc["cells"], doc["kinds"]
+    ranked = sorted(kinds, key=lambda k: cells["nominal"][k]["median_mae"])
+    out = ["- Median MAE at 1 m, lowest first: "
+           + ", ".join(f"`{k}` {_mm(cells['nominal'][k]['median_mae'])}" for k in ranked) + "."]
+    groups = (("at ±0.5 m", ("setpoint=-0.5", "setpoint=0.5")),
+              ("at ±1.5 m", ("setpoint=-1.5", "setpoint=1.5")),
+              ("under the loads and the parameter drift",
+               tuple(s for s in cells if s.startswith(("disturbance=", "mass=")))))
+    for label, sids in groups:
+        present = [s for s in sids if s in cells]
+        if present:
+            out.append(f"- Median MAE {label} ({', '.join(f'`{s}`' for s in present)}): " + ", ".join(
+                f"`{k}` {_span([cells[s][k]['median_mae'] for s in present], _mm)}" for k in kinds) + ".")
+    worst_sid, worst_kind = max(((s, k) for s in cells for k in kinds),
+                                key=lambda sk: cells[sk[0]][sk[1]]["median_sse"])
+    out.append(f"- Largest median SSE of any cell: `{worst_kind}` under `{worst_sid}`, "
+               f"{cells[worst_sid][worst_kind]['median_sse']:.2f} %.")
+    return out
+
+
+def _design_facts(doc: dict[str, Any]) -> list[str]:
+    """What the constants gave at 1 m, as ranges over the identification seeds."""
+    out = []
+    for kind, per_seed in doc.get("designs", {}).items():
+        def span(key: str, fmt: str, per_seed: list[dict[str, Any]] = per_seed) -> str:
+            return _span([float(d[key]) for d in per_seed], lambda v: format(v, fmt))
+        first = per_seed[0]
+        if first["design"] in ("pid", "pid-continuous"):
+            out.append(f"- `{kind}` at 1 m: phase margin {span('phase_margin', '.1f')}° at crossover "
+                       f"{span('crossover', '.2f')} rad/s (targets {first['target_phase_margin']:g}°, "
+                       f"{first['target_crossover']:g} rad/s), gain margin {span('gain_margin', '.2f')}, "
+                       f"closed-loop bandwidth {span('bandwidth', '.2f')} rad/s.")
+        elif first["design"] == "lqr":
+            radius = span("closed_loop_pole_radius", ".4f")
+            out.append(f"- `{kind}` at 1 m: closed-loop pole radius {radius}.")
+        elif first["design"] == "mpc":
+            blocks = " + ".join(str(b) for b in first["blocks"])
+            out.append(f"- `{kind}` at 1 m: {first['plans']} plans per sample over a "
+                       f"{first['horizon_s']:g} s horizon (blocks {blocks}, tail {first['tail']}).")
+    return out
+
+
+def view_baselines_design(doc: dict[str, Any], name: str) -> str:
+    """``scripts/baselines_check.py --out``: per scenario per kind successes/n and median MAE, then the
+    sentences the page draws from them and the designs' tuning facts (evidence for the constants)."""
+    kinds, cells = doc["kinds"], doc["cells"]
+    lines = ["| scenario | " + " | ".join(f"`{k}`" for k in kinds) + " |", "|" + "---|" * (len(kinds) + 1)]
+    for sid in _design_rows(doc):
+        row = [f"{cells[sid][k]['n_success']}/{cells[sid][k]['n']}, {_mm(cells[sid][k]['median_mae'])}"
+               for k in kinds]
+        lines.append(f"| `{sid}` | " + " | ".join(row) + " |")
+    seeds = ", ".join(str(s) for s in doc["id_seeds"])
+    note = (f"Design identification seeds {seeds} (evidence for the constants; never reported as results), "
+            f"{doc['draws']} noise draws per id seed in the noisy cells. Cells: successes/runs, median MAE "
+            "over the 30 s run.")
+    bullets = [*_design_successes(doc), *_design_mae(doc), *_design_facts(doc)]
+    return "\n".join([*lines, "", note, "", *bullets, "", _source(doc, name)]) + "\n"
+
+
+def _floor_holds(figures: dict[str, float], floor: dict[str, float]) -> str:
+    ok = figures["mean_ms"] <= floor["mean_ms"] and figures["p99_ms"] <= floor["p99_ms"]
+    return "yes" if ok else "**no**"
+
+
+def view_bench_mpc(doc: dict[str, Any], name: str) -> str:
+    """``benchmarks/bench_mpc.py --out``: per-step time of the MPC's ``act`` in wall-clock and thread CPU,
+    each against the floor, with the load the machine carried (wall-clock includes preemption)."""
+    floor = doc["floor"]
+    lines = [f"| clock | mean (ms) | p50 (ms) | p99 (ms) | max (ms) | within {floor['mean_ms']:g} ms mean / "
+             f"{floor['p99_ms']:g} ms p99 |", "|---|---|---|---|---|---|"]
+    for label, key in (("wall-clock", "wall"), ("thread CPU", "thread_cpu")):
+        f = doc[key]
+        lines.append(f"| {label} | {f['mean_ms']:.2f} | {f['p50_ms']:.2f} | {f['p99_ms']:.2f} | "
+                     f"{f['max_ms']:.2f} | {_floor_holds(f, floor)} |")
+    cores = doc.get("machine", {}).get("cores") or 1
+    load = float(doc["load1_at_start"])
+    state = ("loaded: other jobs shared the cores, so the wall-clock figures include their preemption"
+             if load >= 0.5 * cores else "quiet")
+    margin = ", ".join(f"{label} {floor['p99_ms'] / doc[key]['p99_ms']:.1f}×"
+                       for label, key in (("wall-clock", "wall"), ("thread CPU", "thread_cpu")))
+    note = (f"1-minute load average {load:.2f} on {cores} cores at the start ({state}). p99 under the "
+            f"{floor['p99_ms']:g} ms floor by: {margin}. Model `{doc['model']}`, {doc['steps']:,} steps at "
+            f"set-points {', '.join(f'{s:g}' for s in doc['setpoints'])} m, blocks "
+            f"{' + '.join(str(b) for b in doc['blocks'])}, tail {doc['tail']}, {doc['threads']} numba "
+            "thread(s).")
+    return "\n".join([*lines, "", note, "", _source(doc, name)]) + "\n"
+
+
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency,
     "peers": view_peers, "fits": view_fits, "stoploop": view_stoploop, "performance": view_performance,
-    "robust_floors": view_robust_floors, "fuzzlong": view_fuzzlong}
+    "robust_floors": view_robust_floors, "fuzzlong": view_fuzzlong,
+    "baselines_design": view_baselines_design, "bench_mpc": view_bench_mpc}
 
 
 def render(readme: str, results_dir: Path) -> str:

@@ -65,3 +65,73 @@ def test_robust_floors_view_judges_counts_and_the_interval_rule():
     assert rows["delay=1"].endswith("| ≥ 173/192 | yes |")
     assert rows["disturbance=-2@15"].endswith("| **no** |")  # 72-83 % against 85-94 %
     assert rows["setpoint=1.5"].endswith("| yes |")  # 83-92 % overlaps 86-94 %
+
+
+def _design_doc() -> dict[str, object]:
+    """A small ``baselines_check.py --out`` document: two kinds, four scenarios, one lost run."""
+    def c(k: int, n: int, mae: float, sse: float) -> dict[str, float]:
+        return {"n": n, "n_success": k, "median_mae": mae, "median_sse": sse}
+    cells = {"nominal": {"glm+pid": c(3, 3, 0.029, 0.1), "plm+lqr": c(3, 3, 0.012, 0.0)},
+             "setpoint=1.5": {"glm+pid": c(3, 3, 0.040, 0.2), "plm+lqr": c(2, 3, 0.021, 0.3)},
+             "setpoint=-1.5": {"glm+pid": c(3, 3, 0.041, 0.2), "plm+lqr": c(3, 3, 0.022, 0.1)},
+             "disturbance=2@15": {"glm+pid": c(3, 3, 0.031, 1.95), "plm+lqr": c(3, 3, 0.013, 0.0)}}
+    pid = {"design": "pid", "target_phase_margin": 60.0, "target_crossover": 4.0, "gain_margin": 5.4,
+           "bandwidth": 6.4}
+    return {"command": "scripts/baselines_check.py", "commit": "abc", "machine": {"cpu": "c", "cores": 2},
+            "seconds": 9.0, "kinds": ["glm+pid", "plm+lqr"], "id_seeds": [90, 91], "draws": 4,
+            "scenarios": list(cells), "cells": cells,
+            "designs": {"glm+pid": [{**pid, "id_seed": 90, "phase_margin": 60.0, "crossover": 3.99},
+                                    {**pid, "id_seed": 91, "phase_margin": 60.0, "crossover": 4.01}],
+                        "plm+lqr": [{"design": "lqr", "id_seed": 90, "closed_loop_pole_radius": 0.99}]}}
+
+
+def test_baselines_design_view_renders_cells_and_the_sentences_drawn_from_them():
+    text = readme_results.view_baselines_design(_design_doc(), "baselines_design")
+    rows = [ln for ln in text.splitlines() if ln.startswith("| `")]
+    assert rows[0] == "| `nominal` | 3/3, 29 mm | 3/3, 12 mm |"
+    assert rows[1] == "| `setpoint=-1.5` | 3/3, 41 mm | 3/3, 22 mm |"  # set-points sorted by value
+    assert rows[2] == "| `setpoint=1.5` | 3/3, 40 mm | 2/3, 21 mm |"
+    assert "per kind: `glm+pid` 9/9, `plm+lqr` 8/9." in text
+    assert "Cells that lost a run: `plm+lqr` `setpoint=1.5` 2/3." in text
+    assert "Median MAE at 1 m, lowest first: `plm+lqr` 12 mm, `glm+pid` 29 mm." in text
+    assert "`glm+pid` 40–41 mm, `plm+lqr` 21–22 mm." in text
+    assert "Largest median SSE of any cell: `glm+pid` under `disturbance=2@15`, 1.95 %." in text
+    assert "phase margin 60.0° at crossover 3.99–4.01 rad/s (targets 60°, 4 rad/s)" in text
+    assert "never reported as results" in text and "`docs/results/baselines_design.json`" in text
+
+
+def test_bench_mpc_view_judges_each_clock_against_the_floor_and_names_the_load():
+    doc = {"command": "benchmarks/bench_mpc.py", "commit": "abc", "machine": {"cpu": "c", "cores": 2},
+           "seconds": 3.0, "model": "tests/data/pinned/plm.json", "blocks": [4, 12, 24, 60], "tail": 0,
+           "steps": 9000, "setpoints": [1.0, -1.0, 1.5], "load1_at_start": 4.9, "threads": "1",
+           "wall": {"mean_ms": 0.4, "p50_ms": 0.21, "p99_ms": 6.1, "max_ms": 14.8},
+           "thread_cpu": {"mean_ms": 0.2, "p50_ms": 0.2, "p99_ms": 0.36, "max_ms": 0.55},
+           "floor": {"mean_ms": 2.0, "p99_ms": 4.0}}
+    text = readme_results.view_bench_mpc(doc, "bench_mpc")
+    assert "| wall-clock | 0.40 | 0.21 | 6.10 | 14.80 | **no** |" in text
+    assert "| thread CPU | 0.20 | 0.20 | 0.36 | 0.55 | yes |" in text
+    assert "load average 4.90 on 2 cores at the start (loaded" in text
+    assert "wall-clock 0.7×, thread CPU 11.1×" in text
+    quiet = readme_results.view_bench_mpc({**doc, "load1_at_start": 0.3}, "bench_mpc")
+    assert "(quiet)" in quiet
+
+
+def test_a_drifted_number_in_a_docs_page_is_caught(tmp_path, monkeypatch):
+    """The multi-page path: with no ``--readme``, every docs/*.md holding a block is checked and
+    rewritten; a page without one and the README are left as they are."""
+    (tmp_path / "docs" / "results").mkdir(parents=True)
+    (tmp_path / "README.md").write_text("no blocks here\n")
+    (tmp_path / "docs" / "plain.md").write_text("12 mm, typed\n")
+    page = tmp_path / "docs" / "page.md"
+    page.write_text("x\n<!-- results:demo:table -->\n| a | b |\n|---|---|\n| 1 | 9.99 |\n<!-- /results -->\n")
+    (tmp_path / "docs" / "results" / "demo.json").write_text(json.dumps({
+        "command": "demo", "commit": "abc", "machine": {"cpu": "c", "cores": 2}, "seconds": 1,
+        "table": [{"a": 1, "b": 2.5}]}))
+    monkeypatch.setattr(readme_results, "REPO", tmp_path)
+    assert readme_results.documents(None) == [tmp_path / "README.md", page]
+    assert readme_results.main(["--check"]) == 1
+    assert readme_results.main([]) == 0
+    assert "| 1 | 2.50 |" in page.read_text() and "9.99" not in page.read_text()
+    assert readme_results.main(["--check"]) == 0
+    assert (tmp_path / "README.md").read_text() == "no blocks here\n"
+    assert (tmp_path / "docs" / "plain.md").read_text() == "12 mm, typed\n"
