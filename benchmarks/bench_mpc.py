@@ -118,6 +118,7 @@ def main() -> None:
     ap.add_argument("--out", type=Path, help="also write the JSON here (must not exist)")
     args = ap.parse_args()
     refuse_existing(args.out)
+    prov = provenance()  # before the run: the commit is the code that ran
     try:
         model = load_model(args.model)
     except MsdBenchError as e:
@@ -139,7 +140,7 @@ def main() -> None:
         wall += w
         cpu += c
     on_wall, on_cpu = stats(wall), stats(cpu)
-    text = json.dumps({**provenance(), "seconds": round(time.monotonic() - start, 1),
+    text = json.dumps({**prov, "seconds": round(time.monotonic() - start, 1),
                       "model": shown(args.model), "blocks": list(opt.blocks), "tail": opt.tail,
                       "steps": len(wall), "setpoints": args.setpoints,
                       "load1_at_start": load1, "threads": os.environ["NUMBA_NUM_THREADS"],

@@ -101,17 +101,23 @@ def facts_at_1m(name: str, model: StepModel, opts: dict[str, Any]) -> dict[str, 
     return {k: v for k, v in d.as_dict().items() if k not in ARRAYS}
 
 
-def document(result: dict[str, dict[str, Any]], facts: dict[str, list[dict[str, Any]]],
-             args: argparse.Namespace, seconds: float) -> dict[str, Any]:
-    """The ``--out`` document: provenance, then per scenario per kind the cell without its run lists."""
+def provenance() -> dict[str, Any]:
+    """Command, commit and machine, taken before the run: the commit is the code that ran, even if
+    the tree moves while it runs."""
     sys.path.insert(0, str(REPO / "scripts"))
     from make_results import commit, machine
 
+    return {"command": "scripts/baselines_check.py " + shlex.join(sys.argv[1:]), "commit": commit(),
+            "machine": machine()}
+
+
+def document(result: dict[str, dict[str, Any]], facts: dict[str, list[dict[str, Any]]],
+             args: argparse.Namespace, prov: dict[str, Any], seconds: float) -> dict[str, Any]:
+    """The ``--out`` document: provenance, then per scenario per kind the cell without its run lists."""
     kinds = list(result)
     scenarios = list(result[kinds[0]])
     keep = ("n", "n_success", "median_mae", "median_sse")
-    return {"command": "scripts/baselines_check.py " + shlex.join(sys.argv[1:]), "commit": commit(),
-            "machine": machine(), "seconds": round(seconds, 1), "kinds": kinds,
+    return {**prov, "seconds": round(seconds, 1), "kinds": kinds,
             "id_seeds": list(args.id_seeds), "pinned": args.pinned, "draws": args.draws,
             "options": options(args.opt), "setpoints": list(SETPOINTS), "scenarios": scenarios,
             "cells": {sid: {k: {f: result[k][sid][f] for f in keep} for k in kinds} for sid in scenarios},
@@ -151,6 +157,7 @@ def main() -> int:
             if path is not None and not path.parent.is_dir():
                 raise MsdBenchError(f"{path}: directory {path.parent} does not exist")
         opts = options(args.opt)
+        prov = provenance() if args.out is not None else {}
         result, facts = run(args.kinds, args.id_seeds, args.pinned, args.draws, opts)
     except MsdBenchError as e:
         print(f"baselines_check: {e}", file=sys.stderr)
@@ -162,7 +169,7 @@ def main() -> int:
                 json.dump(result, f, indent=1)
         if args.out is not None:
             with args.out.open("x") as f:
-                json.dump(document(result, facts, args, time.monotonic() - start), f, indent=1)
+                json.dump(document(result, facts, args, prov, time.monotonic() - start), f, indent=1)
                 f.write("\n")
     except OSError as e:
         print(f"baselines_check: cannot write {e.filename}: {e.strerror}", file=sys.stderr)

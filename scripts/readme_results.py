@@ -350,6 +350,19 @@ def _design_mae(doc: dict[str, Any]) -> list[str]:
     return out
 
 
+def _finite(per_seed: list[dict[str, Any]], key: str, absent: str) -> str:
+    """A range of a PID fact that ``pid.loop_facts`` stores as -1 when it does not exist (an infinite
+    gain margin, no -3 dB point below Nyquist): the real values' range and on how many seeds it was
+    ``absent``, so a sentinel is never printed as a number."""
+    values = [float(d[key]) for d in per_seed]
+    real = [v for v in values if v != -1.0]
+    if not real:
+        return absent
+    text = _span(real, lambda v: f"{v:.2f}")
+    missing = len(values) - len(real)
+    return f"{text} ({absent} on {missing} of {len(values)} seeds)" if missing else text
+
+
 def _design_facts(doc: dict[str, Any]) -> list[str]:
     """What the constants gave at 1 m, as ranges over the identification seeds."""
     out = []
@@ -360,8 +373,9 @@ def _design_facts(doc: dict[str, Any]) -> list[str]:
         if first["design"] in ("pid", "pid-continuous"):
             out.append(f"- `{kind}` at 1 m: phase margin {span('phase_margin', '.1f')}° at crossover "
                        f"{span('crossover', '.2f')} rad/s (targets {first['target_phase_margin']:g}°, "
-                       f"{first['target_crossover']:g} rad/s), gain margin {span('gain_margin', '.2f')}, "
-                       f"closed-loop bandwidth {span('bandwidth', '.2f')} rad/s.")
+                       f"{first['target_crossover']:g} rad/s), gain margin "
+                       f"{_finite(per_seed, 'gain_margin', 'infinite')}, closed-loop bandwidth "
+                       f"{_finite(per_seed, 'bandwidth', 'none below Nyquist')} rad/s.")
         elif first["design"] == "lqr":
             radius = span("closed_loop_pole_radius", ".4f")
             out.append(f"- `{kind}` at 1 m: closed-loop pole radius {radius}.")

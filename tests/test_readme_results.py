@@ -81,7 +81,8 @@ def _design_doc() -> dict[str, object]:
             "seconds": 9.0, "kinds": ["glm+pid", "plm+lqr"], "id_seeds": [90, 91], "draws": 4,
             "scenarios": list(cells), "cells": cells,
             "designs": {"glm+pid": [{**pid, "id_seed": 90, "phase_margin": 60.0, "crossover": 3.99},
-                                    {**pid, "id_seed": 91, "phase_margin": 60.0, "crossover": 4.01}],
+                                    {**pid, "id_seed": 91, "phase_margin": 60.0, "crossover": 4.01,
+                                     "gain_margin": -1.0}],
                         "plm+lqr": [{"design": "lqr", "id_seed": 90, "closed_loop_pole_radius": 0.99}]}}
 
 
@@ -97,6 +98,7 @@ def test_baselines_design_view_renders_cells_and_the_sentences_drawn_from_them()
     assert "`glm+pid` 40–41 mm, `plm+lqr` 21–22 mm." in text
     assert "Largest median SSE of any cell: `glm+pid` under `disturbance=2@15`, 1.95 %." in text
     assert "phase margin 60.0° at crossover 3.99–4.01 rad/s (targets 60°, 4 rad/s)" in text
+    assert "gain margin 5.40 (infinite on 1 of 2 seeds)" in text  # the -1 sentinel is no number
     assert "never reported as results" in text and "`docs/results/baselines_design.json`" in text
 
 
