@@ -92,8 +92,10 @@ RECORDER_READY = TopicSpec(
 )
 PLANT_CLAIM = TopicSpec(
     "plant_claim", "std_msgs/msg/String", 1,
-    "JSON {start_ns, pid, token, node, sent_ns} of a plant-like node serving this namespace, "
-    "re-sent every second (latched); the earliest claim keeps the namespace", latched=True,
+    "JSON {start_ns, pid, token, node, sent_ns, established} of a plant-like node serving this "
+    "namespace, re-sent every second (latched); of the claims heard during a node's start-up window "
+    "the earliest keeps the namespace, and a claim first heard later (or an established one) never "
+    "stops a serving node", latched=True,
 )
 DIAGNOSTICS = TopicSpec(
     "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray", 10,

@@ -445,7 +445,7 @@ def render(readme: str, results_dir: Path) -> str:
         name, view = m["name"], m["view"]
         path = results_dir / f"{name}.json"
         if not path.is_file():
-            raise SystemExit(f"readme_results: error: README block {name}:{view} needs missing {path}")
+            raise SystemExit(f"readme_results: error: block {name}:{view} needs missing {path}")
         if view not in VIEWS:
             raise SystemExit(f"readme_results: error: unknown view {view!r}; choose from {', '.join(VIEWS)}")
         return m.group(1) + VIEWS[view](json.loads(path.read_text()), name) + m.group(5)

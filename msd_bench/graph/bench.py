@@ -214,7 +214,9 @@ def stage_identify(cfg: BenchConfig, procs: ProcessSet, on_saved: Callable[[str]
     server.close()
     if status != 0:
         raise StageError(f"{job.name} failed (exit {status}): {last_line(job.lines) or 'no output'}")
-    return json.loads((cfg.run_dir / "models" / "fits.json").read_text())  # type: ignore[no-any-return]
+    from msd_bench.graph.run_files import read_json_object  # bounded: fits.json is a file like any other
+
+    return read_json_object(cfg.run_dir / "models" / "fits.json")
 
 
 def agent_args(cfg: BenchConfig, kind: str) -> list[str]:

@@ -64,7 +64,7 @@ from msd_msgs_py.ros import command, msg_class, qos
 
 SIGNALS = ("prbs", "multilevel", "steps")
 
-MAX_SIGNAL_SAMPLES = 10_000_000
+MAX_SIGNAL_SAMPLES = exc.MAX_SIGNAL_SAMPLES
 """Longest signal a node will build: 28 h at 100 Hz (80 MB of float64). A slip like
 ``prbs.n_samples:=100000000000`` is refused instead of filling memory and disk."""
 SIGNAL_RANGES: dict[str, tuple[float, float]] = {
