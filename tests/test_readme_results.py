@@ -137,3 +137,18 @@ def test_a_drifted_number_in_a_docs_page_is_caught(tmp_path, monkeypatch):
     assert readme_results.main(["--check"]) == 0
     assert (tmp_path / "README.md").read_text() == "no blocks here\n"
     assert (tmp_path / "docs" / "plain.md").read_text() == "12 mm, typed\n"
+
+
+def test_fuzzlong_view_lists_each_property_and_the_runs_behind_the_counts():
+    run = {"command": "MSD_FUZZ_PROFILE=long python -m pytest tests/fuzz/test_a.py",
+           "commit": "abcdef0123456",
+           "machine": {"cpu": "c", "cores": 2}, "loadavg_1min_before": 1.5, "wall_seconds": 12.0,
+           "total_examples": 10_000,
+           "tests": {"tests/fuzz/test_a.py::test_prop": {"outcome": "passed", "examples": 10_000},
+                     "tests/fuzz/test_a.py::test_plain": {"outcome": "passed", "examples": None}}}
+    one = readme_results.view_fuzzlong(run, "fuzz_a")
+    assert "| `test_a.py::test_prop` | 10,000 | passed |" in one
+    assert "test_plain" not in one  # a plain test draws no random cases
+    assert "commit `abcdef0123`" in one and "load 1.5 at the start" in one
+    merged = readme_results.view_fuzzlong({"runs": {"a": run, "b": {**run, "total_examples": 5}}}, "m")
+    assert "10,005 random cases in all" in merged
