@@ -30,6 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from msd_bench.core.plant import preset, simulate
 from msd_bench.graph import launch, record
+from msd_bench.graph.jobs import JobFiles
 from msd_bench.io.bags import write_experiment
 
 
@@ -41,7 +42,8 @@ def through_processes(plan: list[record.ExperimentSpec], out: Path, window: int)
         plant = procs.start("plant.py", ["-p", "lockstep:=true"])
         plant.wait_for_line("ready", timeout=30.0)
         t_plant = time.perf_counter() - t0
-        record.record_experiments(plan, out, procs, window=window)
+        jobs = JobFiles(out.parent / f"jobs-{out.name}")  # each node's job file, beside the bags
+        record.record_experiments(plan, out, procs, window=window, jobs=jobs)
         wall = time.perf_counter() - t0
     startup = sum(t.startup_s for t in record.TIMINGS)
     samples = sum(t.samples for t in record.TIMINGS if t.name in {s.name for s in plan})

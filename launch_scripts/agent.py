@@ -1,7 +1,22 @@
-"""Train a Q-learning agent on a surrogate, then validate it on the plant topics.
+"""Make one agent kind's policy through its design, then validate it on the plant topics.
 
     python launch_scripts/agent.py --ros-args -p model_path:=bags/<run>/models/plm.json \
-        -p out_dir:=bags/<run>/agents/plm -p "seeds:=[0,1,2]" [-p via_ros:=true] [-p agent:=improved]
+        -p out_dir:=bags/<run>/agents/plm -p "seeds:=[0,1,2]" [-p via_ros:=true] [-p kind:=plm+improved]
+    # a kind made on the plant itself needs no model (Dyna-Q interacts with the plant node):
+    python launch_scripts/agent.py --ros-args -p kind:=dyna-q -p out_dir:=bags/<run>/agents/dyna-q
+    # the job bench.py wrote (one JSON file: msd_bench.app.job; a -p given beside it wins):
+    python launch_scripts/agent.py --ros-args -p job:=bags/<run>/jobs/agent-plm.json
+
+``kind`` (default ``plm``, the paper agent) takes one agent kind of the design registry
+(msd_bench.designs.registry.AGENT_KINDS): ``<model>`` or ``<model>+<design>`` over a model kind
+of the identifier (``plm+improved``, ``glm+pid``, ``nlarx-paper+robust``, ``plm@toward``, ...),
+or an on-plant learner (``plant``, ``plant+<design>``, ``dyna-q``); anything else is one
+ConfigError line naming the kinds. The kind chooses the design: there is no ``agent``
+parameter, and an unknown parameter is refused. Every parameter is a field of
+msd_bench.nodes.agent_node.AgentNodeConfig.
+
+Defaults of the run's quantities (episodes, steps, validation_steps, window, target, dt, force,
+shaping, planning_steps) are the run configuration's (msd_bench.app.job.SHARED_DEFAULTS).
 """
 
 # ruff: noqa: E402  (the stop handlers must be in place before the slow imports)

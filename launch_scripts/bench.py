@@ -2,6 +2,7 @@
 
     python launch_scripts/bench.py                  # lock-step, 3 seeds, report under bags/<run-id>/
     python launch_scripts/bench.py --seeds 20 --realtime
+    python launch_scripts/bench.py --live           # watch it in Foxglove: ws://127.0.0.1:8765 (docs/live.md)
     python launch_scripts/bench.py --bags bags/<old-run>/excitation --stages identify,agents,report
 
 Everything it does is in :mod:`msd_bench.graph.main`.

@@ -8,6 +8,12 @@
     # bags of a ros2_control rig (joint_states + effort_controller/commands; docs/ros2-control.md):
     python launch_scripts/identifier.py --ros-args -p namespace:=/rig -p interface:=ros2_control \
         -p broad_bag:=/data/broad -p validation_bag:=/data/val -p out_dir:=models
+    # the job bench.py wrote (one JSON file: msd_bench.app.job; a -p given beside it wins):
+    python launch_scripts/identifier.py --ros-args -p job:=bags/<run>/jobs/identifier.json
+
+Defaults of the run's quantities (dt, force, stroke, nlarx_scale) are the run configuration's
+(msd_bench.app.job.SHARED_DEFAULTS). Each model written is announced on stdout as a structured
+event line ``[event] {"node": "identifier", "event": "model_saved", ...}``, the end as ``identified``.
 """
 
 # ruff: noqa: E402  (the stop handlers must be in place before the slow imports)

@@ -1,6 +1,10 @@
 """Start the emulated NL-MSD plant: real-time 100 Hz under /msd by default.
 
     python launch_scripts/plant.py [--ros-args -p lockstep:=true -p preset:=mild -r __ns:=/msd]
+
+``-p live_port:=PORT`` also serves the live view from this process: a Foxglove WebSocket server on
+ws://127.0.0.1:PORT with the rows decimated to 50 Hz and the set-point (0: a free port, logged;
+docs/live.md).
 """
 
 # ruff: noqa: E402  (the stop handlers must be in place before the slow imports)

@@ -2,7 +2,13 @@
 
     python launch_scripts/rig.py [--ros-args -p sensor_noise:=0.0 -p delay_samples:=2 -r __ns:=/rig]
 
+``-p live_port:=PORT`` also serves the live view from this process: a Foxglove WebSocket server on
+ws://127.0.0.1:PORT with the rows decimated to 50 Hz and the set-point (0: a free port, logged;
+docs/live.md).
+
 No reset, no lock-step, no /clock; every imperfection is a parameter (docs/rig.md §Parameters).
+``-p population_seed:=N`` serves member N of the rig population (docs/rig.md §Population);
+explicit parameters still win.
 ``-p interface:=ros2_control`` shows the face of a forward effort controller and a joint state
 broadcaster instead (docs/ros2-control.md §Emulator).
 """

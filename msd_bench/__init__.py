@@ -10,10 +10,10 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from msd_bench._version import __version__
+
 if TYPE_CHECKING:
     from msd_bench.core.model import StepModel
-
-__version__ = "0.1.0"
 
 __all__ = ["__version__", "load_model"]
 

@@ -38,6 +38,10 @@ class StageProgress:
         self._bar.set_postfix_str(stage, refresh=False)
         self._bar.update(done - self._bar.n)
 
+    def say(self, line: str) -> None:
+        """Print a line above the bar (a resumed sweep's count, a retried task)."""
+        tqdm.write(line, file=sys.stderr)
+
     def elapsed(self) -> float:
         """Seconds since the bar was created."""
         return time.perf_counter() - self._t0

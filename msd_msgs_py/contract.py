@@ -97,10 +97,25 @@ PLANT_CLAIM = TopicSpec(
     "the earliest keeps the namespace, and a claim first heard later (or an established one) never "
     "stops a serving node", latched=True,
 )
+ESTOP = TopicSpec(
+    "estop", "std_msgs/msg/Empty", 10,
+    "latch the supervisor's e-stop (anyone may; always honoured): 0 N until cleared",
+)
+ESTOP_CLEAR = TopicSpec(
+    "estop_clear", "std_msgs/msg/String", 10,
+    "clear the supervisor's e-stop: the decimal latch count it reports on /diagnostics, nothing else",
+)
 DIAGNOSTICS = TopicSpec(
     "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray", 10,
     "health of every plant-like node at 1 Hz: counters, stall gaps, watchdog state, mode",
 )
 CLOCK = TopicSpec("/clock", "rosgraph_msgs/msg/Clock", TELEMETRY_DEPTH, "sim time, lock-step mode only")
+
+TIME_TYPE = "builtin_interfaces/msg/Time"
+"""Type of a header stamp and of ``/clock``'s time (a field type, not a topic's)."""
+HEADER_TYPE = "std_msgs/msg/Header"
+"""Type of ``joint_states``' header (a field type, not a topic's)."""
+MULTI_ARRAY_LAYOUT_TYPE = "std_msgs/msg/MultiArrayLayout"
+"""Type of a ``Float64MultiArray`` command's layout field (a field type, not a topic's)."""
 
 ALL_TOPICS = (POSITION, JOINT_STATES, TRUTH_JOINT_STATES, FORCE, REFERENCE, RESET, CLOCK)

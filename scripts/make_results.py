@@ -43,6 +43,8 @@ COMMANDS: dict[str, list[str]] = {
     "table1_noisy_id": [*PAPER, "--seeds", "2", "--id-seeds", "3", "--record-noise", "0.002", "--agents",
                         "greybox,nlarx-improved,plm"],
     "efficiency": [sys.executable, "-m", "msd_bench.cli", "efficiency"],
+    "table1_baselines": [*PAPER, "--seeds", "3", "--id-seeds", "3", "--agents",
+                         "glm+pid,glm+pid-continuous,greybox+lqr,plm+mpc,plm+robust,greybox+robust"],
 }
 """Named results: the exact ``msd-bench paper`` arguments behind each README table (``--out`` added)."""
 
@@ -91,6 +93,7 @@ def outputs(out: Path) -> dict[str, Any]:
         for cell in agent["cells"].values():
             cell.pop("sse", None)
             cell.pop("mae", None)
+            cell.pop("risks", None)  # per-run risk records: the cell's summary stays
     if (out / "efficiency.png").is_file():
         shutil.copyfile(out / "efficiency.png", RESULTS / "efficiency.png")
     return found

@@ -43,7 +43,7 @@ def bare_copy(tmp_path: Path) -> Path:
     shutil.copytree(REPO / "launch_scripts", repo / "launch_scripts",
                     ignore=shutil.ignore_patterns("__pycache__"))
     (repo / "msd_bench").mkdir()
-    for name in ("__init__.py", "__main__.py", "_bootstrap.py", "cli.py"):
+    for name in ("__init__.py", "__main__.py", "_bootstrap.py", "_version.py", "cli.py"):
         shutil.copy(REPO / "msd_bench" / name, repo / "msd_bench" / name)
     return repo
 

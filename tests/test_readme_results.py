@@ -152,3 +152,54 @@ def test_fuzzlong_view_lists_each_property_and_the_runs_behind_the_counts():
     assert "commit `abcdef0123`" in one and "load 1.5 at the start" in one
     merged = readme_results.view_fuzzlong({"runs": {"a": run, "b": {**run, "total_examples": 5}}}, "m")
     assert "10,005 random cases in all" in merged
+
+
+def test_bench_executor_view_judges_the_speedup_and_scales_the_task_cost():
+    doc = json.loads((REPO / "docs" / "results" / "bench_executor.json").read_text())
+    text = readme_results.view_bench_executor(doc, "bench_executor")
+    assert f"**{doc['speedup']:.2f}x** (floor 1.5x: holds)" in text
+    slow = {**doc, "speedup": 1.1, "within_floor": False}
+    assert "(floor 1.5x: does not hold)" in readme_results.view_bench_executor(slow, "bench_executor")
+    med = doc["per_task"]["median_seconds"]
+    per_rig = med["play"] + med["identify"] + 16 * (med["train"] + med["validate"])
+    assert f"about {per_rig:.1f} s per rig" in text
+    assert readme_results._sweep_hours(3.6, 1000, 1, 1.0) == "1.0 h"
+    assert readme_results._sweep_hours(3.6, 1000, 4, 2.0) == "8 min"
+
+
+def _rigs_doc(rates: dict[str, tuple[int, int]], wall: float | None) -> dict:
+    kinds = [{"kind": k, "label": k, "n": n, "successes": s, "rate": s / n, "wilson95": [0.1, 0.9],
+              "bootstrap95": [0.05, 0.95], "measured_successes": s} for k, (s, n) in rates.items()]
+    rigs = [{"rig": 1000, "outcomes": [{"success": True}]}, {"rig": 1001, "outcomes": [{"success": False}]}]
+    doc = {"kinds": kinds, "rigs": rigs, "rig_set": "held-out", "learning_seeds": [0, 1]}
+    if wall is not None:
+        doc["sweep"] = {"wall_seconds": wall, "rigs_computed": 2, "workers": 2, "executor": "local",
+                        "cpus": 2}
+    return doc
+
+
+def test_rigs_floors_view_judges_each_floor_the_wall_time_and_names_the_dead_rigs():
+    good = readme_results.view_rigs_floors(_rigs_doc(
+        {"greybox": (19, 20), "plm+robust": (18, 20), "nlarx-improved+robust": (17, 20)}, 1700.0), "r")
+    assert good.count("| yes |") == 3 and "floor 30 min: holds" in good
+    assert "greybox | 95.0 % (19/20)" in good and "1001 (1 of 2)" in good
+    bad = readme_results.view_rigs_floors(
+        _rigs_doc({"greybox": (17, 20), "plm+robust": (16, 20)}, 1900.0), "r")
+    assert bad.count("**no**") == 2 and "| not run |" in bad and "**does not hold**" in bad
+    assert "Wall time" not in readme_results.view_rigs_floors(_rigs_doc({"plm+robust": (1, 2)}, None), "r")
+
+
+def test_identification_speed_view_totals_and_judges_the_target():
+    kinds = {k: {"median_seconds": t, "sim_fit": 97.0} for k, t in
+             [("glm", 0.1), ("plm", 0.5), ("nlarx-improved", 2.0), ("greybox", 0.2), ("greybox-rig", 1.5)]}
+    kinds["plm"]["bias_sim_fit"] = 99.5
+    doc = {"new": {"kinds": kinds, "total_seconds": 4.3}, "old": {"kinds": kinds, "total_seconds": 12.9},
+           "ratio_old_over_new": 3.0, "target_seconds": 5.0, "rig_kinds": ["plm", "nlarx-improved"],
+           "rig_kinds_seconds": 2.5, "rig": None, "preset": "default", "seed": 0, "repeats": 3,
+           "load_at_start": {"1min": 0.5}, "per_rig_seconds": 6.0, "command": "bench", "commit": "abc",
+           "machine": {"cpu": "x", "cores": 2}, "seconds": 60}
+    text = readme_results.view_identification_speed(doc, "idspeed")
+    assert "| plm | 0.50 | 0.50 | 97.0000 (99.5000 on its bias records) | 97.0000 (99.5000) |" in text
+    assert "target of 5 s is met" in text and "2.50 s (met)" in text
+    doc["new"]["total_seconds"] = 6.2
+    assert "target of 5 s is **not met**" in readme_results.view_identification_speed(doc, "idspeed")

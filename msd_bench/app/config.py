@@ -8,19 +8,14 @@ directory, stages, real-time mode). Budgets default to the paper's.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from msd_bench.app.agents import (
-    DEFAULT_AGENTS,
-    PLANT,
-    SHAPINGS,
-    agent_kind,
-    check_agents,
-    learner_config,
-    surrogates_of,
-)
+from msd_bench.app.agents import DEFAULT_AGENTS, SHAPINGS, agent_kind, check_agents, surrogates_of
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.plant import PlantParams, preset
-from msd_bench.core.qconfig import QConfig
+
+if TYPE_CHECKING:  # the supervisor is compiled: loaded only when a run is validated behind it
+    from msd_bench.core.supervisor import Limits
 from msd_bench.core.scenarios import Scenario, suite
 from msd_bench.core.sensor import SensorModel
 
@@ -72,6 +67,9 @@ class RunConfig:
     """Sensor quantisation of the identification records, m (after the noise, as an ADC)."""
     scenarios: tuple[str, ...] = ()
     """Scenario ids evaluated besides the standard suite (:mod:`msd_bench.core.scenarios`)."""
+    supervisor: bool = False
+    """Validate every run behind the safety supervisor (its default limits on the plant:
+    docs/supervisor.md); off in-process, so the tables measure the controllers themselves."""
 
     def __post_init__(self) -> None:
         check_agents(self.agents)
@@ -89,6 +87,8 @@ class RunConfig:
             raise ConfigError(f"nlarx_scale must be in (0, 10], got {self.nlarx_scale}")
         self.scenario_suite()  # a malformed --scenario fails here, in one line
         SensorModel(self.record_noise, self.record_quant)  # likewise a bad sensor
+        if not isinstance(self.supervisor, bool):
+            raise ConfigError(f"supervisor must be true or false, got {self.supervisor!r}")
         if self.shaping not in SHAPINGS:
             raise ConfigError(f"shaping must be one of {', '.join(SHAPINGS)}, got {self.shaping!r}")
 
@@ -101,6 +101,13 @@ class RunConfig:
         """The sensor the identification records are measured through (None: the ideal one)."""
         sensor = SensorModel(self.record_noise, self.record_quant)
         return None if sensor.is_ideal else sensor
+
+    @property
+    def supervisor_limits(self) -> Limits | None:
+        """The supervisor's limits on the plant when runs are validated behind it, else None."""
+        from msd_bench.core.supervisor import SupervisorOptions
+
+        return SupervisorOptions().limits(self.plant) if self.supervisor else None
 
     @property
     def plant(self) -> PlantParams:
@@ -116,19 +123,14 @@ class RunConfig:
         start = self.first_seed + id_index * self.seeds
         return list(range(start, start + self.seeds))
 
-    def qconfig(self, kind: str) -> QConfig:
-        """The learner of agent kind ``kind`` at this run's budget (Dyna-Q: its own episodes)."""
-        episodes = self.dyna_episodes if agent_kind(kind).dyna else self.episodes
-        return learner_config(kind, episodes, self.steps, self.plant.F, self.shaping)
-
     def surrogates_needed(self) -> list[str]:
         """Model kinds that at least one requested agent kind trains on."""
         return surrogates_of(self.agents)
 
     def surrogate_agents(self) -> list[str]:
         """Requested kinds that train on an identified model (one batch per identification seed)."""
-        return [a for a in self.agents if agent_kind(a).surrogate != PLANT]
+        return [a for a in self.agents if not agent_kind(a).on_plant]
 
     def plant_agents(self) -> list[str]:
         """Requested kinds that learn on the true plant (once, not per identification seed)."""
-        return [a for a in self.agents if agent_kind(a).surrogate == PLANT]
+        return [a for a in self.agents if agent_kind(a).on_plant]

@@ -8,7 +8,10 @@ per method. Here it is a curve per method:
   records from about 1,000 to 60,000 plant samples in total — settle segments
   and the validation record included — then agents trained on the model only;
 * the **on-plant route** (Q-learning on the plant, Dyna-Q): training budgets
-  from about 30,000 to 900,000 real steps.
+  from about 30,000 to 900,000 real steps. The deep-RL baselines on the plant
+  (``plant+dqn``, ``plant+ppo``) are opt-in kinds of this route
+  (``--agents plant+dqn``): every environment step of their budget is a real
+  sample.
 
 Each point is ``n`` agents validated on the true plant (success = SSE < 5 %),
 with its Wilson 95 % interval.
@@ -20,8 +23,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
-from msd_bench.app.agents import PLANT, agent_kind
+from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
+from msd_bench.app.executor import task_name
 from msd_bench.app.pipeline import identify_surrogates, records_from_plan, train_and_validate
 from msd_bench.app.plan import paper_plan, real_samples
 from msd_bench.core.errors import ConfigError, MsdBenchError
@@ -58,9 +62,9 @@ class EfficiencyConfig:
     def __post_init__(self) -> None:
         for kind in (*self.surrogate_agents, *self.plant_agents):
             agent_kind(kind)
-        if any(agent_kind(k).surrogate == PLANT for k in self.surrogate_agents):
+        if any(agent_kind(k).on_plant for k in self.surrogate_agents):
             raise ConfigError("surrogate_agents must train on an identified model")
-        if any(agent_kind(k).surrogate != PLANT for k in self.plant_agents):
+        if any(not agent_kind(k).on_plant for k in self.plant_agents):
             raise ConfigError("plant_agents must learn on the plant (plant, dyna-q)")
         if min(self.record_samples, default=1) < 100 or min(self.episodes, default=1) < 1:
             raise ConfigError("record samples must be >= 100 and episodes >= 1")
@@ -81,58 +85,101 @@ def _point(n_success: int, n: int, real: int) -> dict[str, Any]:
     return {"real_samples": int(real), "n": n, "n_success": n_success, "ci95": list(wilson(n_success, n))}
 
 
-def surrogate_points(cfg: EfficiencyConfig, tell: Progress) -> dict[str, list[dict[str, Any]]]:
-    """One point per record length for every surrogate-route agent kind."""
+def surrogate_point(cfg: EfficiencyConfig, n: int, j: int) -> dict[str, Any]:
+    """One task of the surrogate route: record length ``n`` at the ``j``-th identification seed.
+
+    Returns, per agent kind, the successes of its learning seeds and the real
+    samples the records cost, and per model kind that could not be identified
+    from so little data, why (its agents then count as failures).
+    """
     run = cfg.run
+    id_seed = run.id_seed_values()[j]
+    plan = paper_plan(id_seed, n, validation_samples(n), settle_for(n))
+    records = records_from_plan(run.plant, plan)
+    wins: dict[str, int] = dict.fromkeys(cfg.surrogate_agents, 0)
+    runs: dict[str, int] = dict.fromkeys(cfg.surrogate_agents, 0)
+    failed: dict[str, str] = {}
+    for name in dict.fromkeys(agent_kind(k).surrogate for k in cfg.surrogate_agents):
+        try:
+            models, _ = identify_surrogates(records, [name], id_seed, run.plant, run.nlarx_scale)
+        except MsdBenchError as err:  # too little data to identify: the route fails here
+            failed[name] = str(err)
+            continue
+        for kind in (k for k in cfg.surrogate_agents if agent_kind(k).surrogate == name):
+            trained = train_and_validate(kind, models[name], run, run.learning_seeds(j))
+            wins[kind] += sum(m["sse"] < SUCCESS_SSE for m in trained.metrics)
+            runs[kind] += len(trained.metrics)  # a deterministic policy: one run per model
+    reals = {k: real_samples(plan, model_kind(agent_kind(k).surrogate).records) for k in cfg.surrogate_agents}
+    return {"wins": wins, "runs": runs, "real_samples": reals, "failed": failed}
+
+
+def plant_point(cfg: EfficiencyConfig, episodes: int, kind: str) -> dict[str, Any]:
+    """One task of the on-plant route: agent kind ``kind`` at a budget of ``episodes``, every seed."""
+    seeds = [s for j in range(cfg.run.id_seeds) for s in cfg.run.learning_seeds(j)]
+    run = replace(cfg.run, episodes=episodes, dyna_episodes=episodes)
+    trained = train_and_validate(kind, plant_model(cfg.run.plant), run, seeds)
+    wins = sum(m["sse"] < SUCCESS_SSE for m in trained.metrics)
+    real = trained.real_interactions // len(trained.metrics)  # per agent, as the surrogate route
+    return _point(wins, len(trained.metrics), real)
+
+
+def surrogate_tasks(cfg: EfficiencyConfig) -> list[tuple[str, int, int]]:
+    """The surrogate route's tasks: ``(task id, record length, identification seed index)``; none
+    without surrogate kinds (``--agents plant+dqn`` sweeps the on-plant route only, no identification)."""
+    if not cfg.surrogate_agents:
+        return []
+    return [(f"surrogate-n{n}-id{cfg.run.id_seed_values()[j]}", n, j)
+            for n in cfg.record_samples for j in range(cfg.run.id_seeds)]
+
+
+def plant_tasks(cfg: EfficiencyConfig) -> list[tuple[str, int, str]]:
+    """The on-plant route's tasks: ``(task id, episodes, agent kind)``."""
+    return [(f"plant-e{e}-{task_name(kind)}", e, kind) for e in cfg.episodes for kind in cfg.plant_agents]
+
+
+
+Parts = dict[str, dict[str, Any]]
+"""Task results keyed by task id."""
+
+
+def surrogate_lines(cfg: EfficiencyConfig, parts: Parts) -> dict[str, list[dict[str, Any]]]:
+    """Each surrogate-route kind's points from its tasks' results (keyed by task id)."""
     out: dict[str, list[dict[str, Any]]] = {k: [] for k in cfg.surrogate_agents}
-    models_needed = list(dict.fromkeys(agent_kind(k).surrogate for k in cfg.surrogate_agents))
-    for i, n in enumerate(cfg.record_samples):
-        tell(f"surrogate route, {n} samples per record", i, len(cfg.record_samples))
-        wins: dict[str, int] = dict.fromkeys(cfg.surrogate_agents, 0)
-        reals: dict[str, int] = {}
-        failed: dict[str, str] = {}
-        for j, id_seed in enumerate(run.id_seed_values()):
-            plan = paper_plan(id_seed, n, validation_samples(n), settle_for(n))
-            records = records_from_plan(run.plant, plan)
-            for name in models_needed:
-                try:
-                    models, _ = identify_surrogates(records, [name], id_seed, run.plant, run.nlarx_scale)
-                except MsdBenchError as err:  # too little data to identify: the route fails here
-                    failed[name] = str(err)
-                    continue
-                for kind in (k for k in cfg.surrogate_agents if agent_kind(k).surrogate == name):
-                    seeds = run.learning_seeds(j)
-                    trained = train_and_validate(kind, models[name], run, seeds, scenarios=False)
-                    wins[kind] += sum(m["sse"] < SUCCESS_SSE for m in trained.metrics)
-            for kind in cfg.surrogate_agents:
-                reals[kind] = real_samples(plan, model_kind(agent_kind(kind).surrogate).records)
+    for n in cfg.record_samples:
+        got = [parts[tid] for tid, m, _ in surrogate_tasks(cfg) if m == n]
         for kind in cfg.surrogate_agents:
-            point = _point(wins[kind], run.seeds * run.id_seeds, reals[kind])
-            if agent_kind(kind).surrogate in failed:  # agents of a failed identification count as failures
-                point["identification_failed"] = failed[agent_kind(kind).surrogate]
+            wins, runs = sum(g["wins"][kind] for g in got), sum(g["runs"][kind] for g in got)
+            n = runs or cfg.run.seeds * cfg.run.id_seeds  # a failed identification: every agent failed
+            point = _point(wins, n, got[-1]["real_samples"][kind])
+            failed = [g["failed"][agent_kind(kind).surrogate] for g in got
+                      if agent_kind(kind).surrogate in g["failed"]]
+            if failed:  # agents of a failed identification count as failures
+                point["identification_failed"] = failed[-1]
             out[kind].append(point)
     return out
 
 
-def plant_points(cfg: EfficiencyConfig, tell: Progress) -> dict[str, list[dict[str, Any]]]:
-    """One point per training budget for every on-plant agent kind."""
+def plant_lines(cfg: EfficiencyConfig, parts: Parts) -> dict[str, list[dict[str, Any]]]:
+    """Each on-plant kind's points from its tasks' results (keyed by task id)."""
     out: dict[str, list[dict[str, Any]]] = {k: [] for k in cfg.plant_agents}
-    plant = plant_model(cfg.run.plant)
-    seeds = [s for j in range(cfg.run.id_seeds) for s in cfg.run.learning_seeds(j)]
-    for i, episodes in enumerate(cfg.episodes):
-        tell(f"on-plant route, {episodes} episodes", i, len(cfg.episodes))
-        run = replace(cfg.run, episodes=episodes, dyna_episodes=episodes)
-        for kind in cfg.plant_agents:
-            trained = train_and_validate(kind, plant, run, seeds, scenarios=False)
-            wins = sum(m["sse"] < SUCCESS_SSE for m in trained.metrics)
-            out[kind].append(_point(wins, len(seeds), trained.real_interactions // len(seeds)))
+    for tid, _, kind in plant_tasks(cfg):
+        out[kind].append(parts[tid])
     return out
 
 
 def efficiency(cfg: EfficiencyConfig, progress: Progress | None = None) -> dict[str, Any]:
-    """``efficiency.json``: per method, success with its interval at each real-sample budget."""
+    """``efficiency.json`` computed in this process, task after task (the command spreads the tasks
+    over an executor and writes each; both give the same document)."""
     tell = progress or (lambda stage, done, total: None)
-    return document({**surrogate_points(cfg, tell), **plant_points(cfg, tell)})
+    total = len(surrogate_tasks(cfg)) + len(plant_tasks(cfg))
+    parts: Parts = {}
+    for tid, n, j in surrogate_tasks(cfg):
+        tell(tid, len(parts), total)
+        parts[tid] = surrogate_point(cfg, n, j)
+    for tid, e, kind in plant_tasks(cfg):
+        tell(tid, len(parts), total)
+        parts[tid] = plant_point(cfg, e, kind)
+    return document({**surrogate_lines(cfg, parts), **plant_lines(cfg, parts)})
 
 
 def document(lines: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
@@ -154,9 +201,12 @@ def reaches(points: Sequence[dict[str, Any]], rate: float) -> int | None:
 
 
 def crossings(methods: Sequence[dict[str, Any]]) -> list[str]:
-    """Where each method first reaches the final success rate of each on-plant Q-learner."""
+    """Where each method first reaches the final success rate of each on-plant Q-learner (a deep-RL
+    or other baseline on the plant is a method like the others, never the reference)."""
     lines = []
-    refs = [m for m in methods if agent_kind(m["name"]).surrogate == PLANT and not agent_kind(m["name"]).dyna]
+    kinds = {m["name"]: agent_kind(m["name"]) for m in methods}
+    refs = [m for m in methods if kinds[m["name"]].on_plant and not kinds[m["name"]].design.model_free
+            and not kinds[m["name"]].design.baseline]
     for ref in refs:
         final = max(ref["points"], key=lambda p: p["real_samples"])
         rate = final["n_success"] / final["n"]

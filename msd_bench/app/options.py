@@ -7,10 +7,13 @@ default (bench.py runs fewer seeds because every stage is a process).
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from msd_bench.app.agents import AGENT_KINDS, parse_agents
 from msd_bench.app.config import RunConfig
+
+if TYPE_CHECKING:
+    from msd_bench.app.executor import ExecutorOptions
 
 
 def add_run_arguments(p: argparse.ArgumentParser, **defaults: Any) -> None:
@@ -53,6 +56,37 @@ def add_run_arguments(p: argparse.ArgumentParser, **defaults: Any) -> None:
                    help="scale NLARX training iterations (smoke runs: 0.05)")
 
 
+def add_supervisor_argument(p: argparse.ArgumentParser) -> None:
+    """``--supervisor on|off`` for the in-process commands (paper, rigs, efficiency); bench.py's
+    validation on a plant has its own switch, so it is not one of the run arguments."""
+    p.add_argument("--supervisor", choices=("on", "off"), default="off",
+                   help="validate every run behind the safety supervisor with its default limits "
+                        "(docs/supervisor.md); risk columns then count its overrides (off)")
+
+
+def add_executor_arguments(p: argparse.ArgumentParser) -> None:
+    """Where a sweep's tasks run (:mod:`msd_bench.app.executor`): this machine's cores or a Ray cluster."""
+    from msd_bench.app.executor import DEFAULT_RETRIES, EXECUTORS
+
+    p.add_argument("--executor", choices=tuple(EXECUTORS), default="local",
+                   help="local: worker processes on this machine; ray: a Ray cluster (local unless "
+                        "--ray-address) (local)")
+    p.add_argument("--workers", type=int, default=0,
+                   help="worker processes, each single-threaded (0 = one per core)")
+    p.add_argument("--ray-address", default=None, metavar="ADDR",
+                   help="join this Ray cluster (auto, host:port, ray://host:port) instead of starting one")
+    p.add_argument("--retries", type=int, default=DEFAULT_RETRIES,
+                   help=f"restarts of a task whose worker died before the sweep fails ({DEFAULT_RETRIES})")
+
+
+def executor_from_args(args: argparse.Namespace) -> ExecutorOptions:
+    """The validated executor options (one-line ConfigError otherwise)."""
+    from msd_bench.app.executor import ExecutorOptions
+
+    return ExecutorOptions(kind=args.executor, workers=args.workers, ray_address=args.ray_address,
+                           retries=args.retries)
+
+
 def run_config_from_args(args: argparse.Namespace) -> RunConfig:
     """A validated :class:`RunConfig` from parsed options (one-line ConfigError otherwise)."""
     return RunConfig(
@@ -62,5 +96,5 @@ def run_config_from_args(args: argparse.Namespace) -> RunConfig:
         val_samples=args.val_samples, validation_steps=args.validation_steps,
         window=min(500, max(1, args.validation_steps)), nlarx_scale=args.nlarx_scale,
         scenarios=tuple(args.scenario), shaping=args.shaping, record_noise=args.record_noise,
-        record_quant=args.record_quant,
+        record_quant=args.record_quant, supervisor=getattr(args, "supervisor", "off") == "on",
     )

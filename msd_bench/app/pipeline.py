@@ -5,8 +5,9 @@ Stages, each a function the ROS graph reuses:
 1. :func:`make_records` — simulate the plan's experiments on the true plant;
 2. :func:`identify_surrogates` — fit the requested registered model kinds and
    score each on the broad validation record;
-3. :func:`train_and_validate` — train a batch of seeds on one surrogate (or on
-   the plant), run each greedy table on the true plant, score it (paper §5);
+3. :func:`train_and_validate` — make a kind's policy through its design
+   (:mod:`msd_bench.designs`: train a batch of seeds, or design a baseline) on
+   one surrogate (or on the plant), run it on the true plant, score it (paper §5);
 4. :func:`run_paper` — all of it over identification seeds × learning seeds.
 
 The result is a distribution per agent kind, never a single number.
@@ -21,22 +22,23 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.app.agents import PLANT, agent_kind, budget_note
+from msd_bench import designs
+from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
+from msd_bench.app.job import shared
 from msd_bench.app.plan import TRAIN, PlannedExperiment, paper_plan
-from msd_bench.app.scoring import agent_result, metric_row
+from msd_bench.app.scoring import PolicyRecord, Validation, assemble, metric_row
 from msd_bench.core import identify, robustness
 from msd_bench.core.data import IOData
-from msd_bench.core.dyna import DynaConfig, train_dyna
 from msd_bench.core.excitation import MultilevelConfig
 from msd_bench.core.identify import FitReport
 from msd_bench.core.model import StepModel, plant_model
 from msd_bench.core.plant import PlantParams
-from msd_bench.core.qtrain import greedy_rollouts, train
 from msd_bench.core.records import Records
 from msd_bench.core.registry import FitRequest, fit_model
 from msd_bench.core.results import AgentResult, per_seed_row
 from msd_bench.core.sensor import SensorModel
+from msd_bench.designs import Policy, Settings
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[str, int, int], None]
@@ -54,10 +56,10 @@ class PaperRun:
     """Validation fits per identification seed and surrogate."""
     responses: dict[str, FloatArray] = field(default_factory=dict)
     """Greedy closed-loop positions on the plant, per agent kind (seeds × steps)."""
-    qtables: dict[str, dict[str, Any]] = field(default_factory=dict)
-    """Per agent kind: final tables, first/last snapshots, seeds, and the learner config."""
+    policies: dict[str, dict[int, Policy]] = field(default_factory=dict)
+    """Per agent kind and identification seed: the policy (the artifact both engines write)."""
     robustness: dict[str, dict[str, dict[str, Any]]] = field(default_factory=dict)
-    """Per agent kind and scenario: the fixed tables on perturbed plants / other set-points."""
+    """Per agent kind and scenario: the fixed policies on perturbed plants / other set-points."""
     records: dict[int, Records] = field(default_factory=dict)
 
 
@@ -85,7 +87,8 @@ def records_from_plan(p: PlantParams, plan: Sequence[PlannedExperiment],
 
 
 def identify_surrogates(
-    records: Records, names: Sequence[str], seed: int, plant: PlantParams, nlarx_scale: float = 1.0,
+    records: Records, names: Sequence[str], seed: int, plant: PlantParams,
+    nlarx_scale: float = shared("nlarx_scale"),
     on_model: Callable[[str, StepModel, FitReport], None] | None = None,
 ) -> tuple[dict[str, StepModel], dict[str, FitReport]]:
     """Fit the requested model kinds and score each on the broad validation record.
@@ -108,46 +111,55 @@ def identify_surrogates(
 
 @dataclass(frozen=True)
 class Trained:
-    """One agent kind trained over a batch of seeds and validated on the plant."""
+    """One agent kind's policy made on one identified model (or the plant), validated on the plant."""
 
-    q: FloatArray
-    first: FloatArray
-    last: FloatArray
+    policy: Policy
+    """The trained or designed policy (:mod:`msd_bench.designs`)."""
+    seeds: list[int]
+    """The learning seeds it was given (a deterministic policy's noise draws under a noisy scenario)."""
+    id_seed: int
+    """The identification seed of its model."""
     x: FloatArray
-    metrics: list[dict[str, float]]
-    real_interactions: int
-    robustness: dict[str, dict[str, Any]]
-    """Per scenario id: the same tables under that scenario (:func:`robustness.evaluate`)."""
+    """Nominal closed-loop positions on the plant, one row per member."""
+    metrics: list[dict[str, Any]]
+    """Paper §5 metrics of each row and its ``risk`` record."""
+
+    @property
+    def real_interactions(self) -> int:
+        """Samples the policy really spent on the plant while training."""
+        return self.policy.facts.real_interactions
+
+    def record(self, fit: FitReport | None) -> PolicyRecord:
+        """What Table 1 and robustness are assembled from (:func:`msd_bench.app.scoring.assemble`)."""
+        rows = [per_seed_row(s, self.id_seed, m)
+                for s, m in zip(self.policy.members, self.metrics, strict=True)]
+        return PolicyRecord(self.policy, self.id_seed, self.seeds, rows, fit)
+
+
+def settings(cfg: RunConfig) -> Settings:
+    """What every design takes from the run."""
+    return Settings(episodes=cfg.episodes, steps=cfg.steps, plant_episodes=cfg.dyna_episodes,
+                    planning_steps=cfg.planning_steps, force=cfg.plant.F, dt=cfg.plant.dt,
+                    target=cfg.target, shaping=cfg.shaping)
 
 
 def train_and_validate(kind: str, surrogate: StepModel, cfg: RunConfig, seeds: Sequence[int],
-                       scenarios: bool = True) -> Trained:
-    """Train ``seeds`` on ``surrogate`` (or Dyna-Q on the plant), then run greedily on the plant.
-
-    With ``scenarios`` the fixed tables are also run under the scenario suite
-    (the robustness table); sweeps that only count nominal successes skip it.
-    """
-    k, qc = agent_kind(kind), cfg.qconfig(kind)
-    plant = plant_model(cfg.plant)
-    if k.dyna:
-        dres = train_dyna(plant, DynaConfig(qc, planning_steps=cfg.planning_steps), seeds)
-        q, snaps, real = dres.q, dres.snapshots, int(dres.real_steps.sum())
-    else:
-        tres = train(surrogate, qc, seeds)
-        q, snaps = tres.q, tres.snapshots
-        real = len(seeds) * qc.episodes * qc.steps if k.surrogate == PLANT else 0
-    x, _ = greedy_rollouts(plant, q, qc, cfg.target, cfg.validation_steps, observer=surrogate)
-    rows = [metric_row(xi, cfg.target, cfg.plant.dt, cfg.window) for xi in x]
-    rob = robustness.evaluate(q, qc, cfg.plant, seeds, cfg.scenario_suite(), steps=cfg.validation_steps,
-                              window=cfg.window, observer=surrogate) if scenarios else {}
-    return Trained(q, snaps[:, 0], snaps[:, -1], x, rows, real, rob)
+                       id_seed: int | None = None) -> Trained:
+    """Make ``kind`` on ``surrogate`` (the plant's own model for on-plant kinds), run it on the plant."""
+    policy = designs.make(kind, surrogate, settings(cfg), seeds)
+    x, risks = robustness.nominal_validation(policy, cfg.plant, cfg.target, cfg.validation_steps,
+                                             cfg.supervisor_limits)
+    rows: list[dict[str, Any]] = [
+        {**metric_row(xi, cfg.target, cfg.plant.dt, cfg.window), "risk": r.as_dict()}
+        for xi, r in zip(x, risks, strict=True)]
+    return Trained(policy, list(seeds), cfg.id_first_seed if id_seed is None else id_seed, x, rows)
 
 
 def run_paper(cfg: RunConfig, progress: Progress | None = None) -> PaperRun:
     """The whole method for every requested agent kind, over id seeds × learning seeds."""
     run = PaperRun(cfg)
     tell = progress or (lambda stage, done, total: None)
-    parts: dict[str, list[tuple[Trained, list[int], int]]] = {a: [] for a in cfg.agents}
+    parts: dict[str, list[Trained]] = {a: [] for a in cfg.agents}
     on_surrogates, on_plant = cfg.surrogate_agents(), cfg.plant_agents()
     total = cfg.id_seeds * (1 + len(on_surrogates)) + len(on_plant)
     done = 0
@@ -161,36 +173,26 @@ def run_paper(cfg: RunConfig, progress: Progress | None = None) -> PaperRun:
         for a in on_surrogates:
             tell(f"train {a} (id seed {id_seed})", done, total)
             surrogate = run.models[id_seed][agent_kind(a).surrogate]
-            parts[a].append((train_and_validate(a, surrogate, cfg, seeds), seeds, id_seed))
+            parts[a].append(train_and_validate(a, surrogate, cfg, seeds, id_seed))
             done += 1
     for a in on_plant:
         tell(f"train {a}", done, total)
-        seeds = cfg.learning_seeds(0)
-        parts[a].append((train_and_validate(a, plant_model(cfg.plant), cfg, seeds), seeds, cfg.id_first_seed))
+        parts[a].append(train_and_validate(a, plant_model(cfg.plant), cfg, cfg.learning_seeds(0)))
         done += 1
-    tell("done", total, total)
-    for a in cfg.agents:
+    for a in cfg.agents:  # Table 1 and robustness
         _collect(run, a, parts[a])
+    tell("done", total, total)
     return run
 
 
-def _collect(run: PaperRun, kind: str, parts: list[tuple[Trained, list[int], int]]) -> None:
-    """Table-1 row, responses, Q-tables (with the learner config) and robustness of one kind."""
+def _collect(run: PaperRun, kind: str, parts: list[Trained]) -> None:
+    """Table-1 row, robustness, responses and policies of one kind (the assembly bench.py's report
+    makes from the same records)."""
     cfg = run.config
-    k = agent_kind(kind)
-    rows = [per_seed_row(s, id_seed, m) for t, seeds, id_seed in parts
-            for s, m in zip(seeds, t.metrics, strict=True)]
-    fits = {i: f[k.surrogate] for i, f in run.fits.items()} if k.surrogate != PLANT else {}
-    notes = [budget_note(kind, cfg.dyna_episodes)]
-    run.results.append(agent_result(kind, rows, fits, sum(t.real_interactions for t, _, _ in parts), notes))
-    trained = [t for t, _, _ in parts]
-    run.responses[kind] = np.concatenate([t.x for t in trained])
-    qc = cfg.qconfig(kind)
-    run.qtables[kind] = {
-        "q": np.concatenate([t.q for t in trained]),
-        "first": np.concatenate([t.first for t in trained]),
-        "last": np.concatenate([t.last for t in trained]),
-        "seeds": [s for _, seeds, _ in parts for s in seeds],
-        "learner": qc,
-    }
-    run.robustness[kind] = robustness.merge([t.robustness for t in trained])
+    surrogate = agent_kind(kind).surrogate
+    records = [t.record(run.fits.get(t.id_seed, {}).get(surrogate)) for t in parts]
+    result, rob = assemble(kind, records, settings(cfg), Validation.of(cfg))
+    run.results.append(result)
+    run.robustness[kind] = rob
+    run.responses[kind] = np.concatenate([t.x for t in parts])
+    run.policies[kind] = {t.id_seed: t.policy for t in parts}

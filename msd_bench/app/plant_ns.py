@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from msd_bench.app import plan
-from msd_bench.app.agents import PLANT, agent_kind
+from msd_bench.app.agents import agent_kind
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.excitation import PrbsConfig
 from msd_bench.core.registry import needs_bias_records
@@ -69,7 +69,7 @@ kinds need no PLM, so only the two broad records are recorded."""
 def is_emulator_kind(kind: str) -> bool:
     """Whether ``kind`` learns on the emulator's own model (Q-learning on the true plant, not Dyna-Q)."""
     k = agent_kind(kind)
-    return k.surrogate == PLANT and not k.dyna
+    return k.on_plant and not k.design.model_free
 
 
 def split_kinds(agents: Sequence[str]) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -167,5 +167,5 @@ def expected_seconds(*, samples: int, val_samples: int, agents: Sequence[str], s
     val = len(agents) * seeds * episode
     scen = len([k for k in scenario_kinds if k in agents]) * len(scenarios) * seeds * episode
     dyna = (seeds * dyna_episodes * (steps * dt + REST_ESTIMATE_S)
-            if any(agent_kind(a).dyna for a in agents) else 0.0)
+            if any(agent_kind(a).design.model_free for a in agents) else 0.0)
     return Duration(rec, val, scen, dyna)

@@ -1,21 +1,31 @@
 """Scoring: a closed-loop run becomes a metric row, rows and fits become a Table-1 row.
 
 One definition for the in-process run, the agent node (which scores each
-validation run it drives on the plant topics) and bench.py's report.
+validation run it drives on the plant topics) and bench.py's report; and one
+function, :func:`assemble`, that makes a kind's Table-1 row and robustness
+cells from its trained-policy records, whichever engine produced them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.app.agents import PLANT, agent_kind
+from msd_bench import designs
+from msd_bench.app.agents import agent_kind
+from msd_bench.app.config import RunConfig
+from msd_bench.core import robustness
 from msd_bench.core.identify import FitReport
 from msd_bench.core.metrics import compute
+from msd_bench.core.plant import PlantParams
 from msd_bench.core.results import AgentResult
+from msd_bench.core.scenarios import Scenario
+from msd_bench.core.supervisor import Limits
+from msd_bench.designs import Policy, Settings
 
 FloatArray = NDArray[np.float64]
 
@@ -39,7 +49,7 @@ def agent_result(kind: str, per_seed: Sequence[Mapping[str, Any]], fits: Mapping
     fit_sim = fit_one = None
     n_id = 0
     by_id: list[dict[str, Any]] = []
-    if k.surrogate != PLANT and fits:
+    if not k.on_plant and fits:
         by_id = [fit_entry(i, fits[i]) for i in sorted(fits)]
         fit_sim = float(np.mean([e["fit_sim_percent"] for e in by_id]))
         fit_one = float(np.mean([e["fit_one_step_percent"] for e in by_id]))
@@ -50,3 +60,78 @@ def agent_result(kind: str, per_seed: Sequence[Mapping[str, Any]], fits: Mapping
         real_interactions=int(real_interactions), notes="; ".join(n for n in notes if n),
         fit_by_id_seed=tuple(by_id),
     )
+
+
+@dataclass(frozen=True)
+class PolicyRecord:
+    """A trained policy and its nominal validation: what both engines produce per kind and model."""
+
+    policy: Policy
+    """The policy (in memory, or loaded from its artifact)."""
+    id_seed: int
+    """Identification seed of the model it was made on."""
+    seeds: Sequence[int]
+    """The learning seeds the run gave it (a deterministic policy's noise draws)."""
+    per_seed: Sequence[Mapping[str, Any]]
+    """One row per validated member (:func:`msd_bench.core.results.per_seed_row`)."""
+    fit: FitReport | None
+    """Its surrogate's validation fit (None on the plant)."""
+
+
+@dataclass(frozen=True)
+class Validation:
+    """How robustness is measured: the nominal plant, the scenarios (None: none), run length, window."""
+
+    plant: PlantParams
+    scenarios: Sequence[Scenario] | None
+    steps: int
+    window: int
+    limits: Limits | None = None
+    """The supervisor's limits when runs are validated behind it (None: unsupervised)."""
+
+    @classmethod
+    def of(cls, cfg: RunConfig, scenarios: bool = True) -> Validation:
+        """The run's validation (``scenarios=False``: Table 1 only)."""
+        return cls(cfg.plant, cfg.scenario_suite() if scenarios else None, cfg.validation_steps, cfg.window,
+                   cfg.supervisor_limits)
+
+
+Cells = dict[str, dict[str, Any]]
+"""Robustness cells of one kind: scenario id → its cell (:mod:`msd_bench.core.robustness`)."""
+
+
+def record_cells(policy: Policy, seeds: Sequence[int], val: Validation) -> Cells:
+    """The robustness cells of one trained policy under the run's scenarios (none without a suite).
+
+    Why apart from :func:`assemble`: a task of ``msd-bench paper`` evaluates its own policies where
+    they were made (in a worker) and hands the cells over; they are merged by :func:`assemble` all
+    the same, so robustness is evaluated and merged in one place whoever computed it.
+    """
+    if val.scenarios is None:
+        return {}
+    return robustness.evaluate_policy(policy, val.plant, seeds, val.scenarios, val.steps, val.window,
+                                      val.limits)
+
+
+def assemble(kind: str, records: Sequence[PolicyRecord], settings: Settings, val: Validation,
+             notes: Sequence[str] = (), cells: Sequence[Cells] | None = None) -> tuple[AgentResult, Cells]:
+    """Table-1 row and robustness cells of ``kind`` from its records (one per identified model).
+
+    Why one function: the in-process run and bench.py's report used to build
+    these twice; both now hand over the same records (a policy and its nominal
+    validation), so a row means the same whichever engine ran it. ``cells``: each
+    record's :func:`record_cells`, if already evaluated (paper's tasks); else evaluated here.
+    """
+    rows = [row for r in records for row in r.per_seed]
+    fits = {r.id_seed: r.fit for r in records if r.fit is not None}
+    facts = [r.policy.facts for r in records]
+    said = [designs.budget_note(kind, settings), *notes]
+    if facts and facts[0].deterministic:
+        said.append("deterministic baseline: one nominal run per identified model" if facts[0].baseline
+                    else "deterministic: one nominal run per identified model")
+    result = agent_result(kind, rows, fits, sum(f.real_interactions for f in facts), said)
+    if val.scenarios is None or not records:
+        return result, {}
+    if cells is None:
+        cells = [record_cells(r.policy, r.seeds, val) for r in records]
+    return result, robustness.merge(list(cells))

@@ -2,10 +2,13 @@
 
 Writes ``efficiency.json`` (schema ``msd-bench/efficiency``:
 ``{"methods": [{"name", "label", "points": [{"real_samples", "n", "n_success", "ci95"}]}]}``)
-and ``efficiency.png`` under ``--out``, and prints where each route reaches the
-on-plant learner's final success rate. ``--out`` is a run directory
-(docs/design.md §Runs on disk): each route is a task with its points in
-``routes/``, so an interrupted sweep resumes without redoing a finished route.
+and ``efficiency.png`` (and ``index.html``, the page of both) under ``--out``,
+and prints where each route reaches the on-plant learner's final success rate. ``--out`` is a run directory
+(docs/design.md §Runs on disk): each point (a record length at one
+identification seed, or an on-plant kind at one budget) is a task with its
+result in ``points/``, computed by the executor's workers (``--executor
+local|ray``, docs/cluster.md) and written by this process as it arrives, so an
+interrupted sweep resumes without redoing a finished point.
 """
 
 from __future__ import annotations
@@ -16,11 +19,18 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from msd_bench.app.options import add_run_arguments, run_config_from_args
+from msd_bench.app.options import (
+    add_executor_arguments,
+    add_run_arguments,
+    add_supervisor_argument,
+    executor_from_args,
+    run_config_from_args,
+)
 from msd_bench.commands.paper import run_config_doc
 
 if TYPE_CHECKING:
     from msd_bench.app.efficiency import EfficiencyConfig
+    from msd_bench.app.executor import ExecutorOptions
     from msd_bench.io.run_dir import RunDir
 
 
@@ -31,11 +41,14 @@ def register(sub: Any) -> None:
     from msd_bench.app.efficiency import PLANT_AGENTS, SURROGATE_AGENTS
 
     add_run_arguments(p, seeds=20, id_seeds=2, agents=(*SURROGATE_AGENTS, *PLANT_AGENTS))
+
+    add_supervisor_argument(p)
     p.add_argument("--out", type=Path, required=True, help="output directory (created)")
     p.add_argument("--record-samples", default="300,1000,2500,6000,12000",
                    help="samples per identification record at each surrogate-route point")
     p.add_argument("--budgets", default="10,30,100,300",
                    help="on-plant training budgets, in episodes of --steps steps")
+    add_executor_arguments(p)
     p.set_defaults(func=run)
 
 
@@ -51,13 +64,8 @@ def _ints(text: str, option: str) -> tuple[int, ...]:
     return values
 
 
-ROUTE_TASKS = {"surrogate-route": "routes/surrogate.json", "plant-route": "routes/plant.json"}
-"""One task per route, each a file of its points: a resumed sweep does not redo a finished route."""
-TASKS = [*ROUTE_TASKS, "efficiency"]
-
-
 def run(args: argparse.Namespace) -> int:
-    """Probe --out, sweep each route as a task, write the JSON and the figure, print the crossing points."""
+    """Probe --out, sweep the points not written yet, write the JSON and the figure, print the crossings."""
     from msd_bench.app.efficiency import EfficiencyConfig, crossings
     from msd_bench.io.run_dir import RunDir, RunDirError
     from msd_bench.io.safe_read import read_json_bounded
@@ -67,11 +75,12 @@ def run(args: argparse.Namespace) -> int:
                            plant_agents=tuple(run_cfg.plant_agents()),
                            record_samples=_ints(args.record_samples, "--record-samples"),
                            episodes=_ints(args.budgets, "--budgets"))
+    options = executor_from_args(args)
     config = run_config_doc(run_cfg, record_samples=list(cfg.record_samples), episodes=list(cfg.episodes),
                             surrogate_agents=list(cfg.surrogate_agents), plant_agents=list(cfg.plant_agents))
-    rd = RunDir.open(Path(args.out), "efficiency", TASKS, config)  # before any work
+    rd = RunDir.open(Path(args.out), "efficiency", [*point_ids(cfg), "efficiency"], config)  # before work
     if rd.pending():  # a run that died after its files but before the marker needs no new work
-        _sweep(rd, cfg)
+        _sweep(rd, cfg, options)
     rd.mark_complete()
     for line in crossings(read_json_bounded(rd.root / "efficiency.json", RunDirError)["methods"]):
         print(line)
@@ -79,26 +88,43 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _sweep(rd: RunDir, cfg: EfficiencyConfig) -> None:
-    """The routes not swept yet, then ``efficiency.json`` and its figure from both routes' files."""
+def point_ids(cfg: EfficiencyConfig) -> list[str]:
+    """Every point's task id, surrogate route first."""
     from msd_bench.app import efficiency as eff
+
+    return [t[0] for t in eff.surrogate_tasks(cfg)] + [t[0] for t in eff.plant_tasks(cfg)]
+
+
+def _sweep(rd: RunDir, cfg: EfficiencyConfig, options: ExecutorOptions) -> None:
+    """The points not swept yet (on the executor), then ``efficiency.json`` and its figure from all."""
+    from msd_bench.app import efficiency as eff
+    from msd_bench.app.executor import Task
+    from msd_bench.app.sweep import run_sweep
     from msd_bench.io.atomic import write_text_atomic
     from msd_bench.io.figures import efficiency_figure
+    from msd_bench.io.html_report import write_index
     from msd_bench.io.run_dir import RunDirError
     from msd_bench.io.safe_read import read_json_bounded
     from msd_bench.progress import StageProgress
 
-    points = {"surrogate-route": eff.surrogate_points, "plant-route": eff.plant_points}
-    with StageProgress("efficiency") as bar:
-        for task, rel in ROUTE_TASKS.items():
-            def sweep(task: str = task, rel: str = rel) -> list[Path]:
-                doc = points[task](cfg, bar.update)
-                return [write_text_atomic(rd.root / rel, json.dumps(doc, indent=1) + "\n", root=rd.root)]
+    tasks = [Task(tid, eff.surrogate_point, (cfg, n, j)) for tid, n, j in eff.surrogate_tasks(cfg)]
+    tasks += [Task(tid, eff.plant_point, (cfg, e, kind)) for tid, e, kind in eff.plant_tasks(cfg)]
 
-            rd.run_task(task, sweep)
-    lines = {k: v for rel in ROUTE_TASKS.values()
-             for k, v in read_json_bounded(rd.root / rel, RunDirError).items()}
-    doc = eff.document(lines)
+    def write_point(task: Task, result: Any) -> list[Path]:
+        text = json.dumps(result, indent=1) + "\n"
+        return [write_text_atomic(rd.root / f"points/{task.id}.json", text, root=rd.root)]
+
+    with StageProgress("efficiency") as bar:
+        done = [0]
+
+        def tick(task: Task) -> None:
+            done[0] += 1
+            bar.update(task.id, done[0], len(tasks))
+
+        run_sweep(rd, tasks, write_point, options, bar.say, on_written=tick)
+    parts = {t.id: read_json_bounded(rd.root / f"points/{t.id}.json", RunDirError) for t in tasks}
+    doc = eff.document({**eff.surrogate_lines(cfg, parts), **eff.plant_lines(cfg, parts)})
     rd.run_task("efficiency", lambda: [
         write_text_atomic(rd.root / "efficiency.json", json.dumps(doc, indent=1) + "\n", root=rd.root),
-        efficiency_figure(rd.root / "efficiency.png", doc["methods"], root=rd.root)])
+        efficiency_figure(rd.root / "efficiency.png", doc["methods"], root=rd.root),
+        write_index(rd.root, root=rd.root, title=f"msd-bench efficiency run {rd.root.name}")])

@@ -3,25 +3,33 @@
 One compiled loop serves the nominal validation of observed agents and every
 scenario of the suite (:mod:`msd_bench.core.scenarios`): the agent sees the
 plant through the sensor (noise drawn outside, then quantisation), its
-commands act ``delay`` samples late, a load force may push from a given time
-on (on a plant-kind model in its force balance, on an ARX-type surrogate on
-its input), and Coulomb friction may hold the mass (plant kind only). Metrics are computed by the
+commands act ``delay`` samples late through a first-order lag, a load force may
+push from a given time on (on a plant-kind model in its force balance, on an
+ARX-type surrogate on its input), and Coulomb friction may hold the mass (plant
+kind only). Each sample is the rig's own compiled transition
+(:func:`msd_bench.core.rig.transition`), so a validation on a rig runs through
+the same actuator and sensor as the rig node. Metrics are computed by the
 caller on the *true* positions this returns.
 """
 
 from __future__ import annotations
 
-import math
-from typing import NamedTuple
+from collections.abc import Sequence
+from typing import NamedTuple, Protocol
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core import kernels
-from msd_bench.core.kernels import KIND_PLANT, Kernel
+from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.kernels import RIG_STATE_SIZE, Kernel
 from msd_bench.core.qconfig import Learner
 from msd_bench.core.qlearning import encode, greedy, observe, observer_state
+from msd_bench.core.rig import actuate, actuator_state, advance_rig, sense, transition
+from msd_bench.core.supervisor import S_ABORT, STATE_SIZE, Limits, filter_step
+
+__all__ = ["Conditions", "SupervisedRuns", "actuate", "actuator_state", "greedy_under", "nominal", "quantise",
+           "supervised_runs", "transition"]
 
 FloatArray = NDArray[np.float64]
 
@@ -41,37 +49,28 @@ class Conditions(NamedTuple):
     """First sample the load acts on."""
     friction: float
     """Coulomb friction, N (plant kind only)."""
+    lag: float = 0.0
+    """Time constant of the actuator's first-order lag in *samples* (τ/dt; 0 = none), after the
+    delay (:func:`msd_bench.core.rig.actuate`)."""
 
 
 def nominal(target: float) -> Conditions:
-    """The plain validation: set-point ``target``, no sensor, delay, load or friction."""
-    return Conditions(float(target), 0.0, 0, 0.0, 0, 0.0)
+    """The plain validation: set-point ``target``, no sensor, delay, lag, load or friction."""
+    return Conditions(float(target), 0.0, 0, 0.0, 0, 0.0, 0.0)
 
 
 @numba.njit(cache=True)
 def quantise(y: float, step: float) -> float:
-    """``y`` rounded to the nearest multiple of ``step`` (halves away from zero); identity for 0."""
-    if step <= 0.0:
-        return y
-    return step * math.floor(y / step + 0.5)
+    """``y`` rounded to the nearest multiple of ``step`` (halves to even); identity for 0.
 
-
-@numba.njit(cache=True)
-def _advance(model: Kernel, state: FloatArray, u: float, load: float, friction: float) -> float:
-    """One step of the loop's plant: a load acts on every kind, friction on the plant kind only.
-
-    A load on an ARX-type model enters its input (:func:`kernels.advance_loaded`): that is what
-    lets a surrogate stand in for the plant under a load in the robust agent's design loop.
+    The rig's encoder (:func:`msd_bench.core.rig.sense` without noise), so a scenario's
+    quantisation and the rig's are one rule.
     """
-    if model.kind == KIND_PLANT and (load != 0.0 or friction != 0.0):
-        x, v = kernels.plant_step_loaded(kernels.plant_of(model.params), state[0], state[1], u, load,
-                                         friction)
-        state[0] = x
-        state[1] = v
-        return x
-    if load != 0.0:
-        return kernels.advance_loaded(model, state, u, load)
-    return kernels.advance(model, state, u)
+    return sense(y, 0.0, step)
+
+
+_advance = advance_rig
+"""The loop's plant step (kept under this name for the baselines' plant half)."""
 
 
 @numba.njit(cache=True)
@@ -87,24 +86,92 @@ def greedy_under(model: Kernel, lr: Learner, q: FloatArray, cond: Conditions,
     n, n_steps = noise.shape
     xs = np.empty((n, n_steps))
     us = np.empty((n, n_steps))
-    state = np.zeros(4)
+    state = np.zeros(RIG_STATE_SIZE)
     ost = observer_state(lr)
-    queue = np.zeros(cond.delay + 1)
+    act = np.zeros(cond.delay + 2)  # actuator_state(cond.delay), the drive off
     for j in range(n):
         state[:] = 0.0
-        queue[:] = 0.0
+        act[:] = 0.0
         x = 0.0
-        xh, dh = observe(lr, obs, ost, 0.0, quantise(x + noise[j, 0], cond.quant), 0.0, 0.0, True)
+        xh, dh = observe(lr, obs, ost, 0.0, sense(x, noise[j, 0], cond.quant), 0.0, 0.0, True)
         for k in range(n_steps):
             s = encode(lr.enc, xh - cond.target, dh, cond.target)
             u = lr.actions[greedy(q[j], s)]
             xs[j, k] = x
             us[j, k] = u
-            queue[k % (cond.delay + 1)] = u
-            applied = queue[(k + 1) % (cond.delay + 1)]
             load = cond.load if k >= cond.load_step else 0.0
-            x = _advance(model, state, applied, load, cond.friction)
+            e = noise[j, k + 1] if k + 1 < n_steps else 0.0
+            _, x, y = transition(model, state, act, k, u, e, cond.delay, cond.lag, load, cond.friction,
+                                 cond.quant)
             if k + 1 < n_steps:
-                y = quantise(x + noise[j, k + 1], cond.quant)
                 xh, dh = observe(lr, obs, ost, u, y, xh, dh, False)
     return xs, us
+
+
+class Acts(Protocol):
+    """A stepwise controller (:class:`msd_bench.designs.protocol.Controller`): the node's face."""
+
+    def reset(self) -> None:
+        """Back to rest."""
+
+    def act(self, y: float) -> float:
+        """The force for the measured position ``y``."""
+
+
+class SupervisedRuns(NamedTuple):
+    """Runs behind the supervisor, each (runs, steps) except ``aborts`` (runs,)."""
+
+    x: FloatArray
+    """True position before command k, m."""
+    command: FloatArray
+    """The controller's force, N."""
+    force: FloatArray
+    """The force the supervisor let through (the command unless it overrode), N."""
+    reason: NDArray[np.int64]
+    """Supervisor reason per sample (``supervisor.REASONS``)."""
+    aborts: NDArray[np.int64]
+    """Abort code at the end of each run (0 = ran to the end)."""
+
+
+def supervised_runs(controllers: Sequence[Acts], model: Kernel, cond: Conditions, noise: FloatArray,
+                    lim: Limits) -> SupervisedRuns:
+    """Run ``controllers[j]`` from rest on row j of ``noise`` behind the compiled ``filter_step``.
+
+    Why the stepwise controllers and not each design's compiled loop: this is the
+    node path exactly (a controller sees the measured y_k and sends u_k, the
+    supervisor node filters it on the same y_k, the rig runs the force), so an
+    in-process supervised validation is the one a bench run behind the supervisor
+    node makes, for every kind, without a supervised copy of every design's loop.
+    The sample order and the rig transition are :func:`greedy_under`'s: with
+    nothing overridden the true positions are the policy's own rollout, bit for bit
+    (tests/core/test_supervised_runs.py).
+    """
+    n, n_steps = noise.shape
+    if len(controllers) != n:
+        raise InvalidInputError(f"need one controller per noise row, got {len(controllers)} for {n}")
+    out = SupervisedRuns(np.empty((n, n_steps)), np.empty((n, n_steps)), np.empty((n, n_steps)),
+                         np.zeros((n, n_steps), dtype=np.int64), np.zeros(n, dtype=np.int64))
+    for j, ctl in enumerate(controllers):
+        ctl.reset()
+        _one_supervised(ctl, model, cond, noise[j], lim, out, j)
+    return out
+
+
+def _one_supervised(ctl: Acts, model: Kernel, cond: Conditions, noise: FloatArray, lim: Limits,
+                    out: SupervisedRuns, j: int) -> None:
+    """Row ``j`` of ``out``: one run from rest (the loop of :func:`supervised_runs`)."""
+    n_steps = noise.shape[0]
+    state = np.zeros(RIG_STATE_SIZE)
+    act = np.zeros(cond.delay + 2)
+    st = np.zeros(STATE_SIZE)
+    x = 0.0
+    y = float(sense(0.0, noise[0], cond.quant))
+    for k in range(n_steps):
+        u = float(ctl.act(y))
+        f, r = filter_step(lim, st, y, cond.target, u)
+        out.x[j, k], out.command[j, k], out.force[j, k], out.reason[j, k] = x, u, f, r
+        load = cond.load if k >= cond.load_step else 0.0
+        e = noise[k + 1] if k + 1 < n_steps else 0.0
+        _, x, y = transition(model, state, act, k, f, e, cond.delay, cond.lag, load, cond.friction,
+                             cond.quant)
+    out.aborts[j] = int(st[S_ABORT])

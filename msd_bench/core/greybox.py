@@ -21,6 +21,10 @@ are known (configuration and record), the five physical parameters
    parameters in log coordinates (all positive), the initial position and
    velocity of every experiment estimated alongside. The free run goes
    through the stops like the plant, so no sample needs masking here.
+3. **A bounded retry** when the refinement runs off (a parameter more than
+   a thousandfold from its start: a record that does not determine it, as a
+   rig's Coulomb friction can make of the spring): the same least squares
+   with every parameter held within a hundredfold of its start.
 
 On noise-free records the start is already exact up to the filter's blur and
 the refinement removes the rest; under sensor noise the simulation error is
@@ -113,6 +117,10 @@ def fit_greybox(experiments: Sequence[Experiment], dt: float, cfg: GreyboxConfig
         return np.concatenate(parts)
 
     sol = least_squares(residuals, theta0, method="trf", x_scale="jac", max_nfev=cfg.max_nfev)
+    if not _plausible(sol.x[:5], start):  # a record that does not pin a parameter down (friction)
+        lo, hi = _log_bounds(theta0, start, cfg)
+        sol = least_squares(residuals, theta0, method="trf", x_scale="jac", max_nfev=cfg.max_nfev,
+                            bounds=(lo, hi))
     theta = sol.x
     if not np.all(np.isfinite(theta)):
         raise IdentificationError("grey-box refinement diverged (non-finite parameters)")
@@ -121,6 +129,32 @@ def fit_greybox(experiments: Sequence[Experiment], dt: float, cfg: GreyboxConfig
     states = tuple((float(theta[5 + 2 * i]), float(theta[6 + 2 * i])) for i in range(len(experiments)))
     rms = float(np.sqrt(2.0 * sol.cost / n_samples))
     return GreyboxFit(params, tuple(float(v) for v in start), states, float(sol.cost), rms, int(sol.nfev))
+
+
+RETRY_SPAN = 1e3
+"""An unbounded refinement that moves a parameter more than this factor from its equation-error start
+has run off along a direction the record does not determine (a rig's Coulomb friction made the
+spring run to 1e54 on one held-out rig): it is refined again inside :data:`BOUND_SPAN`."""
+BOUND_SPAN = 1e2
+"""The bounded retry keeps every parameter within this factor of its start (and g in ``g_range``)."""
+
+
+def _plausible(log_params: FloatArray, start: FloatArray) -> bool:
+    """True when every refined parameter is finite and within :data:`RETRY_SPAN` of its start."""
+    if not np.all(np.isfinite(log_params)):
+        return False
+    return bool(np.all(np.abs(log_params - np.log(start)) <= np.log(RETRY_SPAN)))
+
+
+def _log_bounds(theta0: FloatArray, start: FloatArray, cfg: GreyboxConfig) -> tuple[FloatArray, FloatArray]:
+    """Bounds of the retry: parameters within :data:`BOUND_SPAN` of the start (g also within
+    ``g_range``, widened to hold the start), initial states free."""
+    lo = np.full(theta0.size, -np.inf)
+    hi = np.full(theta0.size, np.inf)
+    lo[:5], hi[:5] = np.log(start) - np.log(BOUND_SPAN), np.log(start) + np.log(BOUND_SPAN)
+    g_lo, g_hi = np.log(min(cfg.g_range[0], start[3])), np.log(max(cfg.g_range[1], start[3]))
+    lo[3], hi[3] = max(lo[3], g_lo), min(hi[3], g_hi)
+    return lo, hi
 
 
 def equation_error_start(experiments: Sequence[Experiment], dt: float, cfg: GreyboxConfig) -> FloatArray:

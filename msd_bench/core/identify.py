@@ -48,9 +48,10 @@ from msd_bench.core.excitation import MultilevelConfig, PrbsConfig, multilevel, 
 from msd_bench.core.fit import fit_percent
 from msd_bench.core.greybox import GreyboxConfig
 from msd_bench.core.linear import LinearFit, oe_fit
-from msd_bench.core.model import StepModel
+from msd_bench.core.model import PLANT_LIKE, StepModel
 from msd_bench.core.operating_points import PLM_BIASES
 from msd_bench.core.plm import (
+    Jacobian,
     blend,
     fit_local,
     local_from_params,
@@ -117,9 +118,16 @@ class PlmConfig(LinearFitConfig):
     refine: bool = True
     """Refine all local models together on the blend's free-run error over the five records
     (:func:`msd_bench.core.plm.refine_global`); False keeps the separate local fits."""
+    jacobian: Jacobian = "exact"
+    """How the refinement differentiates the blend's free run: ``exact`` (compiled sensitivities,
+    the default) or ``finite-difference`` (the earlier path, kept for the speed benchmark)."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        if self.jacobian not in ("exact", "finite-difference"):
+            raise ConfigError(
+                f"PLM jacobian must be 'exact' or 'finite-difference', got {self.jacobian!r}"
+            )
         if self.scheduling not in ("operating-points", "paper"):
             raise ConfigError(
                 f"PLM scheduling must be 'operating-points' or 'paper', got {self.scheduling!r}"
@@ -247,7 +255,9 @@ def identify_plm(
     centres = operating_centres(local) if cfg.scheduling == "operating-points" else None
     model = blend(local, cfg.stroke, centres=centres)
     if cfg.refine:
-        model, ref = refine_global(model, [r for _, r in pairs], max_nfev=cfg.max_nfev)
+        model, ref = refine_global(
+            model, [r for _, r in pairs], max_nfev=cfg.max_nfev, jacobian=cfg.jacobian
+        )
         final = local_from_params(model.params, local[0].dt)
         model.info.update(blend(final, cfg.stroke, centres=centres).info)
         for entry in model.info["local_models"] if ref.kept else []:
@@ -335,7 +345,7 @@ def estimate_initial_state(model: StepModel, exp: Experiment, horizon: int = INI
     scale = max(float(np.std(head.y)), 1e-6)
 
     def state(z: FloatArray) -> FloatArray:
-        return np.array([z[0], z[1], start[2], start[3]])
+        return np.concatenate([z[:2], start[2:]])
 
     def residuals(z: FloatArray) -> FloatArray:
         return (_simulate_from(model, head, state(z)) - head.y) / scale
@@ -349,10 +359,14 @@ def estimate_initial_state(model: StepModel, exp: Experiment, horizon: int = INI
 
 def _measured_start(model: StepModel, exp: Experiment) -> FloatArray:
     """The state after the first sample, from the first two raw measurements (the old convention)."""
-    if model.kind == kernels.KIND_PLANT:
-        dt = float(model.params[7])
-        return np.array([exp.y[1], (exp.y[1] - exp.y[0]) / dt, 0.0, 0.0])
-    return np.array([exp.y[1], exp.y[0], exp.u[0], 0.0])
+    s = model.initial_state()
+    if model.kind in PLANT_LIKE:
+        s[:2] = exp.y[1], (exp.y[1] - exp.y[0]) / float(model.params[7])
+        if model.kind == kernels.KIND_GREYBOX_RIG:  # its actuator, idle before the record, took u[0]
+            kernels.rig_actuator(model.params, s, kernels.saturate(float(exp.u[0]), model.force_limit))
+    else:
+        s[:3] = exp.y[1], exp.y[0], exp.u[0]
+    return s
 
 
 def _simulate_from(model: StepModel, exp: Experiment, state: FloatArray) -> FloatArray:
@@ -363,7 +377,7 @@ def _simulate_from(model: StepModel, exp: Experiment, state: FloatArray) -> Floa
     free numbers that fix samples 0 and 1.
     """
     s = np.array(state, dtype=float)
-    y0 = s[0] - float(model.params[7]) * s[1] if model.kind == kernels.KIND_PLANT else s[1]
+    y0 = s[0] - float(model.params[7]) * s[1] if model.kind in PLANT_LIKE else s[1]
     return np.concatenate([[y0], kernels.rollout(model.kernel, exp.u[1:], s)])
 
 
@@ -371,6 +385,8 @@ def one_step(model: StepModel, exp: Experiment) -> FloatArray:
     """One-step-ahead prediction of ``exp`` from its measured history (every model kind)."""
     if model.kind == kernels.KIND_PLANT:
         return greybox.one_step(model.params, exp.y, exp.u)
+    if model.kind == kernels.KIND_GREYBOX_RIG:
+        return kernels.rig_one_step(model.kernel, exp.y, exp.u)
     return model.predict_one_step(exp.y, exp.u)
 
 

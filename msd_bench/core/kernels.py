@@ -21,6 +21,20 @@ State layout (float64[4], zeros = at rest at the origin):
 
 * ``KIND_PLANT``: ``[x_k, v_k, 0, 0]``
 * ARX-type models (linear, PLM, NLARX): ``[x_k, x_{k-1}, u_{k-1}, 0]``
+* ``KIND_GREYBOX_RIG`` alone needs more (float64[:data:`RIG_STATE_SIZE`]):
+  ``[x_k, v_k, f_k, u_{k-1}, ..., u_{k-D}]`` — position, velocity, the
+  actuator lag's output at ``t_k`` and the saturated commands still in the
+  delay line (newest first, ``D =`` :data:`RIG_DELAY_MAX` slots, of which the
+  model's delay ``d`` are used). Why it grows: a delay of d samples behind a
+  first-order lag is ``d + 1`` numbers of actuator memory, and d = 2 with a
+  lag does not fit in four floats. Its kernel refuses a shorter state rather
+  than read past it.
+
+Every caller allocates and addresses a state through this module, never by a
+literal: :func:`state_size` (a kind's length), :data:`STATE_MAX` (a buffer
+for any kind), :func:`used_slots` (the leading slots that evolve),
+:func:`holds_velocity` (slot :data:`MOTION` is ``v``, not ``x_{k-1}``) and
+the slot names :data:`POS`, :data:`MOTION`, :data:`ARX_INPUT`, :data:`RIG_LAG`.
 
 ``advance(model, state, u_k)`` applies force ``u_k`` over one sample,
 updates ``state`` in place and returns ``x_{k+1}``. Every model's output is
@@ -38,6 +52,11 @@ Parameter layouts (``Kernel.params``):
   the same five models interpolated linearly between the two whose centres
   ``c1 < ... < c5`` (their identified operating positions) bracket the
   current position, the outer models alone beyond ``c1`` and ``c5``
+* greybox-rig: the plant's ``[m, c, k, g, h, L, F, dt]`` then
+  ``[friction, tau, delay]`` — Coulomb friction (N), the actuator lag's time
+  constant (s, 0 = none) and the input delay (whole samples, at most
+  :data:`RIG_DELAY_MAX`): the rig emulator's actuator and friction
+  (:mod:`msd_bench.core.rig`) as a model, driven by the *commanded* force
 * NLARX: ``[L, S, x_scale, u_scale, c0, w1, w2, w3, w4, S x (alpha, b1..b4, b0)]``
   with ``phi = [x_k/xs, x_{k-1}/xs, u_k/us, u_{k-1}/us]`` and
   ``x_{k+1} = xs (c0 + w.phi + sum_j alpha_j sigmoid(b_j.phi + b0_j))``.
@@ -67,8 +86,10 @@ KIND_PLANT = 0
 KIND_LINEAR = 1
 KIND_PLM = 2
 KIND_NLARX = 3
+KIND_GREYBOX_RIG = 4
 
-KIND_NAMES = {KIND_PLANT: "plant", KIND_LINEAR: "linear", KIND_PLM: "plm", KIND_NLARX: "nlarx"}
+KIND_NAMES = {KIND_PLANT: "plant", KIND_LINEAR: "linear", KIND_PLM: "plm", KIND_NLARX: "nlarx",
+              KIND_GREYBOX_RIG: "greybox-rig"}
 
 PLM_CENTRES = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
 """Nominal centres of f1..f5 (f1 is 1 below -2, f5 is 1 above 1.5)."""
@@ -80,6 +101,24 @@ PLM_SIZE = 1 + 5 * PLM_LOCAL_SIZE
 PLM_SCHEDULED_SIZE = PLM_SIZE + 5
 NLARX_HEAD = 9
 NLARX_UNIT = 6
+RIG_SIZE = PLANT_SIZE + 3
+RIG_DELAY_MAX = 5
+"""Longest input delay (samples) a greybox-rig model may state: the delay line's slots."""
+RIG_STATE_SIZE = 3 + RIG_DELAY_MAX
+"""State length of a greybox-rig model (x, v, the lag's output, the delay line)."""
+ARX_STATE_SIZE = 4
+"""State length of the plant and the ARX-type kinds (``[x, v, 0, 0]`` or ``[x_k, x_{k-1}, u_{k-1}, 0]``)."""
+STATE_MAX = max(RIG_STATE_SIZE, ARX_STATE_SIZE)
+"""Longest state of any kind: a buffer this long holds any model's state (callers that mix kinds)."""
+POS = 0
+"""Slot of the position in every kind's state."""
+MOTION = 1
+"""Slot of the second state: the velocity (plant-structure kinds, :func:`holds_velocity`) or the
+previous position (ARX-type kinds)."""
+ARX_INPUT = 2
+"""Slot of the last acting force ``u_{k-1}`` in an ARX-type state."""
+RIG_LAG = 2
+"""Slot of the actuator lag's output in a greybox-rig state; the delay line follows it."""
 
 
 class Plant(NamedTuple):
@@ -107,6 +146,36 @@ class Kernel(NamedTuple):
     """Parameters in the kind's layout (module docstring), contiguous float64."""
     force_limit: float
     """Forces saturate to ±force_limit before they act (the plant's F, for every kind)."""
+
+
+@numba.njit(cache=True)
+def state_size(kind: int) -> int:
+    """Length of a model state of kernel ``kind`` (module docstring): what a caller allocates.
+
+    Why a function and not a literal: the greybox-rig's state carries its
+    actuator and is longer than four floats; every caller that allocates or
+    addresses a model state asks here, so a new kind changes one place.
+    """
+    if kind == KIND_GREYBOX_RIG:
+        return RIG_STATE_SIZE
+    return ARX_STATE_SIZE
+
+
+@numba.njit(cache=True)
+def holds_velocity(kind: int) -> bool:
+    """Slot :data:`MOTION` is the velocity (plant, greybox-rig), not the previous position (ARX)."""
+    return kind in (KIND_PLANT, KIND_GREYBOX_RIG)
+
+
+@numba.njit(cache=True)
+def used_slots(model: Kernel) -> int:
+    """How many leading slots of ``model``'s state evolve: plant ``[x, v]``, ARX-type
+    ``[x_k, x_{k-1}, u_{k-1}]``, greybox-rig ``[x, v, f]`` and the ``delay`` slots of its line."""
+    if model.kind == KIND_PLANT:
+        return 2
+    if model.kind == KIND_GREYBOX_RIG:
+        return RIG_LAG + 1 + int(model.params[RIG_SIZE - 1])
+    return ARX_INPUT + 1
 
 
 @numba.njit(cache=True)
@@ -330,6 +399,8 @@ def advance(model: Kernel, s: FloatArray, u: float) -> float:
         s[0] = x
         s[1] = v
         return x
+    if model.kind == KIND_GREYBOX_RIG:
+        return _rig_step(model.params, s, u, 0.0)
     return _arx_step(model, s, u)
 
 
@@ -348,7 +419,59 @@ def advance_loaded(model: Kernel, s: FloatArray, u: float, load: float) -> float
         s[0] = x
         s[1] = v
         return x
+    if model.kind == KIND_GREYBOX_RIG:
+        return _rig_step(model.params, s, saturate(u, model.force_limit), load)
     return _arx_step(model, s, saturate(u, model.force_limit) + load)
+
+
+@numba.njit(cache=True)
+def rig_actuator(p: FloatArray, s: FloatArray, u: float) -> float:
+    """The greybox-rig actuator: queue the saturated command ``u``; the force acting over this sample.
+
+    Exactly :class:`msd_bench.core.rig.Actuator` (dead time of ``p[10]``
+    samples, then a first-order lag of time constant ``p[9]`` whose output is
+    averaged over the sample), on the state slots ``s[2:]`` (module docstring),
+    so a model with the rig's values reproduces the rig's applied force.
+    """
+    tau = p[9]
+    if tau <= 0.0:
+        return _rig_actuator_lagged(p, s, u, 0.0, 0.0)
+    decay = math.exp(-p[7] / tau)
+    return _rig_actuator_lagged(p, s, u, decay, (tau / p[7]) * (1.0 - decay))
+
+
+@numba.njit(cache=True)
+def _rig_actuator_lagged(p: FloatArray, s: FloatArray, u: float, decay: float, gain: float) -> float:
+    """:func:`rig_actuator` with the lag's per-sample ``decay = exp(-dt/tau)`` and ``gain =
+    (tau/dt)(1 - decay)`` given (no lag when ``p[9] <= 0``): a rollout computes them once, not per
+    sample (the same numbers, so the same result bit for bit)."""
+    delay = int(p[10])
+    if s.shape[0] < 3 + delay:
+        raise InvalidInputError("greybox-rig model state is too short for its delay line")
+    if delay == 0:
+        target = u
+    else:
+        target = s[2 + delay]
+        for j in range(delay - 1, 0, -1):
+            s[3 + j] = s[2 + j]
+        s[3] = u
+    if p[9] <= 0.0:
+        s[2] = target
+        return target
+    start = s[2]
+    s[2] = target + (start - target) * decay
+    force: float = target + (start - target) * gain
+    return force
+
+
+@numba.njit(cache=True)
+def _rig_step(p: FloatArray, s: FloatArray, u: float, load: float) -> float:
+    """One greybox-rig step: the actuator, then the rig's frictional plant (:func:`plant_step_loaded`)."""
+    force = rig_actuator(p, s, u)
+    x, v = plant_step_loaded(plant_of(p), s[0], s[1], force, load, p[8])
+    s[0] = x
+    s[1] = v
+    return x
 
 
 @numba.njit(cache=True)
@@ -373,12 +496,58 @@ def _arx_step(model: Kernel, s: FloatArray, u: float) -> float:
 @numba.njit(cache=True)
 def rollout(model: Kernel, u: FloatArray, state: FloatArray) -> FloatArray:
     """Free-run simulation: ``x[k]`` is the position before ``u[k]`` acts (``x[0]`` = state)."""
+    if model.kind == KIND_GREYBOX_RIG:
+        return _rig_rollout(model, u, state)
     n = u.shape[0]
     x = np.empty(n)
     for k in range(n):
         x[k] = state[0]
         advance(model, state, u[k])
     return x
+
+
+@numba.njit(cache=True)
+def _rig_rollout(model: Kernel, u: FloatArray, state: FloatArray) -> FloatArray:
+    """:func:`rollout` of a greybox-rig model: each step is :func:`advance`'s, bit for bit.
+
+    Why its own loop: the fit runs about 1,700 rollouts of a 12,000-sample record (most of the
+    greybox-rig's identification time), and the step is a chain of dependent operations. Here the
+    lag's constants are computed once, and the position, velocity and actuator output stay in
+    registers instead of going through the state array every sample (only the delay line does);
+    the arithmetic is the same, in the same order (tests/core/test_kernels_rig.py).
+    """
+    p = model.params
+    tau = p[9]
+    decay = math.exp(-p[7] / tau) if tau > 0.0 else 0.0
+    gain = (tau / p[7]) * (1.0 - decay) if tau > 0.0 else 0.0
+    delay = int(p[10])
+    if state.shape[0] < 3 + delay:
+        raise InvalidInputError("greybox-rig model state is too short for its delay line")
+    plant = plant_of(p)
+    friction = p[8]
+    n = u.shape[0]
+    out = np.empty(n)
+    xk, vk, act = state[0], state[1], state[2]
+    for k in range(n):
+        out[k] = xk
+        command = saturate(u[k], model.force_limit)
+        if delay == 0:
+            target = command
+        else:
+            target = state[2 + delay]
+            for j in range(delay - 1, 0, -1):
+                state[3 + j] = state[2 + j]
+            state[3] = command
+        if tau <= 0.0:
+            act = target
+            force = target
+        else:
+            start = act
+            act = target + (start - target) * decay
+            force = target + (start - target) * gain
+        xk, vk = plant_step_loaded(plant, xk, vk, force, 0.0, friction)
+    state[0], state[1], state[2] = xk, vk, act
+    return out
 
 
 @numba.njit(cache=True)
@@ -412,3 +581,36 @@ def one_step(model: Kernel, x: FloatArray, u: FloatArray) -> FloatArray:
         s[2] = u[k - 2]
         yhat[k] = advance(model, s, u[k - 1])
     return yhat
+
+
+@numba.njit(cache=True)
+def rig_one_step(model: Kernel, y: FloatArray, u: FloatArray) -> FloatArray:
+    """One-step-ahead prediction of a greybox-rig model from measured positions and commands.
+
+    The actuator's memory needs no measurement (it is a function of the
+    commands alone, from idle before sample 0), so it runs along the record;
+    the plant's (x, v) at k-1 are the measured position and the backward
+    difference, as the plain grey-box's one-step predictor takes them.
+    ``yhat[:2] = y[:2]``.
+    """
+    p = model.params
+    n = y.shape[0]
+    yhat = y.copy()
+    s = np.zeros(RIG_STATE_SIZE)
+    plant = plant_of(p)
+    for k in range(n - 1):
+        force = rig_actuator(p, s, saturate(u[k], model.force_limit))
+        if k >= 1:
+            x, _ = plant_step_loaded(plant, y[k], (y[k] - y[k - 1]) / p[7], force, 0.0, p[8])
+            yhat[k + 1] = x
+    return yhat
+
+
+@numba.njit(cache=True)
+def rig_forces(model: Kernel, u: FloatArray) -> FloatArray:
+    """The force a greybox-rig model's actuator applies per sample for commands ``u``, from idle."""
+    s = np.zeros(RIG_STATE_SIZE)
+    out = np.empty(u.shape[0])
+    for k in range(u.shape[0]):
+        out[k] = rig_actuator(model.params, s, saturate(u[k], model.force_limit))
+    return out

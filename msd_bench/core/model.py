@@ -23,8 +23,8 @@ from numpy.typing import NDArray
 
 from msd_bench.core import kernels
 from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.layouts import COEF_MAX, check_params
 from msd_bench.core.plant import DT, PlantParams
-from msd_bench.core.registry import COEF_MAX, check_params
 
 if TYPE_CHECKING:  # python-control is heavy: loaded only when a transfer function is asked for
     import control
@@ -74,7 +74,7 @@ class StepModel:
                 raise InvalidInputError(f"model {self.name!r}: {what} must be in (0, {hi:g}], "
                                         f"got {value}")
         check_params(kernels.KIND_NAMES[self.kind], p, self.name)
-        if self.kind == kernels.KIND_PLANT:
+        if self.kind in PLANT_LIKE:
             _check_plant(p, self.dt, self.force_limit)
         object.__setattr__(self, "params", p)
         object.__setattr__(self, "kernel",
@@ -83,11 +83,11 @@ class StepModel:
     @property
     def x_max(self) -> float:
         """Upper stroke limit the model's output is projected on."""
-        return 0.5 * float(self.params[5] if self.kind == kernels.KIND_PLANT else self.params[0])
+        return 0.5 * float(self.params[5] if self.kind in PLANT_LIKE else self.params[0])
 
     def initial_state(self) -> FloatArray:
-        """Rest at the origin (the paper's episodes start from x = 0, v = 0)."""
-        return np.zeros(4)
+        """Rest at the origin (the paper's episodes start from x = 0, v = 0), actuator idle."""
+        return np.zeros(state_size(self.kind))
 
     def step(self, state: FloatArray, u: float) -> float:
         """Advance ``state`` in place under force ``u``; return the new position."""
@@ -96,13 +96,13 @@ class StepModel:
     def simulate(self, u: FloatArray, state: FloatArray | None = None) -> FloatArray:
         """Free-run response to ``u`` from ``state`` (rest if None); ``x[0]`` is the start."""
         u = _as_signal(u, "force")
-        s = self.initial_state() if state is None else _as_state(state)
+        s = self.initial_state() if state is None else _as_state(state, state_size(self.kind))
         return kernels.rollout(self.kernel, u, s)
 
     def predict_one_step(self, x: FloatArray, u: FloatArray) -> FloatArray:
         """One-step-ahead prediction from the measured history (ARX-type models)."""
-        if self.kind == kernels.KIND_PLANT:
-            raise InvalidInputError("one-step prediction needs an ARX-type model, not the plant")
+        if self.kind in PLANT_LIKE:
+            raise InvalidInputError("one-step prediction needs an ARX-type model, not a plant-structure one")
         x, u = _as_signal(x, "position"), _as_signal(u, "force")
         if x.shape != u.shape:
             raise InvalidInputError(f"position and force lengths differ: {x.size} vs {u.size}")
@@ -137,6 +137,10 @@ class StepModel:
         return self.linear_fit().to_continuous()
 
 
+PLANT_LIKE = (kernels.KIND_PLANT, kernels.KIND_GREYBOX_RIG)
+"""Kernel kinds whose parameters start with the plant's ``[m, c, k, g, h, L, F, dt]``."""
+
+
 def plant_model(params: PlantParams) -> StepModel:
     """The true plant as a :class:`StepModel` (for Dyna-Q and on-plant baselines)."""
     return StepModel(kernels.KIND_PLANT, params.as_array(), name="plant", dt=params.dt,
@@ -145,17 +149,22 @@ def plant_model(params: PlantParams) -> StepModel:
 
 def _check_plant(p: FloatArray, dt: float, force_limit: float) -> None:
     """A plant model's dt and force limit are its own parameters; a mismatch is a mistake."""
-    plant = kernels.Plant(*(float(v) for v in p))
+    plant = kernels.Plant(*(float(v) for v in p[:kernels.PLANT_SIZE]))
     if (plant.dt, plant.F) != (dt, force_limit):
         raise InvalidInputError(
             f"plant model: dt={dt}, force_limit={force_limit} disagree with its parameters "
             f"dt={plant.dt}, F={plant.F}; build it with plant_model(params)")
 
 
-def _as_state(state: FloatArray) -> FloatArray:
+def state_size(kind: int) -> int:
+    """Length of a model state of kernel ``kind`` (:func:`kernels.state_size`, the one place it is stated)."""
+    return int(kernels.state_size(kind))
+
+
+def _as_state(state: FloatArray, size: int) -> FloatArray:
     s = np.array(state, dtype=np.float64)
-    if s.shape != (4,) or not np.all(np.isfinite(s)):
-        raise InvalidInputError(f"model state must be 4 finite values, got {state!r}")
+    if s.shape != (size,) or not np.all(np.isfinite(s)):
+        raise InvalidInputError(f"model state must be {size} finite values, got {state!r}")
     return s
 
 

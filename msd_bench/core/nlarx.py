@@ -33,7 +33,7 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
-from msd_bench.core import kernels
+from msd_bench.core import kernels, nlarx_grad
 from msd_bench.core.data import Experiment
 from msd_bench.core.errors import ConfigError, IdentificationError
 from msd_bench.core.fit import fit_percent
@@ -41,6 +41,7 @@ from msd_bench.core.sensor import clear_of_stops, lowpass, lowpass_reach, noise_
 
 FloatArray = NDArray[np.float64]
 FORMS = ("paper", "improved")
+NUMERICS = ("compiled", "torch")
 
 
 @dataclass(frozen=True)
@@ -67,6 +68,10 @@ class NlarxConfig:
     """Adam learning rate of the simulation stage."""
     threads: int = 1
     """torch CPU threads (the bench machine has 2 cores, shared)."""
+    numerics: str = "compiled"
+    """``"compiled"``: the simulation stage's rollouts and their gradient in compiled code
+    (:mod:`msd_bench.core.nlarx_grad`); ``"torch"``: through torch autograd (the earlier path, kept
+    for the speed benchmark). Same loss and optimiser either way (docs/decisions.md §Identification speed)."""
     prefilter_hz: float = 4.0
     """``improved`` only: cut-off of the zero-phase low-pass applied to force and position for
     the one-step stage and to the positions that start each rollout, Hz (0 = never filter)."""
@@ -78,6 +83,8 @@ class NlarxConfig:
     def __post_init__(self) -> None:
         if self.form not in FORMS:
             raise ConfigError(f"NLARX form must be one of {FORMS}, got {self.form!r}")
+        if self.numerics not in NUMERICS:
+            raise ConfigError(f"NLARX numerics must be one of {NUMERICS}, got {self.numerics!r}")
         for name in ("units", "one_step_iters", "horizon", "batch", "threads"):
             if getattr(self, name) < 1:
                 raise ConfigError(f"NLARX {name} must be >= 1, got {getattr(self, name)}")
@@ -124,9 +131,14 @@ class NlarxNet(torch.nn.Module):
         return s * self.c, w, s * self.alpha, self.beta @ self.m, self.beta0
 
     def forward(self, phi: torch.Tensor) -> torch.Tensor:
-        """Scaled ``x_{k+1}/xs`` from rows of scaled ``phi`` — the kernel formula."""
+        """Scaled ``x_{k+1}/xs`` from rows of scaled ``phi`` — the kernel formula.
+
+        The paper form has no linear term (``w`` is a constant zero), so ``phi @ w`` is left out
+        there: adding its exact zeros changes no bit (the models are the same to the last bit), and
+        it saves a few per cent of each loss evaluation of the form's one-step stage."""
         c0, w, alpha, beta, beta0 = self.effective()
-        return c0 + phi @ w + torch.sigmoid(phi @ beta.T + beta0) @ alpha
+        hidden = torch.sigmoid(phi @ beta.T + beta0) @ alpha
+        return c0 + phi @ w + hidden if self.improved else c0 + hidden
 
     def kernel_params(self, stroke: float, xs: float, us: float) -> FloatArray:
         """Packed ``KIND_NLARX`` parameters."""
@@ -245,17 +257,42 @@ def _one_step(net: NlarxNet, phi: torch.Tensor, target: torch.Tensor, cfg: Nlarx
     opt = torch.optim.LBFGS(
         params, lr=1.0, max_iter=cfg.one_step_iters, history_size=20, line_search_fn="strong_wolfe"
     )
-    scale = net.out_scale
+    # The paper form keeps torch's loss: its free-run fit hangs on the last bits of this stage (a
+    # different summation order moved id seed 1's validation fit from -76 % to 9 %), so the compiled
+    # one would change its reported results by chance, not by design.
+    loss = one_step_compiled if cfg.numerics == "compiled" and net.improved else one_step_torch
 
     def closure() -> torch.Tensor:
         opt.zero_grad()
-        err = (net(phi) - target) / scale
-        decay = net.beta.square().sum() + net.alpha.square().sum()
-        loss = torch.mean(err.square()) + cfg.weight_decay * decay
-        loss.backward()
-        return loss
+        return loss(net, phi, target, cfg.weight_decay)
 
     opt.step(closure)
+
+
+def one_step_torch(net: NlarxNet, phi: torch.Tensor, target: torch.Tensor,
+                   weight_decay: float) -> torch.Tensor:
+    """The one-step stage's loss, its gradient accumulated in ``net`` by torch autograd."""
+    err = (net(phi) - target) / net.out_scale
+    decay = net.beta.square().sum() + net.alpha.square().sum()
+    loss = torch.mean(err.square()) + weight_decay * decay
+    loss.backward()
+    return loss
+
+
+def one_step_compiled(net: NlarxNet, phi: torch.Tensor, target: torch.Tensor,
+                      weight_decay: float) -> torch.Tensor:
+    """:func:`one_step_torch` with the prediction error and its gradient by the effective weights in
+    compiled code (:func:`msd_bench.core.nlarx_grad.one_step_loss_grad`); torch maps that gradient
+    onto the parameters through :meth:`NlarxNet.effective` and adds the weight decay's."""
+    eff = net.effective()
+    c0, w, alpha, beta, beta0 = (t.detach().numpy() for t in eff)
+    mse, *grads = nlarx_grad.one_step_loss_grad(
+        float(c0), w, alpha, np.ascontiguousarray(beta), beta0, phi.numpy(), target.numpy(), net.out_scale)
+    grads[0] = grads[0].reshape(())
+    pairs = [(t, torch.from_numpy(g)) for t, g in zip(eff, grads, strict=True) if t.requires_grad]
+    decay = weight_decay * (net.beta.square().sum() + net.alpha.square().sum())
+    torch.autograd.backward([decay] + [t for t, _ in pairs], [None] + [g for _, g in pairs])
+    return decay.detach() + mse
 
 
 def _simulation_stage(
@@ -284,12 +321,33 @@ def _simulation_stage(
     steps = torch.arange(horizon)
     for _ in range(cfg.sim_iters):
         st = starts[torch.randint(len(starts), (cfg.batch,), generator=gen)]
-        idx = st[:, None] + steps[None, :]
-        pred = _rollout(net, xf[st], xf[st - 1], u[idx], u[st - 1], lim)
-        loss = torch.mean((pred - x[idx + 1]).square())
         opt.zero_grad()
-        loss.backward()
+        if cfg.numerics == "compiled":
+            _compiled_backward(net, x, xf, u, st, horizon, lim)
+        else:
+            idx = st[:, None] + steps[None, :]
+            pred = _rollout(net, xf[st], xf[st - 1], u[idx], u[st - 1], lim)
+            torch.mean((pred - x[idx + 1]).square()).backward()
         opt.step()
+
+
+def _compiled_backward(
+    net: NlarxNet, x: torch.Tensor, xf: torch.Tensor, u: torch.Tensor, st: torch.Tensor,
+    horizon: int, lim: float,
+) -> None:
+    """Accumulate the rollout loss's gradient in ``net``'s parameters (as ``loss.backward()`` would).
+
+    The compiled rollout gives the gradient by the effective weights; torch
+    carries it through :meth:`NlarxNet.effective` onto the parameters.
+    """
+    eff = net.effective()
+    c0, w, alpha, beta, beta0 = (t.detach().numpy() for t in eff)
+    _, *grads = nlarx_grad.rollout_loss_grad(
+        float(c0), w, alpha, np.ascontiguousarray(beta), beta0,
+        x.numpy(), xf.numpy(), u.numpy(), st.numpy(), horizon, lim,
+    )
+    grads[0] = grads[0].reshape(())
+    torch.autograd.backward(eff, [torch.from_numpy(g) for g in grads])
 
 
 def _rollout(

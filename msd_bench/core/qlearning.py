@@ -244,7 +244,7 @@ def q_episode(model: Kernel, lr: Learner, q: FloatArray, plant: FloatArray, s: i
     on_plant = model.kind == kernels.KIND_PLANT
     pl = kernels.plant_of(model.params) if on_plant else kernels.Plant(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     limit = model.force_limit
-    v = plant[1]
+    v = plant[kernels.MOTION]
     z = state[i]
     err = abs(x - target)
     total = 0.0
@@ -265,8 +265,8 @@ def q_episode(model: Kernel, lr: Learner, q: FloatArray, plant: FloatArray, s: i
         total += r
     state[i] = z
     if on_plant:
-        plant[0] = x
-        plant[1] = v
+        plant[kernels.POS] = x
+        plant[kernels.MOTION] = v
     return total
 
 
@@ -280,7 +280,7 @@ def learn_one(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, snaps: 
     """
     n_plan = budget.planning
     mem = new_memory(lr.enc.n_states * N_ACTIONS if n_plan > 0 else 0)
-    plant = np.zeros(4)
+    plant = np.zeros(kernels.RIG_STATE_SIZE)
     k_snap = 0
     for ep in range(budget.episodes):
         target = draw_target(lr, state, i)
@@ -315,26 +315,44 @@ def normal(state: rng.U64Array, i: int) -> float:
     return math.sqrt(-2.0 * math.log(1.0 - u1)) * math.cos(2.0 * math.pi * u2)
 
 
+OBS_DRIFT = kernels.STATE_MAX
+"""Observer state slot of the drift estimate, behind a model state of any kind (``kernels.STATE_MAX``
+slots, of which the model's kernel uses its own: :func:`kernels.state_size`)."""
+OBS_HISTORY = OBS_DRIFT + 1
+"""First observer state slot of the ``obs_delay`` last commanded forces (newest first)."""
+
+
 @numba.njit(cache=True)
 def observer_state(lr: Learner) -> FloatArray:
-    """A zeroed observer state: the model's four slots, the ``obs_delay`` last commanded forces, then
-    the force-bias estimate (last slot)."""
-    return np.zeros(5 + lr.obs_delay)
+    """A zeroed observer state: a model state of any kind, the drift estimate, the ``obs_delay``
+    last commanded forces, then the force-bias estimate (last slot).
+
+    Why the model's block is ``kernels.STATE_MAX`` long and not the observed kind's: one layout
+    serves every kind (a greybox-rig state is longer than four floats), so no slot of the model's
+    own state can collide with the observer's.
+    """
+    return np.zeros(OBS_HISTORY + lr.obs_delay + 1)
+
+
+@numba.njit(cache=True)
+def model_state(ost: FloatArray) -> FloatArray:
+    """The model's state inside the observer's (a view: the predictor advances it in place)."""
+    return ost[:kernels.STATE_MAX]
 
 
 @numba.njit(cache=True)
 def assumed_force(lr: Learner, ost: FloatArray, u: float) -> float:
     """The force the observer assumes acts now: ``u`` commanded ``obs_delay`` samples ago (0 before).
 
-    Shifts ``u`` into the command history kept behind the model's slots of ``ost``.
+    Shifts ``u`` into the command history kept behind the drift estimate of ``ost``.
     """
     d = lr.obs_delay
     if d == 0:
         return u
-    acting: float = ost[3 + d]
-    for j in range(3 + d, 4, -1):
+    acting: float = ost[OBS_HISTORY + d - 1]
+    for j in range(OBS_HISTORY + d - 1, OBS_HISTORY, -1):
         ost[j] = ost[j - 1]
-    ost[4] = u
+    ost[OBS_HISTORY] = u
     return acting
 
 
@@ -355,8 +373,8 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
     """
     if first:
         ost[:] = 0.0
-        ost[0] = y
-        ost[1] = y if obs.kind != kernels.KIND_PLANT else 0.0
+        ost[kernels.POS] = y
+        ost[kernels.MOTION] = 0.0 if kernels.holds_velocity(obs.kind) else y
         return y, 0.0
     if lr.observer == OBS_NONE:
         return y, y - xh
@@ -364,35 +382,37 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
         pred = xh + dh
         innovation = y - pred
         return pred + lr.obs_gain * innovation, dh + lr.obs_velocity_gain * innovation
-    # ost[3] (free in every kind's state) holds the drift estimate: added to each prediction, it
-    # integrates the innovation, so a steady model mismatch leaves no steady bias.
+    # ost[OBS_DRIFT] holds the drift estimate: added to each prediction, it integrates the
+    # innovation, so a steady model mismatch leaves no steady bias.
     acting = assumed_force(lr, ost, u)
     bias = ost.size - 1
+    ms = model_state(ost)
     if lr.obs_bias_gain > 0.0:
         # The force-bias state: a constant force the model does not know, driving the predictor
         # beside the commanded one (outside the actuator's saturation, like a load).
-        pred = kernels.advance_loaded(obs, ost, acting, ost[bias]) + ost[3]
+        pred = kernels.advance_loaded(obs, ms, acting, ost[bias]) + ost[OBS_DRIFT]
     else:
-        pred = kernels.advance(obs, ost, acting) + ost[3]
+        pred = kernels.advance(obs, ms, acting) + ost[OBS_DRIFT]
     innovation = y - pred
-    ost[0] = pred + lr.obs_gain * innovation
-    ost[3] += lr.obs_drift_gain * innovation
+    ost[kernels.POS] = pred + lr.obs_gain * innovation
+    ost[OBS_DRIFT] += lr.obs_drift_gain * innovation
     if lr.obs_bias_gain > 0.0:
         # Integral action on the force; held within ±F (a larger load could not be held anyway), so a
         # hard stop's large innovations cannot wind it up.
         f_max = lr.actions[lr.actions.size - 1]
         ost[bias] = min(f_max, max(-f_max, ost[bias] + lr.obs_bias_gain * innovation))
     share = lr.obs_velocity_share
-    if obs.kind == kernels.KIND_PLANT:
-        # Moving x by L·r moves an ARX model's implied displacement (x_k - x_{k-1}) by L·r too; the
-        # plant-kind state holds the velocity apart, so it gets that correction explicitly (plus
-        # any extra velocity gain), or an unmodelled force would bias the estimate for good.
-        dt = obs.params[7]
-        ost[1] += (share * lr.obs_gain + lr.obs_velocity_gain) * innovation / dt
-        return ost[0], ost[1] * dt + ost[3]
+    x, motion = kernels.POS, kernels.MOTION
+    if kernels.holds_velocity(obs.kind):
+        # Moving x by L·r moves an ARX model's implied displacement (x_k - x_{k-1}) by L·r too; a
+        # plant-structure state holds the velocity apart, so it gets that correction explicitly
+        # (plus any extra velocity gain), or an unmodelled force would bias the estimate for good.
+        dt = kernels.plant_of(obs.params).dt
+        ost[motion] += (share * lr.obs_gain + lr.obs_velocity_gain) * innovation / dt
+        return ost[x], ost[motion] * dt + ost[OBS_DRIFT]
     if share != 1.0:  # keep only share·L·r of the move in the implied displacement
-        ost[1] += (1.0 - share) * lr.obs_gain * innovation
-    return ost[0], ost[0] - ost[1]
+        ost[motion] += (1.0 - share) * lr.obs_gain * innovation
+    return ost[x], ost[x] - ost[motion]
 
 
 @numba.njit(cache=True)
@@ -406,7 +426,7 @@ def learn_observed(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, sn
     from the observer on the noisy measurement; the reward from the model's
     true position (training happens on a model, whose truth is known).
     """
-    plant = np.zeros(4)
+    plant = np.zeros(kernels.RIG_STATE_SIZE)
     ost = observer_state(lr)
     queue = np.zeros(lr.train_delay + 1)
     k_snap = 0
@@ -471,7 +491,7 @@ def greedy_batch(model: Kernel, lr: Learner, q: FloatArray, target: float,
     n = q.shape[0]
     xs = np.empty((n, n_steps))
     us = np.empty((n, n_steps))
-    plant = np.zeros(4)
+    plant = np.zeros(kernels.RIG_STATE_SIZE)
     for j in range(n):
         plant[:] = 0.0
         x = 0.0

@@ -97,7 +97,11 @@ def run_batch(model: Kernel, lr: Learner, plan: qlearning.Budget, stream: rng.U6
 
 
 def _cores() -> int:
-    """CPUs this process may run on (the affinity mask, not the machine's count)."""
+    """CPUs this process may run on (the affinity mask, not the machine's count), or fewer when
+    ``OMP_NUM_THREADS`` says so: a sweep's worker is single-threaded (:mod:`msd_bench.app.executor`)."""
+    cap = os.environ.get("OMP_NUM_THREADS", "")
+    if cap.isdigit() and int(cap) > 0:
+        return int(cap)
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 

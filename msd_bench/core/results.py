@@ -10,6 +10,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from msd_bench.core.risk_table import summarise
 from msd_bench.core.stats import Summary, summarize
 
 METRIC_KEYS = ("mae", "std", "po", "ts", "ts5", "sse")
@@ -38,7 +39,8 @@ class AgentResult:
     fit_one_step: float | None
     """One-step prediction fit % on the same record (None for the plant)."""
     per_seed: tuple[Mapping[str, Any], ...]
-    """One mapping per seed: ``seed``, ``id_seed``, the :data:`METRIC_KEYS` and ``success``."""
+    """One mapping per seed: ``seed``, ``id_seed``, the :data:`METRIC_KEYS`, ``success`` and, where
+    the run recorded it, ``risk`` (:meth:`msd_bench.core.risk.RunRisk.as_dict`)."""
     real_interactions: int = 0
     """Steps taken on the true plant during training (Dyna-Q and on-plant baselines)."""
     notes: str = ""
@@ -61,6 +63,10 @@ class AgentResult:
         """Fraction of seeds that succeeded."""
         return self.n_success / self.n if self.n else float("nan")
 
+    def risk(self) -> dict[str, Any] | None:
+        """The runs' risk summed up (:func:`msd_bench.core.risk_table.summarise`); None without records."""
+        return summarise(s.get("risk") for s in self.per_seed)
+
     def summary(self) -> dict[str, Summary]:
         """Distribution of each metric over the seeds."""
         return {key: summarize(_number(s[key]) for s in self.per_seed) for key in METRIC_KEYS}
@@ -76,6 +82,8 @@ def per_seed_row(seed: int, id_seed: int, metrics: Mapping[str, Any]) -> dict[st
     row: dict[str, Any] = {"seed": int(seed), "id_seed": int(id_seed)}
     row.update({k: _number(metrics[k]) for k in METRIC_KEYS})
     row["success"] = bool(row["sse"] < SUCCESS_SSE)
+    if metrics.get("risk") is not None:
+        row["risk"] = dict(metrics["risk"])
     return row
 
 

@@ -10,21 +10,33 @@ nominal validation, on the *true* position.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core.closed_loop import Conditions, greedy_under
+from msd_bench.core.closed_loop import (
+    Acts,
+    Conditions,
+    SupervisedRuns,
+    greedy_under,
+    nominal,
+    supervised_runs,
+)
 from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.kernels import Kernel
 from msd_bench.core.metrics import compute
 from msd_bench.core.model import StepModel, plant_model
 from msd_bench.core.plant import PlantParams
 from msd_bench.core.qconfig import QConfig, packed
 from msd_bench.core.results import SUCCESS_SSE
+from msd_bench.core.rig import lag_samples
+from msd_bench.core.risk import RunRisk, trace_risk
+from msd_bench.core.risk_table import summarise
 from msd_bench.core.scenarios import Scenario, noise_seed, suite
 from msd_bench.core.stats import wilson
+from msd_bench.core.supervisor import Limits
 
 FloatArray = NDArray[np.float64]
 
@@ -32,7 +44,7 @@ FloatArray = NDArray[np.float64]
 def conditions(sc: Scenario, dt: float) -> Conditions:
     """The compiled loop's view of a scenario."""
     return Conditions(float(sc.setpoint), float(sc.quant), int(sc.delay), float(sc.disturbance),
-                      round(sc.disturbance_time / dt), float(sc.friction))
+                      round(sc.disturbance_time / dt), float(sc.friction), lag_samples(sc.lag, dt))
 
 
 def sensor_noise(sc: Scenario, seeds: Sequence[int], steps: int) -> FloatArray:
@@ -68,19 +80,126 @@ def evaluate(q_tables: FloatArray, cfg: QConfig, nominal: PlantParams, seeds: Se
     for sc in scenarios if scenarios is not None else suite():
         xs, _ = rollouts(q_tables, cfg, nominal, sc, seeds, steps, observer)
         m = [compute(x, sc.setpoint, nominal.dt, window) for x in xs]
-        out[sc.id] = cell([r.sse for r in m], [r.mae for r in m])
+        risks = [trace_risk(x, nominal).as_dict() for x in xs]
+        out[sc.id] = cell([r.sse for r in m], [r.mae for r in m], risks)
     return out
 
 
-def cell(sse: Sequence[float], mae: Sequence[float]) -> dict[str, Any]:
-    """One scenario cell from every run's SSE (%) and MAE (m)."""
+class Facts(Protocol):
+    """What robustness reads of a policy's facts."""
+
+    @property
+    def deterministic(self) -> bool:
+        """One policy per identified model: only noise draws make more runs."""
+
+
+class RollsOut(Protocol):
+    """What robustness needs of a policy (:class:`msd_bench.designs.protocol.Policy` is one)."""
+
+    @property
+    def members(self) -> tuple[int, ...]:
+        """Learning seeds of its members, in rollout order."""
+
+    @property
+    def facts(self) -> Facts:
+        """Its facts."""
+
+    def rollout(self, plant: Kernel, cond: Conditions, noise: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """True positions and commands, one run per row of ``noise``."""
+
+    def controller(self, member: int, target: float) -> Acts:
+        """Member ``member``'s stepwise controller tracking ``target`` (the node's form)."""
+
+
+def draws(policy: RollsOut, sc: Scenario, seeds: Sequence[int]) -> list[int]:
+    """The noise streams a policy runs under ``sc``: one per member; a deterministic policy one per
+    seed where the scenario draws sensor noise and a single run otherwise (copies are not n)."""
+    if not policy.facts.deterministic:
+        return list(policy.members)
+    return list(seeds) if sc.noise > 0.0 else list(seeds)[:1]
+
+
+def policy_rollouts(policy: RollsOut, nominal: PlantParams, sc: Scenario, seeds: Sequence[int],
+                    steps: int) -> tuple[FloatArray, FloatArray]:
+    """True positions and commands of a policy under ``sc`` (runs as :func:`draws` says)."""
+    plant = sc.plant(nominal)
+    noise = sensor_noise(sc, draws(policy, sc, seeds), steps)
+    return policy.rollout(plant_model(plant).kernel, conditions(sc, plant.dt), noise)
+
+
+def supervised_rollouts(policy: RollsOut, nominal: PlantParams, sc: Scenario, seeds: Sequence[int],
+                        steps: int, lim: Limits) -> SupervisedRuns:
+    """The runs of :func:`policy_rollouts` behind the supervisor (``lim``: its limits on the nominal
+    plant, which is all a supervisor on a rig is told), through each member's stepwise controller."""
+    plant = sc.plant(nominal)
+    runs = draws(policy, sc, seeds)
+    noise = sensor_noise(sc, runs, steps)
+    members = [0] * len(runs) if policy.facts.deterministic else list(range(len(runs)))
+    ctls = [policy.controller(m, float(sc.setpoint)) for m in members]
+    return supervised_runs(ctls, plant_model(plant).kernel, conditions(sc, plant.dt), noise, lim)
+
+
+def validate_policy(policy: RollsOut, nominal: PlantParams, sc: Scenario, seeds: Sequence[int], steps: int,
+                    lim: Limits | None = None) -> tuple[FloatArray, list[RunRisk]]:
+    """True positions of every run under ``sc`` and each run's risk; behind the supervisor when
+    ``lim`` is given (risk then counts its overrides and aborts), as the policy rolls out otherwise."""
+    if lim is None:
+        xs, _ = policy_rollouts(policy, nominal, sc, seeds, steps)
+        return xs, [trace_risk(x, nominal) for x in xs]
+    r = supervised_rollouts(policy, nominal, sc, seeds, steps, lim)
+    return r.x, [trace_risk(r.x[j], nominal, lim, r.reason[j], int(r.aborts[j])) for j in range(r.x.shape[0])]
+
+
+def nominal_validation(policy: RollsOut, plant: PlantParams, target: float, steps: int,
+                       lim: Limits | None = None) -> tuple[FloatArray, list[RunRisk]]:
+    """Table 1's validation: each member (a deterministic policy: its one) from rest at ``target``,
+    with each run's risk; behind the supervisor when ``lim`` is given."""
+    rows = 1 if policy.facts.deterministic else len(policy.members)
+    if lim is None:
+        xs, _ = policy.rollout(plant_model(plant).kernel, nominal(target), np.zeros((rows, int(steps))))
+        return xs, [trace_risk(x, plant) for x in xs]
+    members = [0] if policy.facts.deterministic else list(range(rows))
+    r = supervised_runs([policy.controller(m, float(target)) for m in members], plant_model(plant).kernel,
+                        nominal(target), np.zeros((rows, int(steps))), lim)
+    return r.x, [trace_risk(r.x[j], plant, lim, r.reason[j], int(r.aborts[j])) for j in range(rows)]
+
+
+def evaluate_policy(policy: RollsOut, nominal: PlantParams, seeds: Sequence[int],
+                    scenarios: Sequence[Scenario] | None = None, steps: int = 3000,
+                    window: int = 500, lim: Limits | None = None) -> dict[str, dict[str, Any]]:
+    """Per scenario id, the cell of :func:`cell` for any policy; ``seeds`` name a deterministic
+    policy's noise draws (a stochastic one draws per member); ``lim``: behind the supervisor."""
+    out: dict[str, dict[str, Any]] = {}
+    for sc in scenarios if scenarios is not None else suite():
+        xs, risks = validate_policy(policy, nominal, sc, seeds, steps, lim)
+        m = [compute(x, sc.setpoint, nominal.dt, window) for x in xs]
+        out[sc.id] = cell([r.sse for r in m], [r.mae for r in m], [r.as_dict() for r in risks])
+    return out
+
+
+def cell(sse: Sequence[float], mae: Sequence[float],
+         risks: Sequence[Mapping[str, Any]] | None = None) -> dict[str, Any]:
+    """One scenario cell from every run's SSE (%) and MAE (m) and, where recorded, risk
+    (:meth:`RunRisk.as_dict` per run, kept whole, and their :func:`summarise` beside them)."""
     wins = int(sum(s < SUCCESS_SSE for s in sse))
-    return {"n": len(sse), "n_success": wins, "ci95": list(wilson(wins, len(sse))),
-            "median_sse": float(np.median(sse)), "median_mae": float(np.median(mae)),
-            "sse": list(sse), "mae": list(mae)}
+    out: dict[str, Any] = {"n": len(sse), "n_success": wins, "ci95": list(wilson(wins, len(sse))),
+                           "median_sse": float(np.median(sse)), "median_mae": float(np.median(mae)),
+                           "sse": list(sse), "mae": list(mae)}
+    if risks is not None and len(risks) == len(sse):
+        out["risk"] = summarise(risks)
+        out["risks"] = [dict(r) for r in risks]
+    return out
 
 
 def merge(parts: Sequence[dict[str, dict[str, Any]]]) -> dict[str, dict[str, Any]]:
     """Cells of several groups of tables (e.g. one per identification seed) pooled per scenario."""
-    return {sid: cell([s for p in parts for s in p[sid]["sse"]], [a for p in parts for a in p[sid]["mae"]])
+    return {sid: cell([s for p in parts for s in p[sid]["sse"]], [a for p in parts for a in p[sid]["mae"]],
+                      _pooled_risks([p[sid] for p in parts]))
             for sid in parts[0]}
+
+
+def _pooled_risks(cells: Sequence[Mapping[str, Any]]) -> list[Mapping[str, Any]] | None:
+    """Every part's per-run risk records, or None unless every part carries them."""
+    if not all("risks" in c for c in cells):
+        return None
+    return [r for c in cells for r in c["risks"]]

@@ -27,21 +27,25 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from msd_bench.app.agents import PLANT, agent_kind
+from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
+from msd_bench.app.job import job_document
 from msd_bench.app.plant_ns import check_node_scenarios
+from msd_bench.app.serve_protocol import EventError
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.registry import needs_bias_records
-from msd_bench.graph.jobs import Job, JobServer, last_line
+from msd_bench.graph import live
+from msd_bench.graph.jobs import JOBS_DIR, Job, JobFiles, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, RecordServers, paper_plan, record_experiments
+from msd_bench.graph.supervise import Supervision, agent_remaps
+from msd_bench.graph.supervise import check as check_supervision
 from msd_bench.io.atomic import TEMP_PREFIX, write_text_atomic
 from msd_bench.io.paths import OutputError, writable_dir
 from msd_msgs_py.contract import PLANT_NAMESPACE, surrogate_namespace
@@ -81,6 +85,10 @@ class BenchConfig:
     interface: PlantInterface = MSD_INTERFACE
     """With ``plant_ns``: the node's face (``--interface ros2_control ...``), handed to every node
     that talks to it (docs/ros2-control.md §Parameters)."""
+    live_port: int | None = None
+    """Serve the live view on this port of 127.0.0.1 (``--live [PORT]``, 0: a free one; None: off)."""
+    supervision: Supervision = field(default_factory=Supervision)
+    """Which stages run behind the safety supervisor, with which options (docs/supervisor.md)."""
     timings: dict[str, float] = field(default_factory=dict, compare=False)
     """Seconds per stage, filled in as the run goes."""
 
@@ -90,6 +98,7 @@ class BenchConfig:
             raise ConfigError(f"unknown stage {unknown[0]!r}; choose from {', '.join(STAGES)}")
         if self.run.id_seeds != 1:
             raise ConfigError("bench.py records one identification seed; use msd-bench paper for --id-seeds")
+        check_supervision(self)
         if self.plant_ns is None:
             if self.node_scenarios or self.scenario_kinds:
                 raise ConfigError("--node-scenarios and --scenario-kinds need --plant-ns")
@@ -181,13 +190,17 @@ def stage_record(cfg: BenchConfig, procs: ProcessSet, bar: Callable[[int, int, s
                  servers: RecordServers | None = None) -> list[Path]:
     """Record the run's experiments through the recorder and excitation processes (and its sensor)."""
     return record_experiments(record_plan(cfg), cfg.excitation_dir, procs, cfg.namespace, not cfg.realtime,
-                              bar, force_limit=cfg.run.plant.F, dt=cfg.run.plant.dt,
+                              bar, jobs=JobFiles(cfg.run_dir), run=cfg.run,
                               truth=cfg.run.sensor is not None, rest=cfg.plant_ns is not None,
                               iface=cfg.interface, servers=servers)
 
 
-SAVED_MODEL = re.compile(r"saved model (\S+): ")
-"""The identifier's line for each model it has written (``identifier_node.SAVED``)."""
+IDENTIFIER = "identifier"
+"""The identifier node's name: its result events carry it (``identifier_node.NODE_NAME``)."""
+SAVED_EVENT = "model_saved"
+"""The identifier's event for each model it has written (``identifier_node.SAVED_EVENT``)."""
+IDENTIFIED_EVENT = "identified"
+"""The identifier's event once every model and fits.json are written."""
 
 
 def stage_identify(cfg: BenchConfig, procs: ProcessSet, on_saved: Callable[[str], None] | None = None,
@@ -195,12 +208,7 @@ def stage_identify(cfg: BenchConfig, procs: ProcessSet, on_saved: Callable[[str]
     """Fit the surrogates from the bags in the identifier process (``server`` if the caller launched
     it early, so its imports overlapped the recording); ``on_saved`` hears of each model as soon as
     the identifier has written it (its agents can start while the rest are fitted)."""
-    models = "[" + ",".join(cfg.run.surrogates_needed()) + "]"
-    p = cfg.run.plant
-    args = ["-p", f"bags_dir:={cfg.excitation_dir}", "-p", f"out_dir:={cfg.run_dir / 'models'}",
-            "-p", f"models:={models}", "-p", f"nlarx_scale:={float(cfg.run.nlarx_scale)!r}",
-            "-p", f"seed:={cfg.id_seed}", "-p", f"stroke:={p.L!r}", "-p", f"force:={p.F!r}",
-            "-p", f"dt:={p.dt!r}", "-p", f"namespace:={cfg.namespace}", *cfg.interface.ros_args()]
+    args = job_args(cfg, "identifier", identifier_job(cfg))
     server = (server or JobServer(procs, "identifier.py", "identifier")).ready()
     job = server.submit(args, name="identifier")
     # a rig's run has cost real time already: a slow machine must not lose it to a timeout here
@@ -214,35 +222,65 @@ def stage_identify(cfg: BenchConfig, procs: ProcessSet, on_saved: Callable[[str]
     server.close()
     if status != 0:
         raise StageError(f"{job.name} failed (exit {status}): {last_line(job.lines) or 'no output'}")
+    _check_identified(job)
     from msd_bench.graph.run_files import read_json_object  # bounded: fits.json is a file like any other
 
     return read_json_object(cfg.run_dir / "models" / "fits.json")
 
 
-def agent_args(cfg: BenchConfig, kind: str) -> list[str]:
-    """ROS arguments of the agent process of one agent kind (the node derives its learner from ``kind``)."""
-    k, run = agent_kind(kind), cfg.run
-    seeds = "[" + ",".join(str(s) for s in cfg.seeds) + "]"
-    args = ["-p", f"kind:={kind}", "-p", f"seeds:={seeds}",
-            "-p", f"out_dir:={cfg.run_dir / 'agents' / kind}",
-            "-p", f"lockstep:={str(not cfg.realtime).lower()}", "-p", f"steps:={run.steps}",
-            "-p", f"validation_steps:={run.validation_steps}", "-p", f"window:={run.window}",
-            "-p", f"target:={float(run.target)!r}", "-p", f"dt:={run.plant.dt!r}",
-            "-p", f"force:={run.plant.F!r}", "-p", f"shaping:={run.shaping}",
-            "-p", f"plant_ns:={cfg.namespace}", "-p", f"pooled:={str(not cfg.realtime).lower()}",
-            *cfg.interface.ros_args()]
+def agent_placement(cfg: BenchConfig, kind: str) -> dict[str, Any]:
+    """Where and how the agent node of ``kind`` runs: what only the graph knows (the run's budgets
+    come from :func:`msd_bench.app.job.job_document`)."""
+    k = agent_kind(kind)
+    place: dict[str, Any] = {
+        "kind": kind, "seeds": list(cfg.seeds), "out_dir": str(cfg.run_dir / "agents" / kind),
+        "lockstep": not cfg.realtime, "plant_ns": cfg.namespace,
+        "pooled": not cfg.realtime and not cfg.supervision.validation}  # a pooled endpoint is not remapped
     if cfg.plant_ns is not None:
-        args += ["-p", "reset:=false"]
+        place["reset"] = False
         if kind in cfg.scenario_kinds and cfg.node_scenarios:
-            args += ["-p", f"scenarios:={';'.join(cfg.node_scenarios)}"]
-    if k.dyna:
-        return [*args, "-p", f"episodes:={run.dyna_episodes}", "-p", f"planning_steps:={run.planning_steps}"]
-    model = "plant" if k.surrogate == PLANT else k.surrogate  # on-plant Q-learning: the plant's own model
-    args += ["-p", f"model_path:={cfg.run_dir / 'models' / (model + '.json')}",
-             "-p", f"episodes:={run.episodes}"]
-    if cfg.via_ros and k.surrogate != PLANT:
-        args += ["-p", "via_ros:=true", "-p", f"surrogate_ns:={surrogate_namespace(k.surrogate)}"]
-    return args
+            place["scenarios"] = ";".join(cfg.node_scenarios)
+    if k.design.model_free:
+        return place
+    model = k.surrogate  # on-plant Q-learning: "plant", the plant's own model
+    place["model_path"] = str(cfg.run_dir / "models" / (model + ".json"))
+    if cfg.via_ros and not k.on_plant:
+        place.update(via_ros=True, surrogate_ns=surrogate_namespace(k.surrogate))
+    return place
+
+
+def agent_job(cfg: BenchConfig, kind: str) -> dict[str, Any]:
+    """The job document of the agent node of ``kind`` (the node derives its learner from ``kind``)."""
+    return job_document("agent", cfg.run, agent_placement(cfg, kind), dyna=agent_kind(kind).design.model_free)
+
+
+def identifier_job(cfg: BenchConfig) -> dict[str, Any]:
+    """The job document of the identifier node."""
+    placement = {"bags_dir": str(cfg.excitation_dir), "out_dir": str(cfg.run_dir / "models"),
+                 "namespace": cfg.namespace}
+    return job_document("identifier", cfg.run, placement, seed=cfg.id_seed)
+
+
+def write_job(cfg: BenchConfig, name: str, doc: dict[str, Any]) -> Path:
+    """Write job ``doc`` atomically as ``jobs/<name>.json`` in the run directory; its path."""
+    return JobFiles(cfg.run_dir).write(name, doc)
+
+
+def job_args(cfg: BenchConfig, name: str, doc: dict[str, Any]) -> list[str]:
+    """ROS arguments handing a node its job: the job file's path, and the plant's face."""
+    return [*JobFiles(cfg.run_dir).args(name, doc), *cfg.interface.ros_args()]
+
+
+def agent_args(cfg: BenchConfig, kind: str) -> list[str]:
+    """ROS arguments of the agent process of one agent kind (its job file, written now)."""
+    return [*job_args(cfg, f"agent-{kind}", agent_job(cfg, kind)), *agent_remaps(cfg)]
+
+
+def surrogate_job(cfg: BenchConfig, name: str) -> dict[str, Any]:
+    """The job document of the surrogate node serving model ``name`` (its ``dt`` and ``force_limit``
+    are the run's plant's, from :func:`msd_bench.app.job.job_document`)."""
+    placement = {"model_path": str(cfg.run_dir / "models" / (name + ".json")), "lockstep": True}
+    return job_document("surrogate", cfg.run, placement)
 
 
 def surrogate_args(cfg: BenchConfig, name: str) -> list[str]:
@@ -251,13 +289,13 @@ def surrogate_args(cfg: BenchConfig, name: str) -> list[str]:
     Lock-step beside the lock-step plant; it leaves ``/clock`` to the plant
     (``publish_clock`` defaults to false for surrogates): one owner of sim time.
     """
-    return ["-p", f"model_path:={cfg.run_dir / 'models' / (name + '.json')}",
-            "-p", "lockstep:=true", "-r", f"__ns:={surrogate_namespace(name)}"]
+    return [*JobFiles(cfg.run_dir).args(f"surrogate-{name}", surrogate_job(cfg, name)),
+            "-r", f"__ns:={surrogate_namespace(name)}"]
 
 
 def model_free_kinds(cfg: BenchConfig) -> list[str]:
     """The run's kinds that need no identified model (Dyna-Q learns on the plant itself)."""
-    return [k for k in cfg.run.agents if agent_kind(k).dyna]
+    return [k for k in cfg.run.agents if agent_kind(k).design.model_free]
 
 
 def start_model_free(cfg: BenchConfig, server: JobServer) -> dict[str, Job]:
@@ -327,9 +365,26 @@ def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[i
         status = job.wait(3600.0 if cfg.plant_ns is None else 4 * 3600.0)
         if status != 0:
             raise StageError(f"{job.name} failed (exit {status}): {last_line(job.lines) or 'no output'}")
-        say(last_line(job.lines, "agent done") or f"agent {kind} done")
+        say(f"agent done: {_agent_result(cfg, job, kind)}")
     server.close()
     bar(len(agents), len(agents), "done")
+
+
+def _agent_result(cfg: BenchConfig, job: Job, kind: str) -> Path:
+    """The agent job's result file: its result is that file (written atomically), not its log."""
+    path = cfg.run_dir / "agents" / kind / "result.json"
+    if not path.is_file():
+        raise StageError(f"{job.name} exited 0 without writing {path}")
+    return path
+
+
+def _saved_models(job: Job) -> list[str]:
+    """The models the identifier job has announced written, in order (its structured events)."""
+    names = [e.get("model") for e in job.events(IDENTIFIER, SAVED_EVENT)]
+    bad = [n for n in names if not isinstance(n, str) or not n]
+    if bad:
+        raise EventError(f"{IDENTIFIER}: malformed result event: {SAVED_EVENT} names model {bad[0]!r}")
+    return [str(n) for n in names]
 
 
 def _follow_saved(job: Job, on_saved: Callable[[str], None], deadline: float, poll_s: float = 0.05) -> None:
@@ -338,15 +393,19 @@ def _follow_saved(job: Job, on_saved: Callable[[str], None], deadline: float, po
     seen = 0
     while time.monotonic() < deadline:
         ended = job.finished()  # its exit line comes after all of its lines
-        lines = job.lines[seen:]
-        seen += len(lines)
-        for line in lines:
-            match = SAVED_MODEL.search(line)
-            if match is not None:
-                on_saved(match.group(1))
+        names = _saved_models(job)
+        for name in names[seen:]:
+            on_saved(name)
+        seen = len(names)
         if ended:
             return
         time.sleep(poll_s)
+
+
+def _check_identified(job: Job) -> None:
+    """A finished identifier job must have said so in its ``identified`` event (a log line does not count)."""
+    if not job.events(IDENTIFIER, IDENTIFIED_EVENT):
+        raise StageError(f"{job.name} exited 0 without its {IDENTIFIED_EVENT!r} result event")
 
 
 def write_run_facts(cfg: BenchConfig, extra: dict[str, Any]) -> Path:
@@ -361,7 +420,7 @@ def write_run_facts(cfg: BenchConfig, extra: dict[str, Any]) -> Path:
     return write_text_atomic(path, json.dumps(doc, indent=1, default=str) + "\n", root=cfg.run_dir)
 
 
-BENCH_ENTRIES = frozenset({"excitation", "models", "agents", "report", "run.json"})
+BENCH_ENTRIES = frozenset({"excitation", "models", "agents", "report", "run.json", JOBS_DIR})
 """What bench.py writes at the top of its --out: nothing else may be there."""
 
 
@@ -388,9 +447,14 @@ def stage_names(stages: Sequence[str]) -> tuple[str, ...]:
 
 
 def timed(cfg: BenchConfig, name: str, fn: Callable[[], Any]) -> Any:
-    """Run a stage and remember its wall time."""
+    """Run a stage and remember its wall time (and tell the live view, if any, when it starts and ends)."""
     t0 = time.perf_counter()
+    live.stage(name, "running")
+    state = "failed"
     try:
-        return fn()
+        result = fn()
+        state = "done"
+        return result
     finally:
         cfg.timings[name] = round(time.perf_counter() - t0, 2)
+        live.stage(name, state, cfg.timings[name])

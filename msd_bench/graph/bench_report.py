@@ -1,9 +1,10 @@
 """The bench's report stage: read what the node processes wrote, write Table 1 and figures.
 
 Everything comes from files of the run (model artifacts, ``fits.json``, each
-agent's ``result.json``, Q-tables with their learner config, and validation
-bags), so the report can be rebuilt at any time with
-``bench.py --stages report --out <run>``.
+agent's ``result.json`` and trained-policy artifact, and validation bags), so
+the report can be rebuilt at any time with ``bench.py --stages report --out
+<run>``. Table 1 and robustness are assembled by the function the in-process
+run uses (:func:`msd_bench.app.scoring.assemble`).
 """
 
 from __future__ import annotations
@@ -12,39 +13,90 @@ from typing import Any
 
 import numpy as np
 
-from msd_bench.app.agents import PLANT, agent_kind, budget_note
-from msd_bench.app.scoring import agent_result
+from msd_bench import designs
+from msd_bench.app.agents import agent_kind
+from msd_bench.app.pipeline import settings
+from msd_bench.app.scoring import PolicyRecord, Validation, assemble
 from msd_bench.core import robustness
+from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.identify import FitReport
 from msd_bench.core.model import StepModel
 from msd_bench.core.registry import needs_bias_records
 from msd_bench.core.results import AgentResult
+from msd_bench.core.risk import trace_risk
+from msd_bench.core.risk_table import well_formed
+from msd_bench.designs import Policy
 from msd_bench.io import artifacts
 from msd_bench.io.atomic import write_text_atomic
-from msd_bench.io.bag_records import load_records, roles_from_dir
+from msd_bench.io.bag_records import load_records as load_records_of
+from msd_bench.io.bag_records import roles_from_dir
 from msd_bench.io.bags import UNCHECKED, read_experiment
+from msd_bench.io.errors import BagError
+from msd_bench.io.html_report import write_index
 from msd_bench.io.report import write_report, write_robustness
 from msd_bench.io.run_output import FigureData, write_figures
 
 from .bench import BenchConfig
-from .run_files import read_fits, read_qtables, read_result
+from .run_files import AgentDoc, read_fits, read_result
+
+
+def load_records(cfg: BenchConfig) -> dict[str, tuple[PolicyRecord, AgentDoc]]:
+    """Per agent kind that wrote a result: its trained-policy record (the policy loaded back from its
+    artifact, on the model it was made on, and the validation its node ran) and its ``result.json``."""
+    fits = _fits(cfg)
+    out: dict[str, tuple[PolicyRecord, AgentDoc]] = {}
+    for kind in cfg.run.agents:
+        agent_dir = cfg.run_dir / "agents" / kind
+        if not (agent_dir / "result.json").is_file():
+            continue
+        doc = read_result(agent_dir / "result.json")
+        policy = designs.load(agent_dir, _trained_on(cfg, kind))
+        fit = fits.get(agent_kind(kind).surrogate)
+        rows = [_with_risk(cfg, kind, row) for row in doc.per_seed]
+        out[kind] = (PolicyRecord(policy, cfg.id_seed, cfg.seeds, rows, fit), doc)
+    return out
+
+
+def _with_risk(cfg: BenchConfig, kind: str, row: dict[str, Any]) -> dict[str, Any]:
+    """A per-seed row with its risk: the record the agent's ``result.json`` carries (its node knows
+    the supervisor's overrides and aborts) or, failing one, the risk of the run's validation bag.
+
+    Why the bag: it is the run as the plant reported it, so even an agent that records no
+    risk has its contacts and peaks in the table. It holds the *measured* position (on the
+    emulator the true one, so the record is the in-process run's, bit for bit) and no
+    overrides. A bag that cannot be read leaves the row without risk ("—").
+    """
+    if well_formed(row.get("risk")):
+        return row
+    bag = cfg.run_dir / "agents" / kind / "validation" / f"seed_{row['seed']}"
+    if not bag.is_dir():
+        return row
+    try:
+        y = read_experiment(bag, cfg.namespace, timing=UNCHECKED)[0].y
+        risk = trace_risk(y, cfg.run.plant).as_dict()
+    except (BagError, InvalidInputError):
+        return row
+    return {**row, "risk": risk}
+
+
+def assemble_all(cfg: BenchConfig, records: dict[str, tuple[PolicyRecord, AgentDoc]],
+                 scenarios: bool) -> tuple[list[AgentResult], dict[str, dict[str, Any]]]:
+    """Table 1 and robustness from the records: :func:`msd_bench.app.scoring.assemble`, as in-process."""
+    results: list[AgentResult] = []
+    rob: dict[str, dict[str, Any]] = {}
+    val = Validation.of(cfg.run, scenarios)
+    for kind, (record, doc) in records.items():
+        notes = [] if doc.training == "in-process" else [f"trained {doc.training}"]
+        result, cells = assemble(kind, [record], settings(cfg.run), val, notes)
+        results.append(result)
+        if cells:
+            rob[kind] = cells
+    return results, rob
 
 
 def load_results(cfg: BenchConfig) -> list[AgentResult]:
     """One Table-1 row per agent kind that wrote a result."""
-    fits = _fits(cfg)
-    rows = []
-    for kind in cfg.run.agents:
-        path = cfg.run_dir / "agents" / kind / "result.json"
-        if not path.is_file():
-            continue
-        doc = read_result(path)
-        fit = fits.get(agent_kind(kind).surrogate)
-        notes = [] if doc.training == "in-process" else [f"trained {doc.training}"]
-        notes.append(budget_note(kind, cfg.run.dyna_episodes))
-        rows.append(agent_result(kind, doc.per_seed, {cfg.id_seed: fit} if fit else {},
-                                 doc.real_interactions, notes))
-    return rows
+    return assemble_all(cfg, load_records(cfg), scenarios=False)[0]
 
 
 def _fits(cfg: BenchConfig) -> dict[str, FitReport]:
@@ -54,17 +106,8 @@ def _fits(cfg: BenchConfig) -> dict[str, FitReport]:
     return read_fits(path)
 
 
-def _qtables(cfg: BenchConfig, results: list[AgentResult]) -> dict[str, tuple[dict[str, Any], Any, Any]]:
-    """Per agent kind: its Q-table arrays, the learner config and the seeds stored beside them."""
-    out = {}
-    for r in results:
-        tables = read_qtables(cfg.run_dir / "agents" / r.kind / "qtables.npz")
-        out[r.kind] = (tables.arrays, tables.learner, tables.seeds)
-    return out
-
-
 def figure_data(cfg: BenchConfig, results: list[AgentResult],
-                qtables: dict[str, tuple[dict[str, Any], Any, Any]]) -> FigureData:
+                policies: dict[str, Policy]) -> FigureData:
     """The figures' inputs rebuilt from the run's files."""
     models_dir = cfg.run_dir / "models"
     models = {name: artifacts.load_model(models_dir / f"{name}.json")
@@ -75,17 +118,17 @@ def figure_data(cfg: BenchConfig, results: list[AgentResult],
         for s in r.per_seed]) for r in results}
     return FigureData(
         target=cfg.run.target, dt=cfg.run.plant.dt, models=models, fits=_fits(cfg),
-        records=load_records(roles_from_dir(cfg.excitation_dir, cfg.namespace, cfg.run.plant.dt),
-                             needs_bias_records(models), cfg.namespace, cfg.run.plant.dt,
-                             iface=cfg.interface, force_limit=cfg.run.plant.F),
-        qtables={k: a for k, (a, _, _) in qtables.items()}, responses=responses)
+        records=load_records_of(roles_from_dir(cfg.excitation_dir, cfg.namespace, cfg.run.plant.dt),
+                                needs_bias_records(models), cfg.namespace, cfg.run.plant.dt,
+                                iface=cfg.interface, force_limit=cfg.run.plant.F),
+        policies=policies, responses=responses)
 
 
-def _trained_on(cfg: BenchConfig, kind: str) -> StepModel:
-    """The model an agent kind trained on: a ``model`` observer predicts with it."""
-    k = agent_kind(kind)
-    name = "plant" if k.surrogate == PLANT else k.surrogate
-    return artifacts.load_model(cfg.run_dir / "models" / f"{name}.json")
+def _trained_on(cfg: BenchConfig, kind: str) -> StepModel | None:
+    """The model a kind was made on (a ``model`` observer predicts with it; a baseline is redesigned
+    on it); None for a kind that learned on the plant's topics when the run has no plant model."""
+    path = cfg.run_dir / "models" / f"{agent_kind(kind).surrogate}.json"
+    return artifacts.load_model(path) if path.is_file() or not agent_kind(kind).on_plant else None
 
 
 def on_node_robustness(cfg: BenchConfig, results: list[AgentResult]) -> dict[str, dict[str, Any]]:
@@ -100,7 +143,9 @@ def on_node_robustness(cfg: BenchConfig, results: list[AgentResult]) -> dict[str
     chosen = [r for r in results if r.kind in cfg.scenario_kinds and cfg.node_scenarios] or results
     for r in chosen:
         doc = read_result(cfg.run_dir / "agents" / r.kind / "result.json")
-        cells = {"nominal": robustness.cell([s["sse"] for s in r.per_seed], [s["mae"] for s in r.per_seed])}
+        risks = [s["risk"] for s in r.per_seed if well_formed(s.get("risk"))]
+        cells = {"nominal": robustness.cell([s["sse"] for s in r.per_seed], [s["mae"] for s in r.per_seed],
+                                            risks if len(risks) == r.n else None)}
         cells.update(doc.on_node_scenarios)
         rob[r.kind] = cells
     return rob
@@ -122,22 +167,23 @@ def _plant_ns_lines(facts: dict[str, Any]) -> str:
 
 
 def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any]:
-    """Table 1 (md/csv/json), robustness and figures under ``report/``."""
-    results = load_results(cfg)
+    """Table 1 (md/csv/json), robustness, figures and their page (``index.html``) under ``report/``."""
+    records = load_records(cfg)
+    results, rob = assemble_all(cfg, records, scenarios=cfg.plant_ns is None)
     out, root = cfg.run_dir / "report", cfg.run_dir  # every write stays in the run, no symlink followed
     paths: dict[str, Any] = {"table": write_report(out, results, facts, root=root)}
-    qtables = _qtables(cfg, results)
-    paths["figures"] = write_figures(out / "figures", figure_data(cfg, results, qtables), root=root)
+    policies = {kind: record.policy for kind, (record, _) in records.items()}
+    paths["figures"] = write_figures(out / "figures", figure_data(cfg, results, policies), root=root)
     if cfg.plant_ns is not None:  # the title names the node, not the emulator's true plant
         md = paths["table"]["md"]
         text = md.read_text().replace(f"on the true plant ({cfg.run.preset} preset)",
                                       f"on {cfg.plant_ns} (real time, measured position)", 1)
         write_text_atomic(md, text.rstrip("\n") + "\n\n" + _plant_ns_lines(facts), root=root)
         rob = on_node_robustness(cfg, results)
-    else:
-        rob = {kind: robustness.evaluate(arrays["q"], learner, cfg.run.plant, seeds,
-                                         cfg.run.scenario_suite(), steps=cfg.run.validation_steps,
-                                         window=cfg.run.window, observer=_trained_on(cfg, kind))
-               for kind, (arrays, learner, seeds) in qtables.items()}
+    if facts.get("supervisor"):  # on or off, and what it reported: one line under Table 1
+        md = paths["table"]["md"]
+        text = md.read_text().rstrip("\n") + "\n\n" + facts["supervisor"]["line"] + "\n"
+        write_text_atomic(md, text, root=root)
     paths["robustness"] = write_robustness(out, rob, {r.kind: r.label for r in results}, root=root)
+    paths["index"] = write_index(out, root=root, title=f"bench.py run {root.name}", run_dir=root, config=cfg)
     return paths

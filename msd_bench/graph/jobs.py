@@ -15,9 +15,12 @@ import json
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
+from msd_bench.app.serve_protocol import READY_LINE, SERVE_FLAG, STOP_LINE, exit_pattern, parse_event
 from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet, stop
-from msd_bench.nodes.serve_protocol import READY_LINE, SERVE_FLAG, STOP_LINE, exit_pattern
+from msd_bench.io.atomic import write_text_atomic
 
 
 def last_line(lines: Sequence[str], contains: str = "") -> str:
@@ -25,6 +28,33 @@ def last_line(lines: Sequence[str], contains: str = "") -> str:
     (what a stage quotes when a node fails or finishes)."""
     kept = [ln for ln in lines if contains in ln and ln.strip() and not ln.startswith("[serve]")]
     return kept[-1].strip() if kept else ""
+
+
+JOBS_DIR = "jobs"
+"""Where the stages write each node's job file under the run directory."""
+
+
+@dataclass(frozen=True)
+class JobFiles:
+    """Where a stage writes the job files of its nodes: ``<root>/jobs/<name>.json``, atomically.
+
+    Why files in the run directory and not ``-p`` strings: they are the record of what each
+    node was asked to do (docs/design.md §Jobs), and one loader reads them
+    (:func:`msd_bench.nodes.params.use_job`). ``root`` bounds the write: no symlink under it is
+    followed (:mod:`msd_bench.io.atomic`).
+    """
+
+    root: Path
+    """The run directory."""
+
+    def write(self, name: str, doc: dict[str, Any]) -> Path:
+        """Write job ``doc`` (from :func:`msd_bench.app.job.job_document`) as ``jobs/<name>.json``."""
+        path = self.root / JOBS_DIR / f"{name}.json"
+        return write_text_atomic(path, json.dumps(doc, indent=1) + "\n", root=self.root)
+
+    def args(self, name: str, doc: dict[str, Any]) -> list[str]:
+        """The ROS arguments handing a node its job: ``-p job:=<path>`` (the file written now)."""
+        return ["-p", f"job:={self.write(name, doc)}"]
 
 
 READY_TIMEOUT = 60.0
@@ -46,6 +76,21 @@ class Job:
     def lines(self) -> list[str]:
         """The server's output since this job was submitted."""
         return self.server.proc.lines[self.since:]
+
+    def own_lines(self) -> list[str]:
+        """This job's lines alone: those up to its exit line (a later job's follow it)."""
+        rx = re.compile(self._exit_pattern)
+        lines = self.lines
+        for i, line in enumerate(lines):
+            if rx.search(line):
+                return lines[:i]
+        return lines
+
+    def events(self, node: str, event: str) -> list[dict[str, Any]]:
+        """This job's structured result events named ``event`` from node ``node``
+        (:func:`msd_bench.app.serve_protocol.parse_event`: a malformed one is its EventError)."""
+        found = (parse_event(line, node) for line in self.own_lines())
+        return [e for e in found if e is not None and e["event"] == event]
 
     def wait_for_line(self, pattern: str, timeout: float) -> str:
         """The first line of this job matching ``pattern``; LaunchError on timeout or if the server died."""

@@ -21,6 +21,7 @@ from msd_bench.app.agents import BENCH_AGENTS, agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.app.options import add_run_arguments, run_config_from_args
 from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.graph import supervise
 from msd_bench.graph.bench import (
     STAGES,
     BenchConfig,
@@ -38,10 +39,12 @@ from msd_bench.graph.bench import (
 )
 from msd_bench.graph.domains import claim_domain
 from msd_bench.graph.jobs import Job, JobServer
-from msd_bench.graph.launch import caller_env, process_group, stop
-from msd_bench.graph.record import RecordServers
+from msd_bench.graph.launch import ProcessSet, caller_env, process_group, stop
+from msd_bench.graph.live import LiveStageProgress as StageProgress
+from msd_bench.graph.live import live_view
+from msd_bench.graph.live import log as live_log
 from msd_bench.io.bag_records import roles_from_dir
-from msd_bench.progress import StageProgress
+from msd_bench.io.live import DEFAULT_PORT
 from msd_msgs_py.interface import add_cli_options, from_cli
 
 REPO = Path(__file__).resolve().parents[2]
@@ -79,8 +82,39 @@ def parse(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--scenario-kinds", metavar="KINDS",
                    help="with --plant-ns: agent kinds validated under --node-scenarios "
                         f"(default those of {','.join(plant_ns.DEFAULT_SCENARIO_KINDS)} that run)")
+    p.add_argument("--live", nargs="?", type=int, const=DEFAULT_PORT, metavar="PORT",
+                   help=f"serve a live view (Foxglove WebSocket) on ws://127.0.0.1:PORT for the run "
+                        f"(default port {DEFAULT_PORT}; 0 picks a free one; docs/live.md)")
     add_cli_options(p)
+    supervise_options(p)
     return p.parse_args(argv)
+
+
+def supervise_options(p: argparse.ArgumentParser) -> None:
+    """The ``--supervisor*`` options (docs/supervisor.md §bench.py)."""
+    g = p.add_argument_group("safety supervisor (docs/supervisor.md)")
+    on = g.add_mutually_exclusive_group()
+    on.add_argument("--supervisor", action="store_true",
+                    help="validate behind the supervisor (the default with --plant-ns)")
+    on.add_argument("--no-supervisor", action="store_true",
+                    help="validate without the supervisor (said in the report)")
+    g.add_argument("--supervise-recording", action="store_true",
+                   help="record behind the supervisor too (real time only; unsupervised by default; a "
+                        "record it overrides much, like the paper's broad one, is refused by the cut)")
+    g.add_argument("--supervisor-params", type=Path, metavar="FILE",
+                   help="JSON object of supervisor options (default: derived from the stroke and F)")
+    g.add_argument("--supervisor-option", action="append", default=[], metavar="KEY=VALUE",
+                   help="one supervisor option, over the file's (repeatable), e.g. envelope=2.0")
+
+
+def supervision(args: argparse.Namespace) -> supervise.Supervision:
+    """Where the supervisor goes: validation by default with --plant-ns, on the emulator if asked."""
+    validation = args.supervisor or (args.plant_ns is not None and not args.no_supervisor)
+    return supervise.Supervision(
+        validation=validation, recording=args.supervise_recording,
+        params=args.supervisor_params.absolute() if args.supervisor_params else None,
+        options=tuple(supervise.parse_option(t) for t in args.supervisor_option),
+        asked=args.supervisor or args.no_supervisor)
 
 
 def _plant_ns_fields(args: argparse.Namespace, run: RunConfig) -> tuple[RunConfig, dict[str, Any]]:
@@ -110,7 +144,8 @@ def config(args: argparse.Namespace) -> BenchConfig:
     return BenchConfig(
         run_dir=Path(run_dir), run=run, realtime=args.realtime or args.plant_ns is not None,
         via_ros=args.via_ros, bags=args.bags.absolute() if args.bags else None,
-        stages=stages or tuple(args.stages.split(",")), interface=from_cli(args), **extra)
+        stages=stages or tuple(args.stages.split(",")), interface=from_cli(args), live_port=args.live,
+        supervision=supervision(args), **extra)
 
 
 REPORT_MODULE = "msd_bench.graph.bench_report"
@@ -130,6 +165,7 @@ def prewarm(module: str) -> None:
 def say(line: str) -> None:
     """Progress line on stderr."""
     print(f"[bench] {line}", file=sys.stderr, flush=True)
+    live_log(line)
 
 
 def write_plant_model(cfg: BenchConfig) -> None:
@@ -154,16 +190,24 @@ def run_graph_stages(cfg: BenchConfig) -> None:
     sensor = recording and cfg.run.sensor is not None
     with process_group(env=caller_env() if cfg.plant_ns is not None else None) as procs:
         # served processes start first: their imports overlap the plant's start and identification
-        servers = RecordServers.launch(procs) if recording else None
+        servers = supervise.record_servers(procs, cfg) if recording else None
+        guard = supervised_stages(cfg, procs, recording)
         agent_server = JobServer(procs, "agent.py", "agent") if "agents" in cfg.stages else None
         ident_server = JobServer(procs, "identifier.py", "identifier") if "identify" in cfg.stages else None
         plant = None
         if ("record" in cfg.stages or "agents" in cfg.stages) and cfg.plant_ns is None:
             plant = timed(cfg, "plant_start", lambda: start_plant(procs, cfg, sensor))
         if recording:
+            if guard is not None and cfg.supervision.recording:
+                guard.ready()
             with StageProgress("record") as bar:
                 timed(cfg, "record", lambda: stage_record(cfg, procs, lambda d, t, n: bar.update(n, d, t),
                                                           servers))
+        if guard is not None and cfg.supervision.validation:
+            guard.ready()  # before the first agent job: Dyna-Q starts on the node beside identification
+        elif guard is not None:
+            timed(cfg, "supervisor_record", guard.finish)
+            guard = None
         early: dict[str, Job] = {}
         if "identify" in cfg.stages:
             if agent_server is not None and not sensor:  # with a sensor the agents get a restarted plant
@@ -191,6 +235,16 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                     bar.update(name, done, total)
 
                 timed(cfg, "agents", lambda: stage_agents(cfg, procs, say, agents_bar, agent_server, early))
+        if guard is not None:
+            say(supervise.report_line(timed(cfg, "supervisor_record", guard.finish))["line"])
+
+
+def supervised_stages(cfg: BenchConfig, procs: ProcessSet,
+                      recording: bool) -> supervise.SupervisorProcess | None:
+    """Start the supervisor now if a stage of this run goes through it (its start-up overlaps the rest)."""
+    sup = cfg.supervision
+    wanted = (sup.recording and recording) or (sup.validation and "agents" in cfg.stages)
+    return supervise.SupervisorProcess(procs, cfg) if wanted else None
 
 
 def expected_duration(cfg: BenchConfig) -> plant_ns.Duration:
@@ -204,14 +258,17 @@ def expected_duration(cfg: BenchConfig) -> plant_ns.Duration:
 
 
 def dyna_budget(cfg: BenchConfig) -> str:
-    """Dyna-Q's budget on the node, stated in the report ('' without Dyna-Q)."""
-    if not any(agent_kind(a).dyna for a in cfg.run.agents):
+    """The budget of the kinds that train on the node (Dyna-Q, on-plant deep RL), stated in the report
+    ('' without one): each kind's seeds x episodes x steps real interactions."""
+    free = [a for a in cfg.run.agents if agent_kind(a).design.model_free]
+    if not free:
         return ""
     r = cfg.run
     real = len(cfg.seeds) * r.dyna_episodes * r.steps
-    return (f"Dyna-Q trained on {cfg.plant_ns} in real time: {len(cfg.seeds)} seed(s) x {r.dyna_episodes} "
-            f"episode(s) x {r.steps} steps = {real} real interactions ({real * r.plant.dt / 60:.1f} min; "
-            f"paper: 300 episodes), {r.planning_steps} planning updates per real step")
+    note = f", {r.planning_steps} planning updates per real step (Dyna-Q)" if "dyna-q" in free else ""
+    return (f"Trained on {cfg.plant_ns} in real time ({', '.join(free)}): {len(cfg.seeds)} seed(s) x "
+            f"{r.dyna_episodes} episode(s) x {r.steps} steps = {real} real interactions per kind "
+            f"({real * r.plant.dt / 60:.1f} min each; paper: 300 episodes){note}")
 
 
 def plant_ns_facts(cfg: BenchConfig) -> dict[str, Any]:
@@ -241,6 +298,7 @@ def run(cfg: BenchConfig) -> int:
     say(f"run directory {cfg.run_dir}  (ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']})")
     if cfg.plant_ns is not None:
         announce_plant_ns(cfg)
+    say(supervise.announce(cfg))
     if any(s in cfg.stages for s in ("record", "identify", "agents")):
         run_graph_stages(cfg)
     facts = {"preset": cfg.run.preset, "seeds": len(cfg.seeds), "window": cfg.run.window,
@@ -248,6 +306,7 @@ def run(cfg: BenchConfig) -> int:
              "agents": list(cfg.run.agents)}
     if cfg.plant_ns is not None:
         facts.update(plant_ns_facts(cfg))
+    facts["supervisor"] = supervise.report_facts(cfg)
     if "report" in cfg.stages:
         from msd_bench.graph.bench_report import write_bench_report  # prewarmed during the agents stage
 
@@ -283,7 +342,9 @@ def main(argv: list[str] | None = None) -> int:
         args = parse(sys.argv[1:] if argv is None else argv)
         lock = use_domain(args)  # held for the whole run
         try:
-            return run(config(args))
+            cfg = config(args)
+            with live_view(cfg.live_port, cfg.namespace, cfg.interface, say):  # the run's lifetime
+                return run(cfg)
         finally:
             if lock is not None:
                 lock.close()

@@ -11,6 +11,10 @@ recorder stops by itself after ``max_messages`` = samples (a timeout falls
 back to a clean SIGINT). ``joint_states`` keeps a whole experiment in its
 reliable history (``RECORD_DEPTH``), so a recorder slower than the lock-step
 loop drains it late instead of losing samples.
+Each node gets its experiment as one job file (:func:`msd_bench.app.job.job_document`, written
+under the run's ``jobs/``: :class:`~msd_bench.graph.jobs.JobFiles`): the run's quantities (the
+plant's ``dt``) and the stage's placement (:func:`excitation_placement`, :func:`recorder_placement`),
+never ``-p`` strings with defaults of their own.
 Every bag is then read back with :func:`read_experiment` and must hold exactly
 the samples played, bit for bit after saturation. A bag that lacks samples
 (the plant had not matched the new recorder yet: discovery is asymmetric and
@@ -45,9 +49,12 @@ from typing import Any
 import numpy as np
 
 from msd_bench.app import plan
+from msd_bench.app.config import RunConfig
+from msd_bench.app.job import job_document
+from msd_bench.app.serve_protocol import EventError
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.graph.jobs import Job, JobServer, last_line
+from msd_bench.graph.jobs import Job, JobFiles, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, ProcessSet
 from msd_bench.io.bag_interface import read_interface_experiment
 from msd_bench.io.bags import bag_info, read_topic
@@ -75,6 +82,9 @@ REALTIME_TAIL_S = 0.3
 """Seconds a real-time recorder keeps recording after the excitation's last command: the row that
 holds it comes up to a sample (plus the node's publish jitter) later, and the played samples are
 located up to it (:mod:`msd_bench.io.played`); a recorder stopped at once had 2 rows to spare."""
+LOCKSTEP_COMMAND_BUDGET_S = 0.01
+"""Wall seconds a lock-step experiment may take per command before the excitation is given up on
+(a budget of the launcher, not the sample time: lock-step runs as fast as the middleware allows)."""
 REST_TIMEOUT = 30.0
 """Seconds of zero force a node without reset gets to come to rest before an experiment plays anyway."""
 _TOPICS = (JOINT_STATES,)
@@ -141,25 +151,17 @@ class ExperimentSpec:
         return {"experiment": self.name, "signal": self.signal, "seed": self.seed,
                 self.signal: asdict(self.config), **self.params}
 
-    def ros_args(self) -> list[str]:
-        """``-p`` arguments of the excitation node that make it play :meth:`force`."""
-        args = ["-p", f"signal:={self.signal}", "-p", f"seed:={self.seed}"]
-        for key, value in asdict(self.config).items():
-            args += ["-p", f"{self.signal}.{key}:={_ros_value(value)}"]
-        return args
+    def job_params(self) -> dict[str, Any]:
+        """The excitation job's fields that make it play :meth:`force`: the signal's under
+        ``<signal>.``, named as the node's parameters are (JSON keeps every float exactly)."""
+        section = {f"{self.signal}.{key}": list(value) if isinstance(value, tuple) else value
+                   for key, value in asdict(self.config).items()}
+        return {"signal": self.signal, "seed": self.seed, **section}
 
 
-def _ros_value(value: Any) -> str:
-    """A ``-p`` value that ROS parses back to exactly ``value`` (floats by ``repr``)."""
-    if isinstance(value, tuple | list):
-        return "[" + ",".join(_ros_value(v) for v in value) + "]"
-    if isinstance(value, bool):
-        return str(value).lower()
-    return repr(float(value)) if isinstance(value, float) else str(value)
-
-
-def paper_plan(id_seed: int, n_samples: int = 12_000, val_samples: int = 4_000) -> list[ExperimentSpec]:
-    """The application's experiment plan (:func:`msd_bench.app.plan.paper_plan`) as recordable specs."""
+def paper_plan(id_seed: int, n_samples: int, val_samples: int) -> list[ExperimentSpec]:
+    """The application's experiment plan (:func:`msd_bench.app.plan.paper_plan`) as recordable specs
+    (the lengths are the run's ``samples`` and ``val_samples``: no default of their own here)."""
     return [ExperimentSpec(e.name, e.kind, e.signal, e.seed,
                            {"role": e.role, "bias": e.bias, "id_seed": id_seed})
             for e in plan.paper_plan(id_seed, n_samples, val_samples)]
@@ -191,8 +193,8 @@ def record_experiments(
     lockstep: bool = True,
     progress: Progress | None = None,
     *,
-    force_limit: float = 10.0,
-    dt: float = 0.01,
+    jobs: JobFiles,
+    run: RunConfig | None = None,
     truth: bool = False,
     rest: bool = False,
     iface: PlantInterface = MSD_INTERFACE,
@@ -201,6 +203,9 @@ def record_experiments(
 ) -> list[Path]:
     """Record every spec into ``out_dir/<name>`` from the running plant under ``namespace``.
 
+    ``jobs``: where each node's job file is written (``jobs/recorder-<name>.json``,
+    ``jobs/excitation-<name>.json``); ``run``: the run whose plant is recorded (its ``dt`` and
+    ``F``; default the run configuration's defaults).
     ``servers``: the recorder and excitation processes, if the caller launched them early (their
     start-up then overlaps the plant's); they are closed at the end either way.
     ``truth``: the plant measures through a sensor and publishes ``truth/joint_states`` (recorded too).
@@ -217,13 +222,13 @@ def record_experiments(
         raise ConfigError(f"experiment names must be unique, got {names}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    where = Placement(namespace, lockstep, truth, rest, iface, window, jobs, run or RunConfig())
     servers = (servers or RecordServers.launch(procs)).ready()
     bags = []
     try:
         for i, spec in enumerate(specs):
             def once(spec: ExperimentSpec = spec) -> Path:
-                return record_one(spec, out / spec.name, servers, namespace, lockstep, force_limit, dt, truth,
-                                  rest, iface, window)
+                return record_one(spec, out / spec.name, servers, where)
             try:
                 bag = once()
             except SampleLossError as err:
@@ -267,31 +272,61 @@ class RecordServers:
             server.close()
 
 
-def record_one(
-    spec: ExperimentSpec, bag: Path, servers: RecordServers, namespace: str, lockstep: bool,
-    force_limit: float, dt: float, truth: bool = False, rest: bool = False,
-    iface: PlantInterface = MSD_INTERFACE, window: int = RECORD_WINDOW,
-) -> Path:
+@dataclass(frozen=True)
+class Placement:
+    """Where and how the stage's experiments are recorded: what only the graph knows, beside the run."""
+
+    namespace: str
+    """The plant-like node's namespace."""
+    lockstep: bool
+    """Lock-step (one step per command, bags exactly the played samples) or real time."""
+    truth: bool
+    """The plant measures through a sensor: ``truth/joint_states`` is recorded too."""
+    rest: bool
+    """The node has no reset: zero force until still before each experiment."""
+    iface: PlantInterface
+    """The node's face (handed to both nodes as ``-p`` beside the job, as to every node)."""
+    window: int
+    """Lock-step commands in flight."""
+    jobs: JobFiles
+    """Where the job files go."""
+    run: RunConfig
+    """The run: the plant's ``dt`` and ``F`` come from it, through :func:`job_document`."""
+
+    @property
+    def force_limit(self) -> float:
+        """The plant's F: the played commands saturate to it."""
+        return self.run.plant.F
+
+    @property
+    def dt(self) -> float:
+        """The plant's sample time."""
+        return self.run.plant.dt
+
+
+def record_one(spec: ExperimentSpec, bag: Path, servers: RecordServers, where: Placement) -> Path:
     """Record one experiment through a recorder and an excitation node; verify the bag."""
     if bag.exists():
         raise RecordError(f"experiment {spec.name}: bag {bag} already exists; refusing to overwrite")
     u = spec.force()
     t0 = time.monotonic()
+    lockstep, iface = where.lockstep, where.iface
     # Both start at once; the excitation waits until the recorder's reader is in the graph,
     # then settles before playing.
-    topics = recorded_topics(truth, iface, lockstep)
-    pooled = ["-p", f"pooled:={str(lockstep).lower()}"]  # lock-step: keep matched endpoints across jobs
-    rec = servers.recorder.submit(
-        [*_recorder_args(spec, bag, namespace, u.size * len(topics) if lockstep else 0, topics),
-         *iface.ros_args(), *pooled], name=f"recorder[{spec.name}]")
-    window = window if lockstep else 1  # lock-step needs reset, so the face is msd's and its plant ours
+    topics = recorded_topics(where.truth, iface, lockstep)
+    max_messages = u.size * len(topics) if lockstep else 0
+    rec_job = job_document("recorder", where.run, recorder_placement(spec, bag, where, max_messages, topics))
+    rec = servers.recorder.submit([*where.jobs.args(f"recorder-{spec.name}", rec_job), *iface.ros_args()],
+                                  name=f"recorder[{spec.name}]")
+    ex_job = job_document("excitation", where.run, excitation_placement(spec, bag, where))
     ex = servers.excitation.submit(
-        [*_excitation_args(spec, bag, namespace, lockstep, dt, rest, window), *iface.ros_args(), *pooled],
+        [*where.jobs.args(f"excitation-{spec.name}", ex_job), *iface.ros_args(),
+         "-r", f"__ns:={where.namespace}"],
         name=f"excitation[{spec.name}]")
     try:
-        _wait_playing(spec, ex, rec, 40.0 + (REST_TIMEOUT if rest else 0.0))
+        _wait_playing(spec, ex, rec, 40.0 + (REST_TIMEOUT if where.rest else 0.0))
         startup = time.monotonic() - t0
-        budget = 30.0 + u.size * (0.01 if lockstep else 1.5 * dt)
+        budget = 30.0 + u.size * (LOCKSTEP_COMMAND_BUDGET_S if lockstep else 1.5 * where.dt)
         status = _expect(spec, ex.wait, budget)
         if status != 0:
             raise RecordError(f"experiment {spec.name}: excitation exited {status}: "
@@ -300,27 +335,28 @@ def record_one(
     finally:
         for job in (ex, rec):
             job.stop()
-    _verify(spec, bag, namespace, np.clip(u, -force_limit, force_limit), None if lockstep else dt, topics,
-            iface, force_limit)
+    _verify(spec, bag, where.namespace, np.clip(u, -where.force_limit, where.force_limit),
+            None if lockstep else where.dt, topics, iface, where.force_limit, where.dt)
     TIMINGS.append(RecordTiming(spec.name, int(u.size), startup, time.monotonic() - t0))
     return bag
 
 
-def _recorder_args(spec: ExperimentSpec, bag: Path, namespace: str, max_messages: int,
-                   recorded: Sequence[TopicSpec] = _TOPICS) -> list[str]:
-    params = json.dumps(spec.bag_params(), sort_keys=True).replace("'", "''")
-    topics = ",".join(t.name for t in recorded)  # joint_states (+ truth): x, v and applied force per row
-    return ["-p", f"bag_path:={bag}", "-p", f"namespace:={namespace}", "-p", f"topics:=[{topics}]",
-            "-p", f"params_json:='{params}'", "-p", f"max_messages:={max_messages}"]
+def recorder_placement(spec: ExperimentSpec, bag: Path, where: Placement, max_messages: int,
+                       recorded: Sequence[TopicSpec] = _TOPICS) -> dict[str, Any]:
+    """The recorder job's fields: the bag, its topics (joint_states, + truth: x, v and applied force
+    per row), the experiment's parameters stored in it, and when it stops by itself."""
+    return {"bag_path": str(bag), "namespace": where.namespace, "topics": [t.name for t in recorded],
+            "params_json": json.dumps(spec.bag_params(), sort_keys=True), "max_messages": max_messages,
+            "pooled": where.lockstep}  # lock-step: keep matched endpoints across jobs
 
 
-def _excitation_args(spec: ExperimentSpec, bag: Path, namespace: str, lockstep: bool, dt: float,
-                     rest: bool = False, window: int = 1) -> list[str]:
-    start = ["-p", "rest_first:=true", "-p", f"rest_timeout:={REST_TIMEOUT!r}"] if rest else [
-        "-p", "reset_first:=true"]
-    return [*spec.ros_args(), "-p", f"lockstep:={str(lockstep).lower()}", "-p", f"dt:={dt!r}",
-            *start, "-p", f"wait_recorder:={bag}", "-p", "settle:=0.3", "-p", f"window:={window}",
-            "-r", f"__ns:={namespace}"]
+def excitation_placement(spec: ExperimentSpec, bag: Path, where: Placement) -> dict[str, Any]:
+    """The excitation job's fields: the signal, the pacing, how the plant is brought to rest, and the
+    recorder it waits for (its ``dt`` is the run's, added by :func:`job_document`)."""
+    start = {"rest_first": True, "rest_timeout": REST_TIMEOUT} if where.rest else {"reset_first": True}
+    window = where.window if where.lockstep else 1  # lock-step needs reset: the face is msd's, the plant ours
+    return {**spec.job_params(), "lockstep": where.lockstep, **start, "wait_recorder": str(bag),
+            "settle": 0.3, "window": window, "pooled": where.lockstep}
 
 
 def _wait_playing(spec: ExperimentSpec, ex: Job, rec: Job, timeout: float) -> None:
@@ -330,12 +366,28 @@ def _wait_playing(spec: ExperimentSpec, ex: Job, rec: Job, timeout: float) -> No
         if rec.finished():
             raise RecordError(f"experiment {spec.name}: {rec.name} ended ({rec.wait(5.0)}) "
                               f"before recording: {last_line(rec.lines) or 'no output'}")
-        try:
-            ex.wait_for_line(r"plant matched: playing", min(0.5, max(0.01, deadline - time.monotonic())))
+        if _playing(spec, ex):
             return
-        except LaunchError as err:
-            if time.monotonic() >= deadline or ex.finished():
-                raise RecordError(f"experiment {spec.name}: {err}") from None
+        if ex.finished():
+            raise RecordError(f"experiment {spec.name}: {ex.name} ended before playing: "
+                              f"{last_line(ex.lines) or 'no output'}")
+        if time.monotonic() >= deadline:
+            raise RecordError(f"experiment {spec.name}: {ex.name} did not start playing within {timeout:g} s")
+        time.sleep(0.02)
+
+
+EXCITATION = "excitation"
+"""The excitation node's name, which its events carry."""
+PLAYING_EVENT = "playing"
+"""The excitation's event as it plays its first command (``excitation_node.PLAYING_EVENT``)."""
+
+
+def _playing(spec: ExperimentSpec, ex: Job) -> bool:
+    """Whether the excitation job has announced it plays (its structured event, not a log line)."""
+    try:
+        return bool(ex.events(EXCITATION, PLAYING_EVENT))
+    except EventError as err:
+        raise RecordError(f"experiment {spec.name}: {err}") from None
 
 
 def _expect(spec: ExperimentSpec, wait: Callable[..., Any], *args: Any) -> Any:
@@ -362,9 +414,9 @@ def _finish_recorder(rec: Job, lockstep: bool) -> None:
 
 
 def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: float | None,
-            topics: Sequence[TopicSpec] = _TOPICS, iface: PlantInterface = MSD_INTERFACE,
-            force_limit: float = 10.0) -> None:
-    """The bag holds exactly the played samples (lock-step: ``dt`` None), or a gap-free superset.
+            topics: Sequence[TopicSpec], iface: PlantInterface, force_limit: float, sample_dt: float) -> None:
+    """The bag holds exactly the played samples (lock-step: ``dt`` None), or a gap-free superset
+    (``sample_dt``: the plant's sample time, which numbers the samples a shortfall names).
 
     With the truth recorded, every topic holds every sample and the plant must
     have started at rest by the *true* x_0 (the measured one is noisy).
@@ -381,7 +433,7 @@ def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: 
                                                      force_input="held",
                                                      played=None if cut is None else cut.rows)
         if cut is not None and iface.effort_is_commanded:  # a measured effort was checked when rebuilt
-            confirm_by_effort(bag, cut, experiment.u, dt or 0.01)
+            confirm_by_effort(bag, cut, experiment.u, sample_dt)
     except SampleLossError:
         raise
     except MsdBenchError as err:
@@ -391,7 +443,8 @@ def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: 
         want = {t.name: u.size for t in topics}
         if got != want:
             _, msgs = read_topic(bag, JOINT_STATES.resolve(namespace))
-            k = sorted(round((m.header.stamp.sec * 10**9 + m.header.stamp.nanosec) * 100 / 1e9) for m in msgs)
+            k = sorted(round((m.header.stamp.sec * 10**9 + m.header.stamp.nanosec) / (sample_dt * 1e9))
+                       for m in msgs)
             raise SampleLossError(f"experiment {spec.name}: expected {want} messages, got {got} "
                                   f"(samples {k[0]}..{k[-1]} present)")
         x0 = experiment.y[0] if experiment.truth is None else experiment.truth[0]

@@ -9,6 +9,7 @@ be traced back to the data that produced it.
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import hashlib
 import io
@@ -21,17 +22,18 @@ from typing import Any
 
 import numpy as np
 
-import msd_bench
+from msd_bench._version import __version__
 from msd_bench.core import kernels
 from msd_bench.core.errors import MsdBenchError
+from msd_bench.core.layouts import KERNEL_LAYOUTS
 from msd_bench.core.model import StepModel
-from msd_bench.core.registry import KERNEL_LAYOUTS
 from msd_bench.io.atomic import write_bytes_atomic
 from msd_bench.io.safe_npz import read_npz_bounded
 from msd_bench.io.safe_read import loads_bounded, read_json_bounded
 
 MODEL_SCHEMA = "msd-bench/model"
 QTABLE_SCHEMA = "msd-bench/qtable"
+POLICY_SCHEMA = "msd-bench/policy"
 SCHEMA_VERSION = 1
 
 
@@ -56,7 +58,7 @@ class Provenance:
             "sources": list(self.sources),
             "parameters": jsonable(self.parameters),
             "seed": self.seed,
-            "msd_bench_version": msd_bench.__version__,
+            "msd_bench_version": __version__,
             "python": platform.python_version(),
             "created_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         }
@@ -109,7 +111,7 @@ def load_model(path: Path) -> StepModel:
     """Read a model artifact written by :func:`save_model`, trusting nothing in it.
 
     Every field is type-checked and the parameter vector is checked against
-    its kind's layout (:data:`msd_bench.core.registry.KERNEL_LAYOUTS`) before
+    its kind's layout (:data:`msd_bench.core.layouts.KERNEL_LAYOUTS`) before
     a kernel sees it: a crafted file is a one-line ArtifactError, never a
     crash of the compiled step.
     """
@@ -190,6 +192,73 @@ def load_qtables(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
             raise ArtifactError(f"{path}: member {name!r} must be a 3-D array of finite float64 "
                                 f"(tables x states x actions), got {array.dtype} of shape {array.shape}")
     return members, meta
+
+
+def policy_doc(kind: str, facts: Any, members: Any, provenance: dict[str, Any], files: dict[str, str],
+               body: dict[str, Any] | None = None) -> dict[str, Any]:
+    """``policy.json``: which kind and design, its facts and members, the design's own files beside it
+    (by role) and its body (what a design without files needs to be checked on loading)."""
+    return {"schema": POLICY_SCHEMA, "schema_version": SCHEMA_VERSION, "kind": kind,
+            "design": facts.design, "facts": jsonable(dataclasses.asdict(facts)),
+            "members": [int(m) for m in members], "files": dict(files), "body": jsonable(body or {}),
+            "provenance": jsonable(provenance)}
+
+
+def save_policy(path: Path, doc: dict[str, Any], *, root: Path | None = None,
+                overwrite: bool = False) -> Path:
+    """Write a ``policy.json`` atomically (keywords as :func:`save_model`)."""
+    return _fresh(Path(path), (json.dumps(jsonable(doc), indent=1) + "\n").encode(), root, overwrite)
+
+
+def load_policy(path: Path) -> dict[str, Any]:
+    """Read a ``policy.json``: schema, version, kind, design, facts, members and files, every one
+    type-checked (a one-line ArtifactError naming the field otherwise); the design reads the rest."""
+    path = Path(path)
+    doc = _read_json(path, POLICY_SCHEMA)
+    for key, kind in (("kind", str), ("design", str), ("facts", dict), ("files", dict), ("body", dict)):
+        if not isinstance(doc.get(key), kind):
+            raise ArtifactError(f"{path}: policy field {key!r} must be a {kind.__name__}")
+    policy_members(doc, path)
+    policy_real(doc, path)
+    for role, name in doc["files"].items():
+        if not isinstance(name, str) or not name or "/" in name or "\\" in name or name.startswith("."):
+            raise ArtifactError(f"{path}: policy file {_short(role)} must be a plain file name, "
+                                f"got {_short(name)}")
+    return doc
+
+
+def policy_members(doc: dict[str, Any], where: Path) -> tuple[int, ...]:
+    """The members' seeds of a policy document (a non-empty list of integers)."""
+    members = doc.get("members")
+    if not isinstance(members, list) or not members or not all(
+            isinstance(m, int) and not isinstance(m, bool) and 0 <= m < 2**63 for m in members):
+        raise ArtifactError(f"{where}: policy members must be a non-empty list of integers in [0, 2**63)")
+    return tuple(members)
+
+
+def policy_real(doc: dict[str, Any], where: Path) -> int:
+    """Real interactions a policy's facts charge (a non-negative integer)."""
+    real = doc.get("facts", {}).get("real_interactions")
+    if not isinstance(real, int) or isinstance(real, bool) or real < 0:
+        raise ArtifactError(f"{where}: policy facts real_interactions must be an integer >= 0")
+    return real
+
+
+def policy_file(doc: dict[str, Any], role: str, where: Path) -> str:
+    """The design file of ``role`` (e.g. ``tables``) named by a policy document."""
+    name = doc.get("files", {}).get(role)
+    if not isinstance(name, str):
+        raise ArtifactError(f"{where}: policy names no {role!r} file")
+    return name
+
+
+def policy_body(doc: dict[str, Any], where: Path, keys: tuple[str, ...]) -> dict[str, Any]:
+    """A policy's body, with every key in ``keys`` present."""
+    body = doc.get("body")
+    missing = [k for k in keys if not isinstance(body, dict) or k not in body]
+    if missing:
+        raise ArtifactError(f"{where}: policy body lacks {', '.join(missing)}")
+    return body  # type: ignore[return-value]
 
 
 def _read_json(path: Path, schema: str) -> dict[str, Any]:

@@ -68,12 +68,16 @@ from rosbags.typesys.store import Typestore
 
 from msd_bench.io.errors import BagError
 from msd_msgs_py.contract import (
+    CLOCK,
     FORCE,
+    HEADER_TYPE,
     JOINT_NAME,
     JOINT_STATES,
+    MULTI_ARRAY_LAYOUT_TYPE,
     PLANT_NAMESPACE,
     POSITION,
     REFERENCE,
+    TIME_TYPE,
     TopicSpec,
 )
 from msd_msgs_py.interface import COMMANDS_TYPE, PlantInterface
@@ -126,7 +130,7 @@ def _with_distro(metadata_text: str) -> str:
                   metadata_text, count=1, flags=re.MULTILINE)
 
 
-STAMPED_TYPES = frozenset({JOINT_STATES.ros_type, "rosgraph_msgs/msg/Clock"})
+STAMPED_TYPES = frozenset({JOINT_STATES.ros_type, CLOCK.ros_type})
 """Types whose CDR body starts with a ``builtin_interfaces/Time`` (a header stamp, or /clock's time)."""
 
 
@@ -506,6 +510,11 @@ class BagRecorder:
         self.close()
 
 
+def _header(types: Mapping[str, Any], ns: int) -> Any:
+    """A ``std_msgs/Header`` stamped ``ns`` in rosbags' classes (types named by the contract)."""
+    return types[HEADER_TYPE](stamp=types[TIME_TYPE](sec=ns // 10**9, nanosec=ns % 10**9), frame_id="")
+
+
 def write_experiment(
     path: str | Path,
     t_ns: np.ndarray,
@@ -538,9 +547,8 @@ def write_experiment(
             rec.write(REFERENCE.resolve(namespace), REFERENCE.ros_type, int(t_ns[0]), ref, qos[REFERENCE])
         for k in range(t_ns.size):
             ns = int(t_ns[k])
-            stamp = types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9)
             state = types[state_t](
-                header=types["std_msgs/msg/Header"](stamp=stamp, frame_id=""),
+                header=_header(types, ns),
                 name=[JOINT_NAME],
                 position=np.array([x[k]], dtype=np.float64),
                 velocity=np.array([v[k]], dtype=np.float64),
@@ -594,8 +602,7 @@ def write_interface_experiment(
     for k in range(t_ns.size):
         ns = int(t_ns[k])
         state = types[state_t](
-            header=types["std_msgs/msg/Header"](
-                stamp=types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9), frame_id=""),
+            header=_header(types, ns),
             name=names,
             position=np.array([*pad, x[k]], dtype=np.float64),
             velocity=np.array([*pad, v[k]], dtype=np.float64),
@@ -606,7 +613,7 @@ def write_interface_experiment(
     for j in range(command_ns.size):
         values = iface.command_values(float(command_u[j]))
         if cmd.ros_type == COMMANDS_TYPE:
-            layout = types["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
+            layout = types[MULTI_ARRAY_LAYOUT_TYPE](dim=[], data_offset=0)
             body = types[COMMANDS_TYPE](layout=layout, data=np.array(values, dtype=np.float64))
         else:
             body = types[cmd.ros_type](data=values[0])

@@ -12,12 +12,16 @@ from pathlib import Path
 from typing import Any
 
 from msd_bench.core.results import METRIC_KEYS, AgentResult
+from msd_bench.core.risk_table import RISK_HEADERS, RISK_NOTE, compact, risk_cell, summary_of
 from msd_bench.core.stats import rate_text, wilson
 from msd_bench.io.artifacts import jsonable
 from msd_bench.io.atomic import write_text_atomic
 
 TABLE_SCHEMA = "msd-bench/table1"
 TABLE_VERSION = 1
+
+RISK_CSV = ("contacts", "time_at_stop", "peak_x", "peak_v", "time_outside", "override_share", "aborted")
+"""Per-run risk columns of the CSV (empty for a run without a record)."""
 
 _HEADERS = {
     "mae": "MAE (m)",
@@ -57,6 +61,7 @@ def _agent_json(r: AgentResult) -> dict[str, Any]:
             "success_rate": r.success_rate,
             "ci95": list(wilson(r.n_success, r.n)),
             "summary": {k: s.as_dict() for k, s in r.summary().items()},
+            "risk": r.risk(),
             "per_seed": list(r.per_seed),
         }
     )
@@ -79,11 +84,13 @@ def md_cell(value: object) -> str:
 
 def table_markdown(results: Sequence[AgentResult], run: Mapping[str, Any]) -> str:
     """Table 1 for humans: fits, samples, each metric as mean ± sd (median), success rate."""
-    head = ["Agent", "Fit sim (%)", "Fit 1-step (%)", "Id. samples", *_HEADERS.values(), "Success"]
+    head = ["Agent", "Fit sim (%)", "Fit 1-step (%)", "Id. samples", *_HEADERS.values(), "Success",
+            *RISK_HEADERS]
     lines = [
         f"Table 1 — unit step on the true plant ({run.get('preset', '?')} preset); each row is n "
         f"trained agents (n in the Success column); SSE over the last {run.get('window', '?')} "
-        f"steps; success = SSE < 5 %; cells are mean ± sd (med median) [defined/n].",
+        f"steps; success = SSE < 5 %; cells are mean ± sd (med median) [defined/n]."
+        + (" Validated behind the safety supervisor (docs/supervisor.md)." if run.get("supervisor") else ""),
         "",
         "| " + " | ".join(head) + " |",
         "|" + "---|" * len(head),
@@ -97,10 +104,11 @@ def table_markdown(results: Sequence[AgentResult], run: Mapping[str, Any]) -> st
             str(r.identification_samples) if r.identification_samples else "—",
             *(summ[k].text(3 if k in ("mae", "std") else 1) for k in METRIC_KEYS),
             rate_text(r.n_success, r.n),
+            *compact(r.risk()),
         ]
         lines.append("| " + " | ".join(cells) + " |")
     notes = [f"- {md_text(r.label)}: {md_text(r.notes)}" for r in results if r.notes]
-    return "\n".join(lines + (["", *notes] if notes else [])) + "\n"
+    return "\n".join(lines + ["", RISK_NOTE] + (["", *notes] if notes else [])) + "\n"
 
 
 def write_report(out_dir: Path, results: Sequence[AgentResult], run: Mapping[str, Any],
@@ -125,7 +133,8 @@ def write_report(out_dir: Path, results: Sequence[AgentResult], run: Mapping[str
 def table_csv(results: Sequence[AgentResult]) -> str:
     """One line per agent kind and seed (tidy data), so any tool can re-summarise."""
     cols = ["kind", "label", "surrogate", "agent", "identification_samples",
-            "fit_sim_percent", "fit_one_step_percent", "seed", "id_seed", *METRIC_KEYS, "success"]
+            "fit_sim_percent", "fit_one_step_percent", "seed", "id_seed", *METRIC_KEYS, "success",
+            *RISK_CSV]
     fh = io.StringIO(newline="")
     w = csv.writer(fh)
     w.writerow(cols)
@@ -133,8 +142,16 @@ def table_csv(results: Sequence[AgentResult]) -> str:
         for s in r.per_seed:
             w.writerow([r.kind, r.label, r.surrogate, r.agent, r.identification_samples,
                         _csv(r.fit_sim), _csv(r.fit_one_step), s["seed"], s["id_seed"],
-                        *(_csv(s[k]) for k in METRIC_KEYS), int(bool(s["success"]))])
+                        *(_csv(s[k]) for k in METRIC_KEYS), int(bool(s["success"])),
+                        *_risk_csv(s.get("risk"))])
     return fh.getvalue()
+
+
+def _risk_csv(risk: Mapping[str, Any] | None) -> list[str]:
+    """A run's risk record as CSV cells (blank where it has none)."""
+    if not risk:
+        return [""] * len(RISK_CSV)
+    return [str(risk.get(k) or "") if k == "aborted" else str(risk.get(k, "")) for k in RISK_CSV]
 
 
 def _fmt(v: float | None) -> str:
@@ -176,7 +193,23 @@ def robustness_markdown(rob: Mapping[str, Mapping[str, Mapping[str, Any]]],
     for kind, by_scenario in rob.items():
         cells = [_rob_cell(r) for r in by_scenario.values()]
         lines.append(f"| {md_cell(labels.get(kind, kind))} | " + " | ".join(md_cell(c) for c in cells) + " |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _risk_grid(rob, labels, scenarios)) + "\n"
+
+
+def _risk_grid(rob: Mapping[str, Mapping[str, Mapping[str, Any]]], labels: Mapping[str, str],
+               scenarios: Sequence[str]) -> list[str]:
+    """The same grid with each cell's risk (:func:`msd_bench.core.risk_table.risk_cell`); nothing
+    when no cell recorded risk (a document from before risk was recorded)."""
+    if not any(isinstance(c, Mapping) and c.get("risk") for cells in rob.values() for c in cells.values()):
+        return []
+    lines = ["", "Risk of the same runs — hard-stop contacts (runs with one/n) · peak |x| (m) · "
+             "overrides (%) · aborts; — where a cell recorded none.", "",
+             "| Agent | " + " | ".join(f"`{md_cell(s)}`" for s in scenarios) + " |",
+             "|" + "---|" * (len(scenarios) + 1)]
+    for kind, by_scenario in rob.items():
+        cells = [risk_cell(summary_of(by_scenario.get(s))) for s in scenarios]
+        lines.append(f"| {md_cell(labels.get(kind, kind))} | " + " | ".join(md_cell(c) for c in cells) + " |")
+    return lines
 
 
 def _rob_cell(r: Mapping[str, Any]) -> str:

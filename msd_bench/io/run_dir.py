@@ -32,7 +32,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import msd_bench
+from msd_bench._version import __version__
 from msd_bench.io.atomic import Writer, remove_stale_temps, write_text_atomic, write_with
 from msd_bench.io.paths import OutputError
 from msd_bench.io.safe_read import read_json_bounded
@@ -84,7 +84,7 @@ class RunDir:
         doc = {"schema": RUN_SCHEMA, "schema_version": RUN_VERSION, "command": command,
                "config_sha256": config_hash(config), "tasks": list(tasks),
                "config": json.loads(json.dumps(config, default=str)),
-               "msd_bench_version": msd_bench.__version__}
+               "msd_bench_version": __version__}
         entries = sorted(os.listdir(root))
         if not entries:
             doc["created_utc"] = _now()

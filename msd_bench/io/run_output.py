@@ -1,4 +1,4 @@
-"""Everything a run writes besides bags: models, Q-tables and the figures.
+"""Everything a run writes besides bags: models, policies and the figures.
 
 Shared by ``msd-bench paper`` (in-process) and ``bench.py`` (the ROS graph), so
 both produce the same layout. Takes plain data, never the application's run
@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,8 +22,16 @@ from msd_bench.core.records import Records
 from msd_bench.core.registry import model_kind
 from msd_bench.io import artifacts, figures
 
-QTABLE_ARRAYS = ("q", "first", "last")
-"""Arrays of a Q-table artifact: final tables and first/last-episode snapshots."""
+
+class Saved(Protocol):
+    """A policy as this module sees it (:class:`msd_bench.designs.protocol.Policy`): it saves and
+    draws itself, so nothing here knows a design."""
+
+    def save(self, directory: Path, provenance: dict[str, Any], root: Path, overwrite: bool) -> list[Path]:
+        """Write its artifact into ``directory``."""
+
+    def figures(self, fig_dir: Path, root: Path) -> list[Path]:
+        """Its own figures."""
 
 
 def write_models(out_dir: Path, models: Mapping[str, StepModel], fits: Mapping[str, FitReport],
@@ -48,20 +56,18 @@ def qtable_meta(learner: Any, seeds: Any, extra: Mapping[str, Any]) -> dict[str,
     return {**extra, "seeds": [int(s) for s in seeds], "learner": asdict(learner)}
 
 
-def write_qtables(out_dir: Path, qtables: Mapping[str, Mapping[str, Any]],
-                  meta: Mapping[str, Any], root: Path | None = None,
-                  overwrite: bool = False) -> dict[str, Path]:
-    """Final tables, first/last-episode snapshots and the learner config per agent kind (``.npz``;
-    ``root`` and ``overwrite`` as :func:`write_models`)."""
-    return {
-        kind: artifacts.save_qtables(
-            Path(out_dir) / f"{kind}.npz",
-            {k: np.asarray(v) for k, v in arrays.items() if k in QTABLE_ARRAYS},
-            qtable_meta(arrays["learner"], arrays["seeds"], {**meta, "agent_kind": kind}),
-            root=root, overwrite=overwrite,
-        )
-        for kind, arrays in qtables.items()
-    }
+def write_policies(out_dir: Path, policies: Mapping[str, Mapping[int, Saved]],
+                   provenance: artifacts.Provenance, root: Path | None = None,
+                   overwrite: bool = False) -> list[Path]:
+    """Every policy's artifact under ``<out_dir>/<kind>/id<seed>/`` (``root`` and ``overwrite`` as
+    :func:`write_models`): the same files bench.py's agent node writes under ``agents/<kind>/``."""
+    root = Path(out_dir) if root is None else root
+    paths: list[Path] = []
+    for kind, by_id in policies.items():
+        for id_seed, policy in by_id.items():
+            prov = {**provenance.as_dict(), "id_seed": int(id_seed)}
+            paths += policy.save(Path(out_dir) / kind / f"id{id_seed}", prov, root, overwrite)
+    return paths
 
 
 @dataclass(frozen=True)
@@ -75,8 +81,8 @@ class FigureData:
     models: Mapping[str, StepModel] = field(default_factory=dict)
     fits: Mapping[str, FitReport] = field(default_factory=dict)
     records: Records | None = None
-    qtables: Mapping[str, Mapping[str, NDArray[np.float64]]] = field(default_factory=dict)
-    """Per agent kind: ``first`` and ``last`` snapshot tables (first seed drawn)."""
+    policies: Mapping[str, Saved] = field(default_factory=dict)
+    """Per agent kind: the policy that draws its own figures (Q-learners: their first seed's tables)."""
     responses: Mapping[str, NDArray[np.float64]] = field(default_factory=dict)
     """Per agent kind: closed-loop positions on the plant (seeds × steps)."""
 
@@ -92,10 +98,8 @@ def write_figures(fig_dir: Path, data: FigureData, root: Path | None = None) -> 
     if data.records is not None:
         paths += [_fit_figure(fig_dir, name, m, data.fits.get(name), data.records, root)
                   for name, m in data.models.items()]
-    for kind, arrays in data.qtables.items():
-        paths.append(figures.qtable_figure(
-            fig_dir / f"qtable_{kind}.png", f"Q-table, {kind} (first seed)",
-            arrays["first"][0], arrays["last"][0], root=root))
+    for policy in data.policies.values():
+        paths += policy.figures(fig_dir, root)
     if data.responses:
         paths.append(figures.step_response_figure(
             fig_dir / "step_responses.png", data.responses, data.target, data.dt, root=root))

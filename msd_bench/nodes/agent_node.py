@@ -1,18 +1,21 @@
-"""The agent node: train tabular Q-learning on a surrogate, then close the loop on the plant.
+"""The agent node: make a kind's policy through its design, then close the loop on the plant.
 
-Training (one of):
+The node knows no design: it asks :mod:`msd_bench.designs` for the policy of
+its kind, one of
 
-* in-process (default, fast): the surrogate's model artifact is loaded and all
-  seeds train in one compiled call (:func:`msd_bench.core.qtrain.train`);
-* ``via_ros``: over a surrogate node's topics in lock-step, one
-  :class:`StepwiseLearner` per seed — the same Q-table bit for bit;
-* ``dyna``: Dyna-Q whose *real* interactions go to the plant node's topics
-  (the baseline of paper §3.4.2), planning in-process.
+* in-process (default, fast) on the model artifact (``model_path``): a
+  Q-learner trains all seeds in one compiled call, a baseline is designed;
+* over topics, for a design that learns step by step (:meth:`Design.stepwise`):
+  over a surrogate node's topics in lock-step with ``via_ros`` (the same
+  Q-tables bit for bit), or over the plant's when the kind is made on the plant
+  and no model is given (Dyna-Q: real interactions there, planning in-process).
 
-Then every seed's greedy table runs once on the plant topics (unit step,
+Then every member of the policy (one per seed; a deterministic baseline has
+one) runs once on the plant topics through its stepwise controller (unit step,
 3,000 steps): the set-point goes out on ``<plant_ns>/reference`` as each run
 starts, each run is written as a bag (with that reference), scored (paper §5),
-and the node writes ``qtables.npz`` and ``result.json`` under ``out_dir`` and exits.
+and the node writes the policy's artifact (``policy.json`` and the design's
+files, e.g. ``qtables.npz``) and ``result.json`` under ``out_dir`` and exits.
 
 Against a node without ``reset`` (``reset:=false``, a rig) every episode
 starts by zero force until the position is still and from the rest position
@@ -36,26 +39,25 @@ from rclpy.node import Node
 from rclpy.task import Future
 from std_msgs.msg import Float64
 
-from msd_bench.app.agents import SHAPINGS, agent_kind, learner_config
+from msd_bench import designs
+from msd_bench.app.agents import SHAPINGS, agent_kind
+from msd_bench.app.job import shared
 from msd_bench.app.plant_ns import hardware_scenario
 from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.learner import GreedyPolicy, StepwiseLearner, stacked_snapshots
 from msd_bench.core.model import StepModel
-from msd_bench.core.qconfig import QConfig
-from msd_bench.core.qtrain import train
 from msd_bench.core.rest import RestConfig
 from msd_bench.core.results import per_seed_row
 from msd_bench.core.robustness import cell
 from msd_bench.core.scenarios import Scenario
-from msd_bench.core.selection import select_tables
+from msd_bench.designs import Controller, Policy, Settings, Stepwise
+from msd_bench.designs.protocol import StepwiseLearner
 from msd_bench.io import artifacts
 from msd_bench.io.atomic import write_text_atomic
 from msd_bench.io.bag_writer import write_experiment
-from msd_bench.io.run_output import qtable_meta
 from msd_bench.nodes.episode_client import Episode, EpisodeClient
 from msd_bench.nodes.interface_params import declare_interface
-from msd_bench.nodes.params import declare_from_dataclass
+from msd_bench.nodes.params import declare_config
 from msd_msgs_py.contract import PLANT_NAMESPACE, REFERENCE
 from msd_msgs_py.ros import float64, qos
 
@@ -70,31 +72,31 @@ class AgentNodeConfig:
     """Surrogate model artifact (JSON) to train on; unused by ``dyna-q``."""
     seeds: tuple[int, ...] = (0,)
     """Learning seeds; one agent per seed."""
-    episodes: int = field(default=300, metadata={"range": (1, 100_000)})
+    episodes: int = field(default=shared("episodes"), metadata={"range": (1, 100_000)})
     """Training episodes per seed (paper: 300)."""
-    steps: int = field(default=3000, metadata={"range": (1, 1_000_000)})
+    steps: int = field(default=shared("steps"), metadata={"range": (1, 1_000_000)})
     """Steps per training episode (paper: 3,000)."""
     via_ros: bool = False
     """Train over the surrogate node's topics (lock-step) instead of in-process."""
     surrogate_ns: str = "/surrogate"
     """Namespace of the surrogate node used when ``via_ros`` is set."""
-    planning_steps: int = field(default=100, metadata={"range": (0, 10_000)})
+    planning_steps: int = field(default=shared("planning_steps"), metadata={"range": (0, 10_000)})
     """Dyna-Q planning updates per real step (paper: 100)."""
     plant_ns: str = PLANT_NAMESPACE
     """Namespace of the plant the agent is validated on (and Dyna-Q interacts with)."""
     lockstep: bool = True
     """The plant runs in lock-step (else real-time at 100 Hz)."""
-    target: float = 1.0
+    target: float = shared("target")
     """Validation set-point, m (paper: unit step)."""
-    validation_steps: int = field(default=3000, metadata={"range": (1, 1_000_000)})
+    validation_steps: int = field(default=shared("validation_steps"), metadata={"range": (1, 1_000_000)})
     """Closed-loop validation length (paper: 3,000)."""
-    window: int = field(default=500, metadata={"range": (1, 1_000_000)})
+    window: int = field(default=shared("window"), metadata={"range": (1, 1_000_000)})
     """Terminal window of the SSE, samples."""
-    dt: float = field(default=0.01, metadata={"range": (1e-4, 1.0)})
+    dt: float = field(default=shared("dt"), metadata={"range": (1e-4, 1.0)})
     """Sample time of the plant, s (for settling times)."""
-    force: float = field(default=10.0, metadata={"range": (1e-3, 1e4)})
+    force: float = field(default=shared("force"), metadata={"range": (1e-3, 1e4)})
     """Force magnitude F of the action alphabet, N."""
-    shaping: str = "toward"
+    shaping: str = shared("shaping")
     """Reading of the paper's shaping penalty for the paper agent: ``away`` or ``toward``."""
     out_dir: str = ""
     """Where qtables.npz, result.json and the validation bags go (required)."""
@@ -119,8 +121,8 @@ class AgentNodeConfig:
             raise ConfigError("out_dir is required")
         if not self.seeds:
             raise ConfigError("seeds must not be empty")
-        if not self.dyna and not self.model_path:
-            raise ConfigError("model_path is required unless the kind is dyna-q")
+        if not self.model_path and not agent_kind(self.kind).on_plant:
+            raise ConfigError(f"model_path is required: {self.kind} is made on an identified model")
         if self.window > self.validation_steps:
             raise ConfigError("window must not exceed validation_steps")
         if self.lockstep and not self.reset:
@@ -135,18 +137,16 @@ class AgentNodeConfig:
         """The ``scenarios`` one by one."""
         return [t.strip() for t in self.scenarios.split(";") if t.strip()]
 
-    @property
-    def dyna(self) -> bool:
-        """Dyna-Q: real interactions go to the plant node, planning happens in-process."""
-        return agent_kind(self.kind).dyna
-
-    def qconfig(self) -> QConfig:
-        """The kind's learner (chosen by the application layer) with this node's budgets."""
-        return learner_config(self.kind, self.episodes, self.steps, self.force, self.shaping)
+    def settings(self) -> Settings:
+        """What the kind's design takes from this node's budgets (one budget: bench.py passes
+        an on-plant learner's own as ``episodes``)."""
+        return Settings(episodes=self.episodes, steps=self.steps, plant_episodes=self.episodes,
+                        planning_steps=self.planning_steps, force=self.force, dt=self.dt,
+                        target=self.target, shaping=self.shaping)
 
 
 class _Learn:
-    """Episode controller adapter for a :class:`StepwiseLearner`; ``on_start`` runs as its episode starts."""
+    """Episode controller adapter for a stepwise learner; ``on_start`` runs as its episode starts."""
 
     def __init__(self, learner: StepwiseLearner, on_start: Callable[[], None] | None = None) -> None:
         self.learner = learner
@@ -164,32 +164,35 @@ class _Learn:
         self.learner.learn(x)
 
 
-class _Greedy:
-    """Episode controller adapter for a fixed greedy table; announces its set-point at the start.
+class _Drive:
+    """Episode controller adapter for a policy member's stepwise controller; announces its set-point.
 
     ``disturbance`` N are added to every command from step ``disturbance_step`` on: on a rig the
     load can only come through the command (the node's saturation then clips the sum).
     """
 
-    def __init__(self, policy: GreedyPolicy, announce: Callable[[float], None],
+    def __init__(self, controller: Controller, target: float, announce: Callable[[float], None],
                  disturbance: float = 0.0, disturbance_step: int = 0) -> None:
-        self.policy = policy
+        self.controller = controller
+        self.target = target
         self.announce = announce
-        self.x = 0.0
+        self.y = 0.0
         self.k = 0
         self.disturbance = disturbance
         self.disturbance_step = disturbance_step
 
     def start(self, x0: float) -> None:
-        self.x = x0
-        self.announce(self.policy.target)
+        self.controller.reset()
+        self.y = x0
+        self.k = 0
+        self.announce(self.target)
 
     def act(self) -> float:
-        u = self.policy.force(self.x)
+        u = self.controller.act(self.y)
         return u + self.disturbance if self.k >= self.disturbance_step else u
 
     def observe(self, x: float) -> None:
-        self.x = x
+        self.y = x
         self.k += 1
 
 
@@ -208,7 +211,7 @@ class AgentNode(Node):
 
     def __init__(self, config: AgentNodeConfig | None = None, **node_kwargs: Any) -> None:
         super().__init__("agent", **node_kwargs)
-        self.config = config or declare_from_dataclass(self, AgentNodeConfig)
+        self.config = config or declare_config(self, AgentNodeConfig, "agent")
         self.interface = declare_interface(self)
         """The plant's face (``plant_ns`` only; surrogates speak the msd face)."""
         if self.config.reset and self.interface.reset is None:
@@ -216,10 +219,11 @@ class AgentNode(Node):
                               "(and lockstep:=false)")
         self.out = Path(self.config.out_dir)
         self.done: Future[int] = Future()
-        self.q: np.ndarray | None = None
+        self.policy: Policy | None = None
+        """The trained or designed policy, once made."""
         self.per_seed: list[dict[str, Any]] = []
-        self.real_steps = 0
-        self._learners: list[StepwiseLearner] = []
+        self.model: StepModel | None = None
+        self._training = "in-process"
         self.robust: dict[str, dict[str, list[float]]] = {}
         self.x0: dict[str, dict[int, float]] = {}
         self._client = EpisodeClient(
@@ -243,75 +247,64 @@ class AgentNode(Node):
 
     def _check_inputs(self) -> dict[str, str] | None:
         """Load the model up front so a bad path fails before any ROS traffic."""
-        if self.config.dyna:
+        if not self.config.model_path:
             return None
         self.model = artifacts.load_model(Path(self.config.model_path))
         return artifacts.source(Path(self.config.model_path))
 
-    def _observer(self) -> StepModel | None:
-        """The model the agent trains on: a ``model`` observer (robust agent) predicts with it."""
-        return None if self.config.dyna else self.model
-
     def _start(self) -> None:
+        """Make the policy in-process on the model, or train it over topics: the design says which
+        (a design that learns step by step does so over the plant, or over a surrogate with ``via_ros``)."""
         self._start_timer.cancel()
-        cfg, qc = self.config, self.config.qconfig()
-        if cfg.dyna or cfg.via_ros:
-            ns = cfg.plant_ns if cfg.dyna else cfg.surrogate_ns
-            planning = cfg.planning_steps if cfg.dyna else 0
-            self._learners = [StepwiseLearner(qc, s, planning, self._observer()) for s in cfg.seeds]
-            first = True
-            for learner in self._learners:
-                for _ in range(qc.episodes):
-                    announce = functools.partial(self._first_step, ns) if first else None
-                    self._client.submit(Episode(_Learn(learner, announce), ns, qc.steps))
-                    first = False
-            self._client.on_idle = self._trained_over_ros
-            self.get_logger().info(f"training {len(cfg.seeds)} seed(s) over {ns}")
-        else:
-            result = train(self.model, qc, cfg.seeds)
-            self._trained(result.q, result.snapshots[:, 0], result.snapshots[:, -1])
+        cfg = self.config
+        over = None
+        if cfg.via_ros or self.model is None:  # a design made in one go (a baseline) ignores via_ros
+            over = designs.stepwise(cfg.kind, self.model, cfg.settings(), cfg.seeds)
+            if over is None and self.model is None:
+                raise ConfigError(f"{cfg.kind} learns nothing over topics: give its model_path")
+        if over is None:
+            self._trained(designs.make(cfg.kind, self.model, cfg.settings(), cfg.seeds))
+            return
+        self._train_over(over, cfg.plant_ns if over.on_plant else cfg.surrogate_ns)
+
+    def _train_over(self, over: Stepwise, ns: str) -> None:
+        """Every learner's episodes over ``ns``'s topics, then the policy they made."""
+        first = True
+        for learner in over.learners:
+            for _ in range(over.episodes):
+                announce = functools.partial(self._first_step, ns) if first else None
+                self._client.submit(Episode(_Learn(learner, announce), ns, over.steps))
+                first = False
+        self._training = f"{agent_kind(self.config.kind).agent} over the plant" if over.on_plant else "ros"
+        self._client.on_idle = lambda: self._trained(over.finish())
+        self.get_logger().info(f"training {len(over.learners)} seed(s) over {ns}")
 
     def _first_step(self, ns: str) -> None:
         """Log when the first training step goes out: discovery and matching are over (a benchmark times
         ROS training from this line, benchmarks/bench_lockstep.py)."""
         self.get_logger().info(f"first training episode under way over {ns}")
 
-    def _trained_over_ros(self) -> None:
-        q = np.stack([lr.q for lr in self._learners])
-        first = np.stack([lr.snapshots[min(lr.snapshots)] for lr in self._learners])
-        last = np.stack([lr.snapshots[max(lr.snapshots)] for lr in self._learners])
-        self.real_steps = sum(lr.real_steps for lr in self._learners) if self.config.dyna else 0
-        self._trained(self._kept(q), first, last)
-
-    def _kept(self, final: np.ndarray) -> np.ndarray:
-        """The tables to validate: the final ones, or those the kind selects by rehearsing its late
-        snapshots on its model — the same choice :func:`msd_bench.core.qtrain.train` makes in-process."""
-        qc = self.config.qconfig()
-        if qc.select_every == 0 or self.model is None:
-            return final
-        return select_tables(self.model, qc, *stacked_snapshots(self._learners)).q
-
-    def _trained(self, q: np.ndarray, first: np.ndarray, last: np.ndarray) -> None:
+    def _trained(self, policy: Policy) -> None:
+        """Save the policy's artifact, then validate every member on the plant (and each scenario)."""
         cfg = self.config
-        self.q = q
+        self.policy = policy
         prov = artifacts.Provenance(
             tuple(s for s in [self._source] if s is not None), _jsonable_config(cfg), cfg.seeds[0])
-        artifacts.save_qtables(self.out / "qtables.npz", {"q": q, "first": first, "last": last},
-                               qtable_meta(cfg.qconfig(), cfg.seeds,
-                                           {"agent_kind": cfg.kind, "provenance": prov.as_dict()}))
-        self.get_logger().info(f"trained; validating {len(cfg.seeds)} seed(s) on {cfg.plant_ns}")
-        for i, seed in enumerate(cfg.seeds):
-            policy = GreedyPolicy(cfg.qconfig(), q[i], cfg.target, self._observer())
-            ep = Episode(_Greedy(policy, self._announce), cfg.plant_ns, cfg.validation_steps, record=True,
-                         on_done=functools.partial(self._validated, seed))
-            self._client.submit(ep)
+        designs.save(policy, self.out, prov.as_dict(), root=self.out)
+        members = range(len(policy.members))
+        self.get_logger().info(f"trained; validating {len(members)} member(s) on {cfg.plant_ns}")
+        for i in members:
+            ctl = _Drive(policy.controller(i, cfg.target), cfg.target, self._announce)
+            self._client.submit(Episode(ctl, cfg.plant_ns, cfg.validation_steps, record=True,
+                                        on_done=functools.partial(self._validated, policy.members[i])))
         for text in cfg.scenario_ids:
             sc = hardware_scenario(text)
-            for i, seed in enumerate(cfg.seeds):
-                policy = GreedyPolicy(cfg.qconfig(), q[i], sc.setpoint, self._observer())
-                ctl = _Greedy(policy, self._announce, sc.disturbance, round(sc.disturbance_time / cfg.dt))
+            for i in members:
+                ctl = _Drive(policy.controller(i, sc.setpoint), sc.setpoint, self._announce, sc.disturbance,
+                             round(sc.disturbance_time / cfg.dt))
                 self._client.submit(Episode(ctl, cfg.plant_ns, cfg.validation_steps, record=True,
-                                            on_done=functools.partial(self._scenario_done, sc, seed)))
+                                            on_done=functools.partial(self._scenario_done, sc,
+                                                                      policy.members[i])))
         self._client.on_idle = self._finish
 
     def _announce(self, target: float) -> None:
@@ -349,9 +342,11 @@ class AgentNode(Node):
 
     def _finish(self) -> None:
         cfg = self.config
+        facts = self.policy.facts if self.policy is not None else None
         doc = {"kind": cfg.kind, "agent": agent_kind(cfg.kind).agent, "config": _jsonable_config(cfg),
-               "training": "dyna-q over the plant" if cfg.dyna else ("ros" if cfg.via_ros else "in-process"),
-               "real_interactions": self.real_steps, "per_seed": self.per_seed,
+               "training": self._training, "baseline": bool(facts and facts.baseline),
+               "deterministic": bool(facts and facts.deterministic),
+               "real_interactions": facts.real_interactions if facts else 0, "per_seed": self.per_seed,
                "on_node_scenarios": {sid: cell(c["sse"], c["mae"]) for sid, c in self.robust.items()},
                "x0": {sid: {str(k): v for k, v in d.items()} for sid, d in self.x0.items()}}
         write_text_atomic(self.out / "result.json", json.dumps(artifacts.jsonable(doc), indent=1) + "\n",

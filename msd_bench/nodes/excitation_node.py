@@ -46,12 +46,14 @@ from rclpy.task import Future
 from rclpy.timer import Timer
 from std_msgs.msg import Empty, Float64, String
 
+from msd_bench.app.job import shared
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, InterfaceError
 from msd_bench.core.rest import RestConfig, RestDetector
 from msd_bench.nodes import endpoints
 from msd_bench.nodes.interface_params import declare_interface
-from msd_bench.nodes.params import declare_from_dataclass
+from msd_bench.nodes.params import Section, check_job_used, declare_config, declare_from_dataclass
+from msd_bench.nodes.serve_protocol import event_line
 from msd_msgs_py.contract import (
     JOINT_STATES,
     LOCKSTEP_COMMAND_DEPTH,
@@ -78,6 +80,14 @@ SIGNAL_RANGES: dict[str, tuple[float, float]] = {
 """Bounds of the integer signal fields (samples), shared by every signal kind."""
 
 
+ROLE = "excitation"
+"""The excitation's job role (:mod:`msd_bench.app.job`): bench.py hands it ``-p job:=<file>`` holding
+this config's fields and the signal's under ``<signal>.`` (``prbs.bias``), as ``-p`` names them."""
+
+PLAYING_EVENT = "playing"
+"""The structured event the node prints as it plays its first command (a launcher waits for it)."""
+
+
 @dataclass(frozen=True)
 class ExcitationNodeConfig:
     """Which signal to play and how to pace it."""
@@ -88,7 +98,7 @@ class ExcitationNodeConfig:
     """Seed of the signal generator (the same seed plays the same signal)."""
     lockstep: bool = False
     """Pace by the plant's answers (one ``position`` per command) instead of a timer."""
-    dt: float = field(default=0.01, metadata={"range": (1e-4, 10.0)})
+    dt: float = field(default=shared("dt"), metadata={"range": (1e-4, 10.0)})
     """Real-time only: seconds between commands (the plant's sample time)."""
     start_timeout: float = field(default=30.0, metadata={"range": (0.1, 3600.0)})
     """Seconds to wait for the plant to be matched before giving up."""
@@ -133,6 +143,16 @@ class ExcitationNodeConfig:
         return RestConfig(self.rest_window, self.rest_threshold, self.rest_timeout)
 
 
+SIGNAL_SECTIONS: tuple[Section, ...] = (
+    ("prbs.", exc.PrbsConfig, SIGNAL_RANGES),
+    ("multilevel.", exc.MultilevelConfig, SIGNAL_RANGES),
+    ("steps.", exc.StepsConfig, SIGNAL_RANGES),
+)
+"""The signal kinds' configs, each declared under its prefix (``prbs.bias``), in a job file too."""
+SECTIONS: tuple[Section, ...] = (("", ExcitationNodeConfig, None), *SIGNAL_SECTIONS)
+"""Every config the node declares besides the face (:func:`msd_bench.nodes.params.sections_from_job`)."""
+
+
 def build_signal(
     cfg: ExcitationNodeConfig,
     prbs: exc.PrbsConfig,
@@ -162,11 +182,12 @@ class ExcitationNode(Node):
     ) -> None:
         """``signal``/``config``/``interface`` given directly (tests) or read from parameters."""
         super().__init__(node_name, namespace=namespace, **node_kwargs)
-        self.config = config or declare_from_dataclass(self, ExcitationNodeConfig)
+        self.config = config or declare_config(self, ExcitationNodeConfig, ROLE)
         self.interface = interface or declare_interface(self)
         if self.config.reset_first and self.interface.reset is None:
             raise ConfigError(f"reset_first: the {self.interface.kind} interface has no reset")
         self.signal = np.asarray(signal if signal is not None else self._declare_signal(), dtype=float)
+        check_job_used(self)  # every field of a job file was taken by one of the declarations above
         self.sent = 0
         self.done: Future[int] = Future()
         cmd = self.interface.command
@@ -215,10 +236,9 @@ class ExcitationNode(Node):
         return self.config.lockstep
 
     def _declare_signal(self) -> np.ndarray:
-        prbs = declare_from_dataclass(self, exc.PrbsConfig, "prbs.", ranges=SIGNAL_RANGES)
-        multilevel = declare_from_dataclass(self, exc.MultilevelConfig, "multilevel.", ranges=SIGNAL_RANGES)
-        steps = declare_from_dataclass(self, exc.StepsConfig, "steps.", ranges=SIGNAL_RANGES)
-        return build_signal(self.config, prbs, multilevel, steps)
+        configs: list[Any] = [declare_from_dataclass(self, cls, prefix, ranges=ranges)
+                              for prefix, cls, ranges in SIGNAL_SECTIONS]  # prbs, multilevel, steps
+        return build_signal(self.config, *configs)
 
     def _matched(self) -> bool:
         if self._pub.get_subscription_count() < self.config.min_subscribers:
@@ -265,6 +285,7 @@ class ExcitationNode(Node):
         if now - self._settle_from < self.config.settle:
             return
         self.get_logger().info(f"plant matched: playing {self.signal.size} commands")
+        print(event_line(self.get_name(), PLAYING_EVENT, {"commands": int(self.signal.size)}), flush=True)
         if self.config.lockstep:
             self._send()
         else:

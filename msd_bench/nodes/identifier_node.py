@@ -20,7 +20,9 @@ from typing import Any
 from rclpy.node import Node
 from rclpy.task import Future
 
+from msd_bench.app.job import shared
 from msd_bench.app.pipeline import identify_surrogates
+from msd_bench.app.serve_protocol import event_line
 from msd_bench.core.errors import ConfigError, IdentificationError, InvalidInputError
 from msd_bench.core.identify import FitReport
 from msd_bench.core.model import StepModel
@@ -33,7 +35,7 @@ from msd_bench.io.bag_records import BagRole, explicit_roles, load_records, reco
 from msd_bench.io.paths import OutputError, writable_dir
 from msd_bench.io.run_output import write_models
 from msd_bench.nodes.interface_params import declare_interface
-from msd_bench.nodes.params import declare_from_dataclass
+from msd_bench.nodes.params import declare_config
 from msd_msgs_py.contract import PLANT_NAMESPACE
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
@@ -56,15 +58,15 @@ class IdentifierConfig:
     """Surrogates to fit: any registered model kind (glm, plm, nlarx-paper, nlarx-improved, greybox)."""
     seed: int = field(default=0, metadata={"range": (0, 2**31 - 1)})
     """Seed of the NLARX training (same bags + same seed = same model)."""
-    stroke: float = field(default=5.0, metadata={"range": (1e-3, 1e3)})
+    stroke: float = field(default=shared("stroke"), metadata={"range": (1e-3, 1e3)})
     """Stroke L of the rig, m: model outputs are projected on [-L/2, L/2]."""
-    force: float = field(default=10.0, metadata={"range": (1e-3, 1e4)})
+    force: float = field(default=shared("force"), metadata={"range": (1e-3, 1e4)})
     """Actuator limit F of the rig, N (the grey-box model saturates its input there)."""
-    nlarx_scale: float = field(default=1.0, metadata={"range": (1e-3, 10.0)})
+    nlarx_scale: float = field(default=shared("nlarx_scale"), metadata={"range": (1e-3, 10.0)})
     """Multiplies the NLARX training iterations (< 1 only for smoke runs)."""
     namespace: str = PLANT_NAMESPACE
     """Namespace the bags' topics live under."""
-    dt: float = field(default=0.01, metadata={"range": (1e-4, 10.0)})
+    dt: float = field(default=shared("dt"), metadata={"range": (1e-4, 10.0)})
     """The run's sample time, s: every bag's stamps must tick at it (checked, never resampled)."""
     force_input: str = "applied"
     """Bags whose effort is measured (ros2_control): identify from the commands passed through the
@@ -85,7 +87,14 @@ class IdentifierConfig:
 
 
 SAVED = "saved model {name}: {path}"
-"""The line the node logs as each model is written (a launcher can start that model's agents then)."""
+"""The line the node logs as each model is written, for people; a launcher reads the event."""
+SAVED_EVENT = "model_saved"
+"""The structured event announcing each model written (``model``, ``path``): a launcher can start
+that model's agents then (:func:`msd_bench.app.serve_protocol.event_line`)."""
+IDENTIFIED_EVENT = "identified"
+"""The structured event announcing the end: every model and ``fits.json`` are written."""
+NODE_NAME = "identifier"
+"""The node's name, which its events carry."""
 
 
 def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERFACE,
@@ -159,8 +168,8 @@ class IdentifierNode(Node):
     """Runs :func:`identify_from_bags` once, then completes ``done``."""
 
     def __init__(self, config: IdentifierConfig | None = None, **node_kwargs: Any) -> None:
-        super().__init__("identifier", **node_kwargs)
-        self.config = config or declare_from_dataclass(self, IdentifierConfig)
+        super().__init__(NODE_NAME, **node_kwargs)
+        self.config = config or declare_config(self, IdentifierConfig, "identifier")
         self.interface = declare_interface(self)
         self.sources: list[ForceSource] = []
         self.done: Future[int] = Future()
@@ -175,7 +184,9 @@ class IdentifierNode(Node):
         for name, f in self.report.items():
             self.get_logger().info(
                 f"{name}: fit {f['sim_fit']:.1f} % (simulation), {f['one_step_fit']:.2f} % (one-step)")
+        print(event_line(NODE_NAME, IDENTIFIED_EVENT, {"models": sorted(self.report)}), flush=True)
         self.done.set_result(0)
 
     def _saved(self, name: str, path: Path) -> None:
         self.get_logger().info(SAVED.format(name=name, path=path))
+        print(event_line(NODE_NAME, SAVED_EVENT, {"model": name, "path": str(path)}), flush=True)

@@ -42,6 +42,7 @@ from rclpy.exceptions import InvalidParameterValueException, ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from msd_bench.app.job import JobError, read_job
 from msd_bench.core.errors import ConfigError, MsdBenchError
 
 T = TypeVar("T")
@@ -178,10 +179,17 @@ def declare_from_dataclass(
 
     ``prefix`` (e.g. ``"prbs."``) namespaces the parameters; ``defaults`` is an
     instance whose values replace the class defaults (e.g. a plant preset);
-    excluded fields keep their default. Raises :class:`ConfigError` with one line.
+    excluded fields keep their default. A node given a job file (:func:`use_job`) takes the
+    file's values for these fields as defaults, over ``defaults``; an explicit ``-p`` still wins.
+    Raises :class:`ConfigError` with one line (:class:`JobError` naming the file for its values).
     """
     if not (dataclasses.is_dataclass(cls) and isinstance(cls, type)):
         raise TypeError(f"{cls!r} is not a dataclass")
+    job = node_job(node)
+    if job is not None:
+        taken = job.section(cls, prefix, ranges, exclude)
+        if taken:
+            defaults = job.build(cls, taken, defaults)
     hints = typing.get_type_hints(cls)
     docs = field_docs(cls)
     values: dict[str, Any] = {}
@@ -343,6 +351,7 @@ def reject_unknown_parameters(node: Node, allowed: Iterable[str] = ()) -> None:
     declared = set(node.list_parameters([], 0).names)  # depth 0: every level
     ok = declared | ROS_OWN_NAMES | set(allowed) | _WILDCARD_NAMES
     unknown = sorted(n for n in overrides if n not in ok and not n.startswith(ROS_OWN_PREFIXES))
+    check_job_used(node)
     if unknown:
         close = difflib.get_close_matches(unknown[0], sorted(declared), n=1)
         hint = f"; did you mean {close[0]}?" if close else f"; known: {', '.join(sorted(declared))}"
@@ -359,3 +368,164 @@ def _range_text(exc: InvalidParameterValueException) -> str:
 def _one_line(exc: BaseException) -> str:
     text = " ".join(str(exc).split())
     return text or type(exc).__name__
+
+
+_INT64 = (-(2**63), 2**63 - 1)
+"""The range of a ROS integer parameter (an int beyond it would not even convert to a double)."""
+
+JOB_PARAMETER = "job"
+"""The parameter naming a node's job file (:mod:`msd_bench.app.job`)."""
+_JOB_ATTR = "_msd_job"
+"""Where a node keeps the job file it was given (read once, consulted by every declaration)."""
+
+
+def _job_value(path: str, cls: type, f: dataclasses.Field[Any], hint: Any, value: Any, name: str,
+               ranges: Mapping[str, Range] | None) -> Any:
+    """One job-file value checked against its field's type and range; JobError naming file and field."""
+    where = f"job file {path}: field {name}"
+    _, elem, is_seq = _ros_type(hint, f.name)
+    items = value if is_seq else [value]
+    if is_seq and not isinstance(value, list):
+        raise JobError(f"{where} must be a list, got {type(value).__name__}")
+    for v in items:
+        ok = (type(v) is elem) or (elem is float and type(v) is int)
+        if not ok:
+            raise JobError(f"{where} must be {'a list of ' if is_seq else ''}{elem.__name__}, got {v!r}")
+        if isinstance(v, float) and not math.isfinite(v):
+            raise JobError(f"{where} must be finite, got {v}")
+        if type(v) is int and not _INT64[0] <= v <= _INT64[1]:  # ROS integers are 64-bit; floats too small
+            raise JobError(f"{where}: an integer of {v.bit_length()} bits does not fit a ROS parameter")
+    bounds = _bounds(cls, f, ranges)
+    if bounds is not None and not is_seq and not bounds[0] <= value <= bounds[1]:
+        raise JobError(f"{where}: {value!r} is outside [{bounds[0]}, {bounds[1]}]")
+    return tuple(elem(v) for v in items) if is_seq else elem(value)
+
+
+@dataclasses.dataclass
+class JobFile:
+    """A node's job file, read once: its ``params`` are named as the node's parameters are.
+
+    Why one flat mapping keyed by parameter name (``episodes``, ``prbs.bias``, ``lockstep``):
+    a node declares several configs (the excitation its own and one per signal kind, the
+    surrogate the plant node's and its model's), and each declaration takes its section by
+    the same name a ``-p`` would use, so a job file and ``-p`` arguments say one thing one way.
+    """
+
+    path: str
+    """The file, as given (every error names it)."""
+    role: str
+    """The node role it was written for (checked against the envelope)."""
+    params: dict[str, Any]
+    """The parameters, by name."""
+    used: set[str] = dataclasses.field(default_factory=set)
+    """Names a declaration has taken (the rest are unknown fields: :meth:`check_used`)."""
+
+    @classmethod
+    def read(cls, path: str, role: str) -> JobFile:
+        """Read and check the envelope (:func:`msd_bench.app.job.read_job`)."""
+        return cls(path, role, read_job(path, role))
+
+    def section(self, cls: type[T], prefix: str = "", ranges: Mapping[str, Range] | None = None,
+                exclude: tuple[str, ...] = ()) -> dict[str, Any]:
+        """The file's values for the fields of ``cls`` under ``prefix``, each typed and in range."""
+        hints = typing.get_type_hints(cls)
+        fields = {f.name: f for f in dataclasses.fields(cls)  # type: ignore[arg-type]
+                  if f.init and f.name not in exclude}
+        values: dict[str, Any] = {}
+        for name, f in fields.items():
+            key = prefix + name
+            if key in self.params:
+                values[name] = _job_value(self.path, cls, f, hints[name], self.params[key], key, ranges)
+                self.used.add(key)
+        return values
+
+    def build(self, cls: type[T], values: Mapping[str, Any], defaults: T | None = None) -> T:
+        """``cls`` from the file's ``values`` over ``defaults``: the file alone must make a valid config."""
+        base = {} if defaults is None else {f.name: getattr(defaults, f.name)
+                                            for f in dataclasses.fields(cls) if f.init}  # type: ignore[arg-type]
+        try:
+            return cls(**{**base, **values})
+        except MsdBenchError as exc:
+            raise JobError(f"job file {self.path}: {exc}") from None
+        except (TypeError, ValueError) as exc:
+            raise JobError(f"job file {self.path}: {_one_line(exc)}") from None
+
+    def check_used(self) -> None:
+        """Every field of the file was taken by a declaration; else JobError naming the first other."""
+        unknown = sorted(set(self.params) - self.used)
+        if unknown:
+            raise JobError(f"job file {self.path}: unknown field {unknown[0]!r} for a {self.role} node")
+
+
+def config_from_job(path: str, cls: type[T], role: str) -> T:
+    """Build ``cls`` from the job file at ``path`` (node ``role``): every field named, typed and in range.
+
+    Why here and not in app: the schema of a role is its node configs' fields, their types
+    and ranges; the envelope (schema, version, role) is checked by :func:`msd_bench.app.job.read_job`.
+    For a node of one config; a node of several declares each (:func:`use_job`).
+    """
+    job = JobFile.read(path, role)
+    config = job.build(cls, job.section(cls))
+    job.check_used()
+    return config
+
+
+Section = tuple[str, type, Mapping[str, Range] | None]
+"""``(prefix, config class, ranges)``: one declaration of a node (:func:`declare_from_dataclass`)."""
+
+
+def sections_from_job(path: str, role: str, sections: Sequence[Section]) -> list[Any]:
+    """Each section's config from the job file at ``path``, as a node making those declarations would
+    build them from the file alone (no ROS): the check of a several-config node's job without a node."""
+    job = JobFile.read(path, role)
+    configs: list[Any] = [job.build(cls, job.section(cls, prefix, ranges))
+                          for prefix, cls, ranges in sections]
+    job.check_used()
+    return configs
+
+
+def node_job(node: Node) -> JobFile | None:
+    """The job file ``node`` was given, if any (:func:`use_job`)."""
+    job = getattr(node, _JOB_ATTR, None)
+    return job if isinstance(job, JobFile) else None
+
+
+def use_job(node: Node, role: str) -> JobFile | None:
+    """Declare ``job`` on ``node`` and read the file it names (once); None without one.
+
+    From then on every :func:`declare_from_dataclass` on the node takes its defaults from the
+    file, and an explicit ``-p`` still wins (a declared default yields to an override).
+    """
+    known = node_job(node)
+    if known is not None or node.has_parameter(JOB_PARAMETER):
+        return known
+    desc = ParameterDescriptor(name=JOB_PARAMETER, type=Parameter.Type.STRING.value, read_only=True,
+                               description="Job file written by bench.py (msd_bench.app.job); "
+                                           "empty: the parameters alone")
+    try:
+        path: object = node.declare_parameter(JOB_PARAMETER, "", desc).value
+    except ParameterException as exc:
+        raise ConfigError(f"parameter {JOB_PARAMETER}: {_one_line(exc)}") from None
+    if not path:
+        return None
+    job = JobFile.read(str(path), role)
+    setattr(node, _JOB_ATTR, job)
+    return job
+
+
+def check_job_used(node: Node) -> None:
+    """Once a node has declared everything: a job field no declaration took is one JobError line."""
+    job = node_job(node)
+    if job is not None:
+        job.check_used()
+
+
+def declare_config(node: Node, cls: type[T], role: str) -> T:
+    """The node's config: from its job file (``-p job:=<path>``) if given, else from ``-p`` parameters.
+
+    Either way every field is declared as a read-only parameter (``ros2 param get`` shows
+    what the node runs with); with a job file its values are the parameters' defaults, so
+    an explicit ``-p`` still wins.
+    """
+    use_job(node, role)
+    return declare_from_dataclass(node, cls)

@@ -12,7 +12,8 @@ one process; the graph and DDS caches lag) is never live: :data:`_LIVE_TOKENS`.
 Who yields (docs/faults.md §Trust boundary): nothing on the topic can be
 verified — any participant on the domain can publish any start time. So a
 node arbitrates only the claims it first hears during its own start-up window
-(:data:`ARBITRATION_S`, or its ``duplicate_check`` if longer): that is a
+(:data:`ARBITRATION_S`, or its ``duplicate_check`` if longer, counted from when
+the node first listens: :meth:`ClaimBook.begin_listening`): that is a
 simultaneous start, and the earliest claim wins (start time, then pid, then
 the random token). A claim first heard later, whatever start time it states,
 never stops a node that is serving: it is reported once (:meth:`ClaimBook.ignored`).
@@ -122,15 +123,18 @@ def _live(own: Claim, heard: Heard, now_ns: int) -> bool:
             and not (claim.pid == own.pid and claim.token not in _LIVE_TOKENS))
 
 
-def earlier_rival(own: Claim, heard: Mapping[Claim, Heard], now_ns: int, window_ns: int) -> Claim | None:
+def earlier_rival(own: Claim, heard: Mapping[Claim, Heard], now_ns: int, window_ns: int,
+                  listen_from_ns: int | None = None) -> Claim | None:
     """The live claim ``own`` must yield to, or None when ``own`` keeps the namespace.
 
-    Only claims first heard within ``window_ns`` of ``own``'s start count; of
+    Only claims first heard within ``window_ns`` of ``listen_from_ns`` (``own``'s start unless
+    given: when ``own``'s node began to listen) count; of
     those, one that was established when first heard wins outright (``own`` is
     the newcomer), else the earliest claim ahead of ``own``.
     """
+    start = own.start_ns if listen_from_ns is None else listen_from_ns
     contenders = [h for h in heard.values()
-                  if _live(own, h, now_ns) and h.first_ns - own.start_ns <= window_ns]
+                  if _live(own, h, now_ns) and h.first_ns - start <= window_ns]
     serving = [h.claim for h in contenders if h.established]
     if serving:
         return min(serving)
@@ -145,8 +149,22 @@ class ClaimBook:
         """``listen_s``: the node's ``duplicate_check``; the window is at least :data:`ARBITRATION_S`."""
         self.own = own
         self.window_ns = int(max(listen_s, ARBITRATION_S) * 1e9)
+        self.listen_from_ns = own.start_ns
+        """Where the start-up window starts: the claim's start until :meth:`begin_listening` moves it."""
+        self._listening = False
         self.heard: dict[Claim, Heard] = {}
         self._reported: set[Claim] = set()
+
+    def begin_listening(self, now_ns: int | None = None) -> None:
+        """The node can hear the topic from now on (it spins): its start-up window starts here, once.
+
+        Why not at the claim's start: a node that skips the start-up wait builds and compiles its
+        model before it first spins, which took longer than the whole window on a loaded machine, so
+        a rival's latched claim reached it only after the window and was ignored (two plants ran)."""
+        if not self._listening:
+            self._listening = True
+            now = time.time_ns() if now_ns is None else now_ns
+            self.listen_from_ns = max(self.own.start_ns, now)
 
     def hear(self, text: str, now_ns: int | None = None) -> None:
         """Record one message from the claim topic (anything that is not a claim is dropped)."""
@@ -163,9 +181,10 @@ class ClaimBook:
             self.heard[claim] = Heard(claim, now, now, established)
 
     def established(self, now_ns: int | None = None) -> bool:
-        """Whether this node is past its start-up window (it no longer arbitrates)."""
+        """Whether this node is past its start-up window (it no longer arbitrates); never before it
+        began to listen (it has not served yet)."""
         now = time.time_ns() if now_ns is None else now_ns
-        return now - self.own.start_ns > self.window_ns
+        return self._listening and now - self.listen_from_ns > self.window_ns
 
     def message(self, now_ns: int | None = None) -> str:
         """This node's claim as sent now."""
@@ -174,22 +193,24 @@ class ClaimBook:
     def rival(self, now_ns: int | None = None) -> Claim | None:
         """The claim to yield to now (:func:`earlier_rival`)."""
         now = time.time_ns() if now_ns is None else now_ns
-        return earlier_rival(self.own, self.heard, now, self.window_ns)
+        return earlier_rival(self.own, self.heard, now, self.window_ns, self.listen_from_ns)
 
     def ignored(self, now_ns: int | None = None) -> list[Heard]:
         """Live claims that would have priority but were first heard after the window; each once."""
         now = time.time_ns() if now_ns is None else now_ns
         late = [h for claim, h in self.heard.items()
                 if claim not in self._reported and _live(self.own, h, now)
-                and h.first_ns - self.own.start_ns > self.window_ns and (h.claim < self.own or h.established)]
+                and h.first_ns - self.listen_from_ns > self.window_ns
+                and (h.claim < self.own or h.established)]
         self._reported = (self._reported & set(self.heard)) | {h.claim for h in late}
         return late
 
 
-def ignored_text(late: Heard, own: Claim) -> str:
+def ignored_text(late: Heard, own: Claim, listen_from_ns: int | None = None) -> str:
     """The one line a serving node logs for a claim it does not yield to."""
     c = late.claim
+    start = own.start_ns if listen_from_ns is None else listen_from_ns
     return (f"ignoring the claim of {c.node or '?'} (pid {c.pid}, stated start "
             f"{(own.start_ns - c.start_ns) / 1e9:+.2f} s before this node's): first heard "
-            f"{(late.first_ns - own.start_ns) / 1e9:.1f} s after this node started; a serving plant-like "
+            f"{(late.first_ns - start) / 1e9:.1f} s after this node began listening; a serving plant-like "
             "node yields only to a rival heard during its start-up (docs/faults.md §Trust boundary)")

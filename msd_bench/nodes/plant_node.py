@@ -76,6 +76,8 @@ from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.model import StepModel, plant_model
 from msd_bench.core.plant import PRESETS, PlantParams, preset
 from msd_bench.core.sensor import SensorModel, VelocityEstimator, sensor_rng
+from msd_bench.core.supervisor import MAX_LATCH_TEXT, parse_latch
+from msd_bench.io.live import OFF, LiveServer, start_live
 from msd_bench.nodes import plant_claim
 from msd_bench.nodes.health import StallTracker, diagnostic_array
 from msd_bench.nodes.params import declare_from_dataclass, keep_own_clock, reject_unknown_parameters
@@ -83,12 +85,15 @@ from msd_bench.nodes.spin import DeadlinePacer, DeadlineThread, stops_deferred
 from msd_msgs_py.contract import (
     CLOCK,
     DIAGNOSTICS,
+    ESTOP,
+    ESTOP_CLEAR,
     FORCE,
     JOINT_STATES,
     LOCKSTEP_COMMAND_DEPTH,
     PLANT_CLAIM,
     PLANT_NAMESPACE,
     POSITION,
+    REFERENCE,
     RESET,
     TRUTH_JOINT_STATES,
 )
@@ -128,6 +133,10 @@ class PlantNodeConfig:
     """Quantisation step (m) of the published position, applied after the noise; 0 = none."""
     sensor_seed: int = field(default=0, metadata={"range": (0, 2**31 - 1)})
     """Seed of the sensor noise generator (read once at start-up; resets do not re-seed it)."""
+    live_port: int = field(default=OFF, metadata={"range": (OFF, 65535)})
+    """Serve the live view (a Foxglove WebSocket server on 127.0.0.1, docs/live.md) on this port: the
+    plant's rows decimated to 50 Hz of wall time and the set-point; 0 picks a free port (logged);
+    -1 (default) serves none."""
 
     def __post_init__(self) -> None:
         SensorModel(self.sensor_noise, self.sensor_quant)  # a bad sensor is one ConfigError line
@@ -225,6 +234,7 @@ class PlantNode(Node):
         self._ticker: DeadlineThread | None = None
         reject_unknown_parameters(self)
         keep_own_clock(self)  # use_sim_time refused, at start and by ros2 param set (nodes/params.py)
+        self._live = self._start_live()  # before the slow start-up: a port in use stops it at once
         self.done: Future[int] = Future()
         """Completes with :data:`EXIT_CONFLICT` when an earlier plant claims the namespace."""
         self._claim_namespace()
@@ -243,6 +253,7 @@ class PlantNode(Node):
         if self.SERVES_RESET:
             self.create_subscription(Empty, RESET.name, self._on_reset_msg, qos(RESET))
         self._on_reset(None)
+        self._init_estop()
         self._pacer = DeadlinePacer(self.spec.dt, lead=0.0)  # the sample thread sleeps to each deadline
         self._reanchors_seen = 0
         self._ros0 = self.get_clock().now().nanoseconds
@@ -324,9 +335,10 @@ class PlantNode(Node):
         self.create_subscription(String, PLANT_CLAIM.name, self._on_claim, listen)
         self._pub_claim.publish(String(data=self._claims.message()))
         if self.config.duplicate_check <= 0:
-            return
+            return  # the window starts at the first spin (_on_claim, _on_heartbeat)
         executor = SingleThreadedExecutor(context=self.context)
         executor.add_node(self)
+        self._claims.begin_listening()
         try:
             deadline = time.monotonic() + self.config.duplicate_check
             while time.monotonic() < deadline:
@@ -338,7 +350,16 @@ class PlantNode(Node):
             executor.remove_node(self)
             executor.shutdown()
 
+    def _start_live(self) -> LiveServer | None:
+        """The live view of ``live_port`` (None when off): the set-point comes from ``reference``."""
+        live = start_live(self.config.live_port, self.get_fully_qualified_name())
+        if live is not None:
+            self.create_subscription(Float64, REFERENCE.name, lambda m: live.setpoint(m.data), qos(REFERENCE))
+            self.get_logger().info(f"live view on {live.url} (docs/live.md)")
+        return live
+
     def _on_claim(self, msg: String) -> None:
+        self._claims.begin_listening()
         self._claims.hear(msg.data)
 
     def _earlier_rival(self) -> plant_claim.Claim | None:
@@ -352,18 +373,23 @@ class PlantNode(Node):
         """Re-send the claim; yield to a rival heard during start-up; report, never yield to, later ones."""
         if self.done.done():
             return
+        self._claims.begin_listening()
         self._pub_claim.publish(String(data=self._claims.message()))
         rival = self._earlier_rival()
         if rival is not None:
             print(f"error: {self._conflict_text(rival)}; shutting down", file=sys.stderr, flush=True)
             self.done.set_result(EXIT_CONFLICT)
         for late in self._claims.ignored():
-            self.get_logger().warning(plant_claim.ignored_text(late, self._claim))
+            text = plant_claim.ignored_text(late, self._claim, self._claims.listen_from_ns)
+            self.get_logger().warning(text)
 
     def destroy_node(self) -> None:
         """Stop the sample thread, then release the claim (a node destroyed a moment ago is never
         taken for a live one)."""
         self._stop_ticker()
+        live = getattr(self, "_live", None)
+        if live is not None:
+            live.close()
         claim = getattr(self, "_claim", None)
         if claim is not None:
             plant_claim.release(claim)
@@ -383,8 +409,43 @@ class PlantNode(Node):
             if self.config.lockstep and self._pub_x is not None:
                 self._pub_x.publish(float64(self._y))
 
+    def _init_estop(self) -> None:
+        """The drive's e-stop latch (docs/faults.md §Trust boundary): anyone latches it on ``estop``;
+        only ``estop_clear`` naming the latch count clears it; a reset never does."""
+        self.estop_latches = 0
+        self.estop_latched = False
+        self.estop_stamp: int | None = None
+        """Stamp (ns) of the first row stepped after the latest latch: from it on every row is 0 N."""
+        self.create_subscription(Empty, ESTOP.name, self._on_estop, qos(ESTOP))
+        self.create_subscription(String, ESTOP_CLEAR.name, self._on_estop_clear, qos(ESTOP_CLEAR))
+
+    def _on_estop(self, _msg: Empty) -> None:
+        with self._lock:
+            self.estop_latches += 1
+            self.estop_latched = True
+            self.estop_stamp = None
+            self._u, self._t_cmd = 0.0, None
+            self._cut_drive()
+        self.get_logger().warning(f"e-stop latched (latch {self.estop_latches}) at sample {self._k}: 0 N")
+
+    def _on_estop_clear(self, msg: String) -> None:
+        latch = parse_latch(msg.data[:MAX_LATCH_TEXT + 64])
+        with self._lock:
+            cleared = self.estop_latched and latch == self.estop_latches
+            self.estop_latched = self.estop_latched and not cleared
+        self.get_logger().info(f"e-stop clear {msg.data[:MAX_LATCH_TEXT]!r}: "
+                               f"{'cleared' if cleared else f'ignored (latch {self.estop_latches})'}")
+
+    def _note_estop(self, stamp: int) -> None:
+        """Remember the first row stepped under the latest e-stop latch (what a test checks)."""
+        if self.estop_latched and self.estop_stamp is None:
+            self.estop_stamp = stamp
+
+    def _cut_drive(self) -> None:
+        """Disable the drive at once (the ideal plant holds no force in flight; a rig empties its)."""
+
     def _accept(self, u: float) -> float | None:
-        """The force to apply, or None if the command must be rejected."""
+        """The force to apply, or None if the command must be rejected (0 N while the e-stop holds)."""
         if not math.isfinite(u):
             self.counters["rejected"] += 1
             self.get_logger().warning(
@@ -392,6 +453,8 @@ class PlantNode(Node):
                 throttle_duration_sec=1.0,
             )
             return None
+        if self.estop_latched:
+            return 0.0
         limit = self.spec.force_limit
         if abs(u) > limit:
             self.counters["saturated"] += 1
@@ -477,7 +540,11 @@ class PlantNode(Node):
             "stalls": self._stalls.count, "last_stall_s": self._stalls.last_s,
             "longest_stall_s": self._stalls.longest_s, "force_applied": self._u,
             "sensor": self._sensor_text(),
+            "estop": "latched" if self.estop_latched else "clear", "estop_latches": self.estop_latches,
         }
+        if self._live is not None:
+            with self._lock:  # the sample thread offers rows to the same decimator
+                self._live.flush()  # the newest row it held back: the last state always shows
         warnings = [f"{n} {k} in the last second" for k, n in fresh.items() if n and k != "steps"]
         self._pub_diag.publish(diagnostic_array(
             self.get_clock().now().to_msg(), f"{self.get_fully_qualified_name()}: plant-like node",
@@ -508,6 +575,7 @@ class PlantNode(Node):
         from measured positions, the truth row goes to ``truth/joint_states``, and
         ``position`` is the measured y_{k+1} (which row k+1 then repeats).
         """
+        self._note_estop(stamp)
         y, x, v = self._y, float(self._state[0]), self._velocity()
         v_row = v if self._pub_truth is None else self._velocity_estimate.update(y)
         x_next = self.spec.model.step(self._state, u)
@@ -521,6 +589,8 @@ class PlantNode(Node):
             self._pub_truth.publish(joint_state(stamp, x, v, u))
         if self._pub_clock is not None and self._pub_clock.get_subscription_count() > 0:
             self._pub_clock.publish(clock(self._k * self._dt_ns))  # to no reader it is pure cost
+        if self._live is not None:
+            self._live.plant(stamp, y, v_row, u)
 
     def close(self) -> None:
         """Stop the sample thread, then log the counters once, at shutdown."""

@@ -50,7 +50,7 @@ from msd_bench.io.bag_writer import STAMPED_TYPES, BagRecorder, leading_stamp
 from msd_bench.io.errors import BagError
 from msd_bench.nodes import endpoints
 from msd_bench.nodes.interface_params import declare_interface
-from msd_bench.nodes.params import declare_from_dataclass
+from msd_bench.nodes.params import check_job_used, declare_config
 from msd_msgs_py.contract import (
     ALL_TOPICS,
     FORCE,
@@ -71,6 +71,9 @@ LOG_TIMES = ("auto", "receive", "stamp")
 
 SIM_TIME_GAP_NS = 86_400 * 1_000_000_000
 """A stamp a day or more away from the wall clock was not taken on it: the graph runs on sim time."""
+
+ROLE = "recorder"
+"""The recorder's job role (:mod:`msd_bench.app.job`): bench.py hands it ``-p job:=<file>``."""
 
 EXIT_WRITE_ERROR = 1
 """Exit status of a recorder whose storage refused a write (the bag is closed, shorter)."""
@@ -167,8 +170,9 @@ class RecorderNode(Node):
         self._held: list[tuple[str, str, bytes, int]] = []
         """(topic, type, data, arrival ns) of unstamped messages waiting for a sim time or a decision."""
         super().__init__("recorder", **node_kwargs)
-        self.config = declare_from_dataclass(self, RecorderConfig)
+        self.config = declare_config(self, RecorderConfig, ROLE)
         self.interface = declare_interface(self)
+        check_job_used(self)  # a stray job field is refused before the bag is created
         self._specs = self.config.specs(self.interface)
         self.done: Future[int] = Future()
         self._recorder = BagRecorder(

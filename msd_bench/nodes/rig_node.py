@@ -23,6 +23,11 @@ watchdog trip disables the drive at once (delay line and lag emptied), as a
 drive's own watchdog does. ``truth/joint_states`` (true position and velocity)
 exists only with ``publish_truth`` (tests and scoring; a real rig has none).
 
+``population_seed`` picks a member of the rig population
+(:mod:`msd_bench.core.population`): its plant and imperfections become the
+parameters' defaults, so explicit parameters still win; the start-up line
+prints the served rig with every parameter.
+
 With ``-p interface:=ros2_control`` it shows the face of a forward effort
 controller and a joint state broadcaster instead (docs/ros2-control.md §Face):
 commands as ``Float64MultiArray`` on ``<controller>/commands`` (one value per
@@ -34,19 +39,25 @@ hardware measures), and no ``position`` topic.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.publisher import Publisher
 from std_msgs.msg import Float64
 
+from msd_bench.core import population
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.plant import PlantParams
+from msd_bench.core.plant import PRESETS, PlantParams
+from msd_bench.core.population import EMULATOR_SEED, MAX_SEED, RigSpec
 from msd_bench.core.rig import Rig, RigImperfections
+from msd_bench.io.live import OFF
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_bench.nodes.plant_node import (
+    PLANT_RANGES,
     ModelSpec,
     PlantNode,
     PlantNodeConfig,
@@ -76,12 +87,19 @@ class RigNodeConfig:
     (claims are also re-checked every second afterwards); 0 serves at once."""
     seed: int = field(default=0, metadata={"range": (0, 2**31 - 1)})
     """Seed of the sensor-noise and publish-jitter generators (two independent streams)."""
+    population_seed: int = field(default=EMULATOR_SEED, metadata={"range": (0, MAX_SEED)})
+    """Which member of the rig population to serve (docs/rig.md §Population): its plant and
+    imperfections become the defaults, explicit parameters still win; 0 = the emulator's own
+    defaults."""
     publish_truth: bool = False
     """Also publish the true position and velocity on truth/joint_states (tests and scoring only:
     a real rig has no truth)."""
     extra_joints: tuple[str, ...] = ("pole_joint",)
     """ros2_control face only: joints listed before ours in joint_states (at rest, no effort), as a
     joint state broadcaster of a larger robot would, so clients must pick our joint by name."""
+    live_port: int = field(default=OFF, metadata={"range": (OFF, 65535)})
+    """Serve the live view (a Foxglove WebSocket server on 127.0.0.1, docs/live.md) on this port: the
+    rig's measured rows decimated to 50 Hz and the set-point; 0 picks a free port; -1 serves none."""
 
 
 class RigNode(PlantNode):
@@ -98,7 +116,9 @@ class RigNode(PlantNode):
             raise ConfigError("the rig emulator runs in real time only (no lock-step, no /clock): "
                               "drop -p lockstep")
         self.rig_config = declare_from_dataclass(self, RigNodeConfig)
-        self.imperfections = declare_from_dataclass(self, RigImperfections)
+        self.member = population.draw(self.rig_config.population_seed)
+        self.imperfections = declare_from_dataclass(self, RigImperfections,
+                                                    defaults=self.member.imperfections)
         self.interface = declare_interface(self)
         self._r2c = self.interface.kind == ROS2_CONTROL
         clash = set(self.rig_config.extra_joints) & {self.interface.joint}
@@ -109,7 +129,8 @@ class RigNode(PlantNode):
         return PlantNodeConfig(
             lockstep=False, watchdog_timeout=self.rig_config.watchdog_timeout,
             duplicate_check=self.rig_config.duplicate_check, sensor_noise=self.imperfections.sensor_noise,
-            sensor_quant=self.imperfections.sensor_quant, sensor_seed=self.rig_config.seed)
+            sensor_quant=self.imperfections.sensor_quant, sensor_seed=self.rig_config.seed,
+            live_port=self.rig_config.live_port)
 
     def _position_publisher(self) -> Publisher[Any] | None:
         """The ros2_control face has no ``position`` topic."""
@@ -141,10 +162,30 @@ class RigNode(PlantNode):
         return joint_states(stamp, self._names, [*self._pad, x], [*self._pad, v], [*self._pad, effort])
 
     def _declare_plant(self, _node: Any) -> ModelSpec:
-        self._params = declare_plant_params(self, RIG_PRESET)
+        self._params = self._declare_member_plant()
         self.imperfections.check_against(self._params)
         spec = plant_model_spec(self._params)
         return replace(spec, model=replace(spec.model, name="rig emulator"))  # logs, diagnostics
+
+    def _declare_member_plant(self) -> PlantParams:
+        """The plant: the population member's, unless ``preset`` is given (then that preset's);
+        each field given explicitly wins either way."""
+        if "preset" in self._explicit():
+            return declare_plant_params(self, RIG_PRESET)
+        self.declare_parameter("preset", RIG_PRESET, ParameterDescriptor(
+            name="preset", type=ParameterType.PARAMETER_STRING, read_only=True,
+            description="Named plant parameter set the fields default to instead of the population "
+                        f"member's, read once at start-up: {', '.join(sorted(PRESETS))}."))
+        return declare_from_dataclass(self, PlantParams, defaults=self.member.params, ranges=PLANT_RANGES)
+
+    def _explicit(self) -> set[str]:
+        """Names of the parameters given on the command line (or as overrides)."""
+        return set(getattr(self, "_parameter_overrides", {}))
+
+    def served(self) -> RigSpec:
+        """The rig this node serves: the member with every explicit parameter applied."""
+        assert self._params is not None
+        return RigSpec(self.member.seed, self._params, self.imperfections)
 
     def _init_sensor(self) -> None:
         """The core rig (sensor, actuator, friction, jitter) and, if asked, the truth topic."""
@@ -159,10 +200,11 @@ class RigNode(PlantNode):
                 msg_class(TRUTH_JOINT_STATES), TRUTH_JOINT_STATES.name, qos(TRUTH_JOINT_STATES))
 
     def _sensor_text(self) -> str:
-        i = self.imperfections
-        return (f"rig: noise {i.sensor_noise:g} m, quantisation {i.sensor_quant:g} m, delay "
-                f"{i.delay_samples} samples, lag {i.actuator_tau:g} s, friction {i.friction:g} N, "
-                f"jitter {i.jitter:g} s, seed {self.rig_config.seed}")
+        """The served rig on one line (:meth:`RigSpec.line`), what was set explicitly, the noise seed."""
+        fields = {f.name for f in (*dataclasses.fields(PlantParams), *dataclasses.fields(RigImperfections))}
+        explicit = sorted(self._explicit() & (fields | {"preset"}))
+        note = f"population member, explicit {', '.join(explicit)}" if explicit else "population member"
+        return f"{self.served().line()} ({note}); noise and jitter seed {self.rig_config.seed}"
 
     def _on_reset(self, _msg: Any) -> None:
         """Start-up only (no reset topic): at rest at the origin, drive off."""
@@ -170,6 +212,10 @@ class RigNode(PlantNode):
         self._k = 0
         self._u = 0.0
         self._t_cmd: float | None = None
+
+    def _cut_drive(self) -> None:
+        """E-stop: the drive disabled as its watchdog does (delay line and lag emptied)."""
+        self.rig.cut()
 
     def _check_watchdog(self, t: float) -> None:
         trips = self.counters["watchdog"]
@@ -183,6 +229,7 @@ class RigNode(PlantNode):
         self._check_watchdog(t_sched)
         row = self.rig.step(self._u)
         stamp = self._stamp(t_sched_ns)
+        self._note_estop(stamp)
         wait = t_sched + self.rig.publish_delay() - time.monotonic()
         if wait > 0:
             time.sleep(wait)
@@ -193,6 +240,8 @@ class RigNode(PlantNode):
         self._pub_js.publish(self._state_message(stamp, row.measured, row.velocity, row.effort))
         if self._pub_truth is not None:
             self._pub_truth.publish(self._state_message(stamp, row.x, row.v, row.effort))
+        if self._live is not None:
+            self._live.plant(stamp, row.measured, row.velocity, row.effort)
 
 
 def build_rig() -> RigNode:

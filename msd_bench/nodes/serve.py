@@ -45,6 +45,7 @@ from rclpy._rclpy_pybind11 import RCLError, UnknownROSArgsError
 from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 
+from msd_bench.app.serve_protocol import READY_LINE, SERVE_FLAG, STOP_LINE, exit_line, running_line
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.nodes import endpoints
 from msd_bench.nodes.params import (
@@ -53,8 +54,7 @@ from msd_bench.nodes.params import (
     reject_unknown_parameters,
     wildcard_parameter_names,
 )
-from msd_bench.nodes.serve_protocol import READY_LINE, SERVE_FLAG, STOP_LINE, exit_line, running_line
-from msd_bench.nodes.spin import (
+from msd_bench.nodes.spinning import (
     EXIT_USAGE,
     close_node,
     make_executor,
@@ -146,7 +146,7 @@ def run_job(build: Callable[..., Node], line: str, n: int, executor: Executor, s
         return EXIT_USAGE
     status = 0
     own = wants_events_executor(node)
-    if own:  # this job's own events executor (msd_bench.nodes.spin.make_executor)
+    if own:  # this job's own events executor (msd_bench.nodes.spinning.make_executor)
         executor = make_executor(events=True)
     pool = endpoints.pool()
     finished = False

@@ -1,28 +1,23 @@
-"""The line protocol of a served node process, shared by the server and its launcher.
+"""Moved to :mod:`msd_bench.app.serve_protocol` (graph imports it, and graph never imports a node).
 
-Kept apart from :mod:`.serve` so a launcher can speak it without importing
-rclpy (docs/design.md §Layers: the graph layer starts processes, it does not
-join the graph).
+Re-exported here only so a node module written against the old path keeps working while
+branches merge; new code imports :mod:`msd_bench.app.serve_protocol`. The layer test
+(tests/test_layers.py) refuses this module to anything outside nodes.
 """
 
-SERVE_FLAG = "--serve"
-"""The launch-script argument (before ``--ros-args``) that turns on serving."""
-STOP_LINE = "stop"
-"""The stdin line that ends the running node early."""
-READY_LINE = "[serve] ready"
-"""Printed once the process can take jobs."""
+from msd_bench.app.serve_protocol import (
+    EVENT_PREFIX,
+    MAX_EVENT_BYTES,
+    READY_LINE,
+    SERVE_FLAG,
+    STOP_LINE,
+    EventError,
+    event_line,
+    exit_line,
+    exit_pattern,
+    parse_event,
+    running_line,
+)
 
-
-def running_line(n: int) -> str:
-    """Printed when job ``n``'s node is built and spinning."""
-    return f"[serve] job {n} running"
-
-
-def exit_line(n: int, status: int) -> str:
-    """Printed when job ``n`` has ended with ``status``."""
-    return f"[serve] job {n} exit {status}"
-
-
-def exit_pattern(n: int) -> str:
-    """A regex matching job ``n``'s exit line (the status is its last word)."""
-    return rf"^\[serve\] job {n} exit (-?\d+)$"
+__all__ = ["EVENT_PREFIX", "MAX_EVENT_BYTES", "READY_LINE", "SERVE_FLAG", "STOP_LINE", "EventError",
+           "event_line", "exit_line", "exit_pattern", "parse_event", "running_line"]

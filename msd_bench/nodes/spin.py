@@ -10,6 +10,9 @@ Nodes that finish on their own (the excitation) expose ``done``: an rclpy
 ``Future`` whose result is the exit status. Every node may expose
 ``close()``, called once before it is destroyed (the plant logs its counters
 there).
+
+The executors, the spin loop and closing live in :mod:`.spinning`, which the
+served process (:mod:`.serve`) shares; they are re-exported here.
 """
 
 from __future__ import annotations
@@ -25,21 +28,33 @@ from dataclasses import dataclass, field
 
 import rclpy
 from rclpy._rclpy_pybind11 import RCLError, UnknownROSArgsError
-from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
-from rclpy.experimental.events_executor import EventsExecutor
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
 from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.nodes import serve
 from msd_bench.nodes.params import (
     allow_wildcard_names,
     check_params_files,
     reject_unknown_parameters,
     wildcard_parameter_names,
 )
+from msd_bench.nodes.spinning import (
+    EVENTS_SPIN_S,
+    EXIT_USAGE,
+    close_node,
+    make_executor,
+    spin_node,
+    stops_requested,
+    wants_events_executor,
+)
 
-EXIT_USAGE = 2
-"""Exit status of a process that stopped on a user mistake."""
+__all__ = [  # the spinning helpers are re-exported: callers import them from here
+    "EVENTS_SPIN_S", "EXIT_USAGE", "DeadlinePacer", "DeadlineThread", "close_node", "main",
+    "make_executor", "ros_session", "run", "spin_node", "stops_deferred", "stops_requested",
+    "wants_events_executor",
+]
 
 
 @dataclass
@@ -210,93 +225,6 @@ def ros_session(args: Sequence[str] | None = None) -> Iterator[None]:
         rclpy.try_shutdown()
 
 
-def make_executor(context: rclpy.context.Context | None = None, events: bool = False) -> Executor:
-    """The executor a node runs on: rclpy's events executor if ``events``, else the single-threaded one.
-
-    Why two: rclpy's SingleThreadedExecutor rebuilds a wait set over every
-    entity of the node (parameter services, timers, QoS event handlers, ...)
-    in Python for each message it dispatches, which costs a lock-step exchange
-    more than the middleware round trip itself; the events executor (C++,
-    rclpy >= 7.1, ``rclpy.experimental``) dispatches each message from its rmw
-    callback. Nodes whose speed is one message per step opt in
-    (:func:`wants_events_executor`); the rest keep the executor rclpy spins by
-    default (benchmarks/bench_lockstep.py measures both against a bare
-    ping-pong that uses that default).
-    """
-    if events:
-        return EventsExecutor(context=context)
-    return SingleThreadedExecutor(context=context)
-
-
-def wants_events_executor(node: Node) -> bool:
-    """Whether ``node`` asks for the events executor (its ``events_executor`` attribute, default no)."""
-    return bool(getattr(node, "events_executor", False))
-
-
-EVENTS_SPIN_S = 0.5
-"""Longest single spin call on the events executor. Spun without a timeout it ran no callback at all
-here (a 100 Hz timer never fired; rclpy 9.1.2 on Kilted and 7.1.5 on Jazzy alike, busy in the
-spin), so it is spun in bounded slices until the node is done, stopped or the context shuts down."""
-
-
-def spin_node(node: Node, executor: Executor) -> int:
-    """Spin until shutdown or until ``node.done`` completes; return the exit status.
-
-    A ``done`` completed with an exception (a node that routes its one-line
-    errors through it) raises that exception here.
-    """
-    executor.add_node(node)
-    done = getattr(node, "done", None)
-    if not _is_events(executor):
-        if done is None:
-            executor.spin()
-            return 0
-        executor.spin_until_future_complete(done)
-    else:
-        with stops_requested() as stopped:
-            while not stopped() and executor.context.ok() and (done is None or not done.done()):
-                if done is None:
-                    executor.spin_once(timeout_sec=EVENTS_SPIN_S)
-                else:
-                    executor.spin_until_future_complete(done, timeout_sec=EVENTS_SPIN_S)
-        if stopped():
-            raise KeyboardInterrupt
-    return int(done.result()) if done is not None and done.done() else 0
-
-
-@contextmanager
-def stops_requested() -> Iterator[Callable[[], bool]]:
-    """SIGINT/SIGTERM only flag a stop (read through the yielded callable) while the block runs.
-
-    Why: the events executor calls Python callbacks from C++; a KeyboardInterrupt
-    raised inside one reaches the spin as a RuntimeError from pybind11 (a
-    traceback and exit 1 instead of a clean stop). The spin loop checks the
-    flag between slices and raises KeyboardInterrupt itself, outside any callback.
-    """
-    flagged: list[int] = []
-    held = (signal.SIGINT, signal.SIGTERM)
-    old = {sig: signal.getsignal(sig) for sig in held}
-    for sig in held:
-        signal.signal(sig, lambda signum, _frame: flagged.append(signum))
-    try:
-        yield lambda: bool(flagged)
-    finally:
-        for sig, handler in old.items():
-            signal.signal(sig, handler)
-
-
-def _is_events(executor: Executor) -> bool:
-    return not isinstance(executor, SingleThreadedExecutor)
-
-
-def close_node(node: Node) -> None:
-    """Let the node report (``close()``), then destroy it."""
-    close = getattr(node, "close", None)
-    if close is not None:
-        close()
-    node.destroy_node()
-
-
 def main(build: Callable[[], Node], args: Sequence[str] | None = None) -> int:
     """Run the node ``build()`` makes in this process; return the process exit status.
 
@@ -378,8 +306,6 @@ def _close(node: Node, status: int) -> int:
 
 def run(build: Callable[..., Node]) -> None:
     """``sys.exit(main(build))`` for launch scripts; with ``--serve``, node after node (:mod:`.serve`)."""
-    from msd_bench.nodes import serve  # imports this module
-
     if serve.wants_serving(sys.argv):
         sys.exit(serve.serve(build, sys.argv))
     sys.exit(main(build))

@@ -13,6 +13,12 @@ short-lived loader node and then builds the real one.
 A surrogate does not publish ``/clock`` unless asked (``-p publish_clock:=true``):
 in a ``--via-ros`` graph the plant and every surrogate run in lock-step side
 by side, and only one node may own sim time (the plant).
+
+bench.py hands it a job file (``-p job:=<file>``, role ``surrogate``,
+:func:`msd_bench.app.job.job_document`): the model path and the plant node's
+``lockstep`` as placement, ``dt`` and ``force_limit`` from the run's plant.
+Started by hand, ``-p`` parameters alone do; their defaults are the run
+configuration's (:func:`msd_bench.app.job.shared`).
 """
 
 from __future__ import annotations
@@ -23,12 +29,13 @@ from typing import Any
 
 from rclpy.node import Node
 
+from msd_bench.app.job import shared
 from msd_bench.core import kernels
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.model import StepModel
 from msd_bench.io.artifacts import load_model
-from msd_bench.nodes.params import declare_from_dataclass
-from msd_bench.nodes.plant_node import ModelSpec, PlantNode
+from msd_bench.nodes.params import declare_config, use_job
+from msd_bench.nodes.plant_node import ModelSpec, PlantNode, PlantNodeConfig
 from msd_msgs_py.contract import surrogate_namespace as namespace_for
 
 
@@ -38,9 +45,9 @@ class SurrogateConfig:
 
     model_path: str = ""
     """Model artifact to serve (JSON from the identifier, e.g. bags/<run>/models/plm.json); required."""
-    dt: float = field(default=0.01, metadata={"range": (1e-4, 10.0)})
+    dt: float = field(default=shared("dt"), metadata={"range": (1e-4, 10.0)})
     """Sample time in s the model was identified at (real-time period, lock-step clock increment)."""
-    force_limit: float = field(default=10.0, metadata={"range": (1e-6, 1e6)})
+    force_limit: float = field(default=shared("force_limit"), metadata={"range": (1e-6, 1e6)})
     """Commands are saturated to ±force_limit N before they act (the plant's F)."""
 
     def __post_init__(self) -> None:
@@ -53,9 +60,23 @@ def load_spec(config: SurrogateConfig) -> ModelSpec:
     return ModelSpec(load_model(Path(config.model_path)), config.dt, config.force_limit)
 
 
+ROLE = "surrogate"
+"""The surrogate's job role (:mod:`msd_bench.app.job`)."""
+
+
 def declare_surrogate(node: Node) -> ModelSpec:
-    """Declare the :class:`SurrogateConfig` parameters on ``node`` and load the model."""
-    return load_spec(declare_from_dataclass(node, SurrogateConfig))
+    """Declare the :class:`SurrogateConfig` parameters on ``node`` (from its job file if given) and
+    load the model."""
+    return load_spec(declare_config(node, SurrogateConfig, ROLE))
+
+
+class SurrogateNode(PlantNode):
+    """The plant node serving a model artifact; its job file is read before any parameter is declared,
+    so the plant node's own parameters (``lockstep``) come from it too."""
+
+    def _declare_config(self) -> PlantNodeConfig:
+        use_job(self, ROLE)
+        return super()._declare_config()
 
 
 def surrogate_namespace(model: StepModel) -> str:
@@ -75,5 +96,5 @@ def build_surrogate(*, namespace: str | None = None, **node_kwargs: Any) -> Plan
             namespace = surrogate_namespace(declare_surrogate(loader).model)
         finally:
             loader.destroy_node()
-    return PlantNode(declare_surrogate, node_name="surrogate", namespace=namespace, clock_owner=False,
-                     **node_kwargs)
+    return SurrogateNode(declare_surrogate, node_name="surrogate", namespace=namespace, clock_owner=False,
+                         **node_kwargs)

@@ -49,3 +49,15 @@ def test_route_kinds_are_checked():
         EfficiencyConfig(TINY, surrogate_agents=("plant",))
     with pytest.raises(ConfigError):
         EfficiencyConfig(TINY, plant_agents=("glm",))
+
+
+def test_a_baseline_on_the_surrogate_route_counts_one_run_per_identified_model():
+    """A deterministic design gives one run per model: n is the identification seeds, not copies."""
+    from dataclasses import replace
+
+    run = replace(TINY, id_seeds=2)
+    cfg = EfficiencyConfig(run, surrogate_agents=("glm+pid", "glm+improved"), plant_agents=("plant",),
+                           record_samples=(900,), episodes=(1,))
+    by = {m["name"]: m["points"] for m in efficiency(cfg)["methods"]}
+    assert by["glm+pid"][0]["n"] == 2 and by["glm+improved"][0]["n"] == 4
+    assert by["glm+pid"][0]["real_samples"] == by["glm+improved"][0]["real_samples"]

@@ -220,10 +220,12 @@ def test_per_seed_metrics_match_the_stored_responses(tiny_run):
 
 def test_qtables_have_one_table_per_row(tiny_run):
     for r in tiny_run.results:
-        tables = tiny_run.qtables[r.kind]
-        assert tables["q"].shape[0] == tables["first"].shape[0] == tables["last"].shape[0] == r.n
-        assert np.array_equal(tables["last"], tables["q"])  # the last snapshot is the final table
-        assert not np.array_equal(tables["first"], tables["q"])  # learning happened after episode 1
+        policies = tiny_run.policies[r.kind].values()
+        assert sum(p.q.shape[0] for p in policies) == r.n
+        for p in policies:
+            assert p.q.shape[0] == p.first.shape[0] == p.last.shape[0] == len(p.members)
+            assert np.array_equal(p.last, p.q)  # the last snapshot is the final table
+            assert not np.array_equal(p.first, p.q)  # learning happened after episode 1
 
 
 def test_models_and_fits_per_id_seed(tiny_run):
@@ -241,8 +243,9 @@ def test_same_config_twice_gives_the_same_run(tiny_run):
         assert all(_same_metrics(x, y) for x, y in zip(a.per_seed, b.per_seed, strict=True))
         assert a.fit_sim == b.fit_sim and a.fit_one_step == b.fit_one_step
     for kind in TINY.agents:
-        for key in ("q", "first", "last"):
-            assert np.array_equal(tiny_run.qtables[kind][key], again.qtables[kind][key])
+        for id_seed, p in tiny_run.policies[kind].items():
+            for key in ("q", "first", "last"):
+                assert np.array_equal(getattr(p, key), getattr(again.policies[kind][id_seed], key))
         assert np.array_equal(tiny_run.responses[kind], again.responses[kind])
 
 

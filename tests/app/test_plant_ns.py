@@ -153,12 +153,12 @@ def _squash(text: str) -> str:
 
 
 def test_readme_and_docs_give_the_tested_quick_look_and_the_computed_durations() -> None:
-    """The short configuration the README gives is the one the e2e test runs, and the minutes they
+    """The short configuration docs/own-bags.md gives is the one the e2e test runs, and the minutes they
     state are what :func:`expected_seconds` computes from the sample counts (no hand-typed timing)."""
     from pathlib import Path
 
     repo = Path(__file__).resolve().parents[2]
-    readme, page = (repo / "README.md").read_text(), (repo / "docs" / "plant-ns.md").read_text()
+    readme, page = (repo / "docs" / "own-bags.md").read_text(), (repo / "docs" / "plant-ns.md").read_text()
     quick = "python launch_scripts/bench.py --plant-ns /rig " + " ".join(plant_ns.QUICK_LOOK)
     assert quick in _squash(readme) and quick in _squash(page)
     full = bench_main.expected_duration(_config(["--plant-ns", "/rig"])).total / 60

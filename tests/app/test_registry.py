@@ -17,6 +17,7 @@ import pytest
 
 from msd_bench.app.agents import AGENT_KINDS, agent_kind, learner_config, learner_from_meta
 from msd_bench.app.config import RunConfig
+from msd_bench.core import kernels
 from msd_bench.core.data import Experiment, IOData
 from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.model import StepModel, plant_model
@@ -111,6 +112,9 @@ def test_every_registered_kind_gets_its_fit_figure(tmp_path):
     stored = {name: artifacts.load_model(PINNED / f"{name}.json")
               for name in ("glm", "plm", "nlarx-paper", "nlarx-improved")}
     stored["greybox"] = plant_model(PlantParams())
+    stored["greybox-rig"] = StepModel(kernels.KIND_GREYBOX_RIG,
+                                      np.concatenate([PlantParams().as_array(), [0.2, 0.02, 1.0]]),
+                                      "greybox-rig")
     assert set(stored) == set(MODEL_KINDS), "add a stored model of the new kind to this test"
     paths = write_figures(tmp_path, FigureData(1.0, 0.01, models=stored, records=_records()))
     assert sorted(p.name for p in paths) == sorted(f"fit_{n}.png" for n in MODEL_KINDS)

@@ -155,7 +155,7 @@ def test_pid_integral_does_not_wind_up_while_saturated():
 def test_lqr_integral_does_not_wind_up_while_saturated(built):
     d = built["greybox+lqr"]
     assert isinstance(d, lqr.LqrDesign)
-    ost, cs = base.observer_state(), np.zeros(2)
+    ost, cs = base.observer_state(d.observer), np.zeros(2)
     lqr.act(d.law, d.observer, ost, cs, -2.0, True)
     for _ in range(2000):
         lqr.act(d.law, d.observer, ost, cs, -2.0, False)

@@ -53,6 +53,9 @@ CONTRACT_MODELS: dict[str, Callable[[], StepModel]] = {
     "nlarx-paper": _stored("nlarx-paper"),
     "nlarx-improved": _stored("nlarx-improved"),
     "greybox": _stored("greybox"),
+    "greybox-rig": lambda: StepModel(kernels.KIND_GREYBOX_RIG,
+                                     np.concatenate([PLANT.as_array(), [0.2, 0.02, 2.0]]), "greybox-rig",
+                                     dt=PLANT.dt, force_limit=PLANT.F),
 }
 """Every model kind under contract: the true plant and one stored artifact per surrogate kind."""
 
@@ -70,6 +73,9 @@ def _start_states(m: StepModel) -> list[np.ndarray]:
     x = m.x_max
     if m.kind == kernels.KIND_PLANT:
         return [m.initial_state(), np.array([x, 0.0, 0.0, 0.0]), np.array([-x, 0.0, 0.0, 0.0])]
+    if m.kind == kernels.KIND_GREYBOX_RIG:  # at a stop, the lag and the delay line pushing outward
+        return [m.initial_state(), np.array([x, 0.0] + [F] * (kernels.RIG_STATE_SIZE - 2)),
+                np.array([-x, 0.0] + [-F] * (kernels.RIG_STATE_SIZE - 2))]
     return [m.initial_state(), np.array([x, x, F, 0.0]), np.array([-x, -x, -F, 0.0])]
 
 
@@ -122,7 +128,8 @@ def test_stays_on_the_stroke(model: StepModel) -> None:
 
 @pytest.mark.parametrize("bad", BAD_FORCES)
 def test_non_finite_force_is_rejected_on_every_path(model: StepModel, bad: float) -> None:
-    state = np.array([0.7, 0.65, 3.0, 0.0])
+    state = model.initial_state()  # four floats, or the greybox-rig's longer state
+    state[:3] = 0.7, 0.65, 3.0
     before = state.copy()
     calls: list[Callable[[], object]] = [
         lambda: model.step(state, bad),
@@ -138,7 +145,8 @@ def test_non_finite_force_is_rejected_on_every_path(model: StepModel, bad: float
 
 
 def test_non_finite_state_is_refused_not_parked(model: StepModel) -> None:
-    state = np.array([math.nan, 0.0, 0.0, 0.0])
+    state = model.initial_state()
+    state[0] = math.nan
     with pytest.raises(InvalidInputError, match="non-finite position"):
         kernels.advance(model.kernel, state, 1.0)
     with pytest.raises(InvalidInputError, match="finite"):
@@ -147,7 +155,9 @@ def test_non_finite_state_is_refused_not_parked(model: StepModel) -> None:
 
 @pytest.mark.parametrize("factor", [1.0 + 1e-12, 1.5, 1e3, 1e250])
 def test_force_beyond_the_limit_acts_as_the_limit(model: StepModel, factor: float) -> None:
-    for start in [*_start_states(model), np.array([0.3, 0.28, -2.0, 0.0])]:
+    inside = model.initial_state()
+    inside[:3] = 0.3, 0.28, -2.0
+    for start in [*_start_states(model), inside]:
         for sign in (1.0, -1.0):
             a, b = start.copy(), start.copy()
             assert model.step(a, sign * factor * F) == model.step(b, sign * F)
@@ -157,18 +167,23 @@ def test_force_beyond_the_limit_acts_as_the_limit(model: StepModel, factor: floa
 
 
 def test_force_within_the_limit_is_not_saturated(model: StepModel) -> None:
-    # the saturation bites only beyond F: just below it the response differs from at F
+    # the saturation bites only beyond F: just below it the response differs from at F (after a
+    # model's input delay, when it has one: hence a few steps)
     a, b = model.initial_state(), model.initial_state()
-    assert model.step(a, 0.9 * F) != model.step(b, F)
+    assert [model.step(a, 0.9 * F) for _ in range(4)][-1] != [model.step(b, F) for _ in range(4)][-1]
 
 
 def test_limit_is_the_model_s_own(model: StepModel) -> None:
     if model.kind == kernels.KIND_PLANT:
         wider = plant_model(replace(PLANT, F=2 * F))
+    elif model.kind == kernels.KIND_GREYBOX_RIG:  # its F is a parameter, as the plant's
+        params = model.params.copy()
+        params[6] = 2 * F
+        wider = replace(model, params=params, force_limit=2 * F)
     else:
         wider = replace(model, force_limit=2 * F)
     a, b = model.initial_state(), model.initial_state()
-    assert wider.step(a, 2 * F) != model.step(b, 2 * F)
+    assert [wider.step(a, 2 * F) for _ in range(4)][-1] != [model.step(b, 2 * F) for _ in range(4)][-1]
 
 
 @pytest.mark.parametrize("cfg", [QConfig(episodes=2, steps=500),

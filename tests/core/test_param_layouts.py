@@ -37,6 +37,7 @@ def test_layouts_agree_with_the_kernels() -> None:
     nlarx = KERNEL_LAYOUTS["nlarx"]
     assert (len(nlarx.head), len(nlarx.block)) == (kernels.NLARX_HEAD, kernels.NLARX_UNIT)
     assert nlarx.max_size == kernels.NLARX_HEAD + kernels.NLARX_UNIT * NLARX_MAX_UNITS
+    assert KERNEL_LAYOUTS["greybox-rig"].sizes(0) == (kernels.RIG_SIZE,)
 
 
 @pytest.mark.parametrize("name", ["glm", "plm", "nlarx-paper", "nlarx-improved", "greybox"])

@@ -108,3 +108,18 @@ def test_quantisation_is_applied_to_what_the_agent_sees():
 def test_one_seed_per_table_is_required(tables):
     with pytest.raises(InvalidInputError, match="one learning seed per Q-table"):
         robustness.rollouts(tables, CFG, P, parse("nominal"), [1], 100)
+
+
+def test_a_lag_slows_the_applied_force_and_lag_zero_changes_nothing(tables):
+    from msd_bench.core.actuation import actuator_force
+    from msd_bench.core.rig import Actuator
+
+    x0, u0 = robustness.rollouts(tables, CFG, P, parse("nominal"), SEEDS, 800)
+    xz, uz = robustness.rollouts(tables, CFG, P, parse("lag=0"), SEEDS, 800)
+    assert np.array_equal(x0, xz) and np.array_equal(u0, uz)
+    xl, _ = robustness.rollouts(tables, CFG, P, parse("lag=0.04"), SEEDS, 800)
+    assert not np.array_equal(x0, xl)
+    # the compiled actuator is the one actuation.py rebuilds forces with (same discretisation)
+    u = np.where(np.arange(200) % 37 < 18, 5.0, -2.5)
+    act = Actuator(delay=2, tau=0.03, dt=P.dt)
+    assert np.allclose([act.apply(v) for v in u], actuator_force(u, 2, 0.03, P.dt), rtol=0, atol=1e-12)

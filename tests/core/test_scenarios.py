@@ -40,10 +40,19 @@ def test_standard_suite_has_exactly_the_issue_ids_and_extras_append_once():
     ids = [s.id for s in suite(("noise=0.005,delay=1", "nominal"))]
     assert ids[: len(STANDARD)] == list(STANDARD)
     assert ids[len(STANDARD):] == ["noise=0.005,delay=1"]
-    assert len(STANDARD) == 13
+    assert len(STANDARD) == 14
 
 
 def test_noise_seed_depends_on_seed_and_id_only():
     assert noise_seed(3, "noise=0.005") == noise_seed(3, "noise=0.005")
     seeds = {noise_seed(3, "noise=0.005"), noise_seed(4, "noise=0.005"), noise_seed(3, "noise=0.002")}
     assert len(seeds) == 3
+
+
+def test_lag_parses_and_a_bad_lag_is_one_line():
+    assert parse("lag=0.02").lag == 0.02 and parse("lag=0.02,delay=1").delay == 1
+    assert "lag=0.02" in STANDARD
+    for bad in ("lag=-0.01", "lag=2", "lag=nan", "lag=fast"):
+        with pytest.raises(ConfigError) as err:
+            parse(bad)
+        assert "lag" in str(err.value) and "\n" not in str(err.value)

@@ -136,3 +136,25 @@ def test_robustness_of_every_agent_kind_is_reported(run):
     assert nominal["n"] == SEEDS
     assert nominal["sse"] == [r["sse"] for r in result["per_seed"]]  # same tables, same plant
     assert "Robustness" in proc.stdout
+
+
+def test_every_node_ran_from_its_job_file(run):
+    """bench.py wrote one job file per node process, and the identifier fitted with what it said."""
+    out, proc = run
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    jobs = {p.name for p in (out / "jobs").iterdir()}
+    experiments = sorted(p.name for p in (out / "excitation").iterdir())
+    assert jobs == {"identifier.json", *(f"agent-{k}.json" for k in AGENTS),
+                    *(f"{node}-{e}.json" for e in experiments for node in ("excitation", "recorder"))}
+    job = json.loads((out / "jobs" / "identifier.json").read_text())["params"]
+    used = json.loads((out / "models" / "glm.json").read_text())["provenance"]["parameters"]
+    assert {k: used[k] for k in job} == job
+    for e in experiments:  # the record stage's nodes played and stored what their files said
+        played = json.loads((out / "jobs" / f"excitation-{e}.json").read_text())["params"]
+        stored = json.loads((out / "jobs" / f"recorder-{e}.json").read_text())["params"]
+        _, params = read_experiment(out / "excitation" / e)
+        assert stored["bag_path"] == str(out / "excitation" / e)
+        assert json.loads(stored["params_json"]) == params
+        kind, signal = played["signal"], params[played["signal"]]
+        assert {k: played[f"{kind}.{k}"] for k in signal} == signal and played["seed"] == params["seed"]
+        assert played["dt"] == PlantParams().dt and played["wait_recorder"] == stored["bag_path"]

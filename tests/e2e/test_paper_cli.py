@@ -148,8 +148,14 @@ def test_models_and_qtables_are_written(run, table):
             doc = json.loads((out / "models" / f"id{i}" / f"{name}.json").read_text())
             assert doc  # a non-empty artifact
     for a in table["agents"]:
-        with np.load(out / "qtables" / f"{a['kind']}.npz") as npz:
-            assert npz["q"].shape[0] == a["n"]
+        tables = 0
+        made = sorted((out / "policies" / a["kind"]).iterdir())  # one artifact per model it was made on
+        assert len(made) == (1 if a["kind"] in ("plant", "dyna-q") else ID_SEEDS)
+        for d in made:
+            assert json.loads((d / "policy.json").read_text())["kind"] == a["kind"]
+            with np.load(d / "qtables.npz") as npz:
+                tables += npz["q"].shape[0]
+        assert tables == a["n"]
 
 
 def _assert_one_line_error(proc: subprocess.CompletedProcess[str], *fragments: str) -> str:
@@ -205,7 +211,7 @@ def test_robustness_is_written_and_printed(run, table):
     doc = json.loads((out / "robustness.json").read_text())
     assert (doc["schema"], doc["schema_version"]) == ("msd-bench/robustness", 2)
     assert doc["scenarios"][:3] == ["nominal", "setpoint=-1.5", "setpoint=-0.5"]
-    assert len(doc["scenarios"]) == 13
+    assert len(doc["scenarios"]) == 14
     cells = {a["kind"]: a["cells"] for a in doc["agents"]}
     assert set(cells) == {a["kind"] for a in table["agents"]}
     for a in table["agents"]:

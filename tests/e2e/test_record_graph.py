@@ -11,6 +11,7 @@ import pytest
 from msd_bench.core import excitation as exc
 from msd_bench.core.plant import preset, simulate
 from msd_bench.graph import launch
+from msd_bench.graph.jobs import JobFiles
 from msd_bench.graph.record import (
     ExperimentSpec,
     RecordError,
@@ -60,9 +61,11 @@ def test_two_experiments_record_exactly_what_the_plant_simulates(tmp_path):
         plant.wait_for_line("ready", timeout=20.0)
         plant_pid = plant.pid
         servers = RecordServers.launch(procs)
-        bags = record_experiments(SPECS, tmp_path, procs, progress=lambda *a: seen.append(a), servers=servers)
+        jobs = JobFiles(tmp_path / "run")
+        bags = record_experiments(SPECS, tmp_path, procs, progress=lambda *a: seen.append(a), servers=servers,
+                                  jobs=jobs)
         with pytest.raises(RecordError, match=r"^experiment multi: bag .* already exists"):
-            record_experiments(SPECS[1:], tmp_path, procs)  # the bag exists: the recorder refuses
+            record_experiments(SPECS[1:], tmp_path, procs, jobs=jobs)  # the bag exists: the recorder refuses
         pids = [p.pid for p in procs.procs]
     assert seen == [(1, 2, "prbs_p5"), (2, 2, "multi")]
     # lock-step: the second experiment reused the endpoints the first had matched (nodes/endpoints.py)
@@ -84,6 +87,12 @@ def test_two_experiments_record_exactly_what_the_plant_simulates(tmp_path):
         assert params == json.loads(json.dumps(spec.bag_params())) and params["role"] == spec.params["role"]
         assert np.array_equal(_regenerate(params), spec.force())  # the bag says how to replay it
     assert not any(_alive(pid) for pid in [plant_pid, *pids])
+    # each node ran from its job file, kept in the run directory as the record of what it was asked
+    ex_job = json.loads((tmp_path / "run" / "jobs" / "excitation-prbs_p5.json").read_text())
+    assert ex_job["role"] == "excitation" and ex_job["params"]["prbs.bias"] == 5.0
+    assert ex_job["params"]["dt"] == preset("default").dt
+    rec_job = json.loads((tmp_path / "run" / "jobs" / "recorder-multi.json").read_text())
+    assert rec_job["params"]["bag_path"] == str(tmp_path / "multi")
 
 
 def test_paper_plan_has_the_papers_experiments():

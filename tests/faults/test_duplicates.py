@@ -36,7 +36,7 @@ def test_simultaneous_plant_processes_leave_exactly_one() -> None:
         assert len(errors) == 1 and "already has a publisher" in errors[0]
         assert "Traceback" not in loser.output()
         survivor = alive[0]
-        survivor.wait_for_line(r"ready \(", 10.0)
+        survivor.wait_for_line(r"ready \(", 120.0)
     assert "shutdown: steps=" in survivor.output()
 
 
@@ -44,9 +44,11 @@ def test_started_later_yields_at_its_heartbeat() -> None:
     """A plant that skipped the start-up wait still yields once it hears an earlier claim."""
     with launch.process_group() as procs:
         first = procs.start("plant.py", ["-p", "duplicate_check:=0.0"], name="first")
-        first.wait_for_line(r"ready \(", 30.0)
+        first.wait_for_line(r"ready \(", 120.0)
         second = procs.start("plant.py", ["-p", "duplicate_check:=0.0"], name="second")
-        assert second.wait(30.0) == 2
+        # generous: the second plant's start-up (imports, discovery) before its first heartbeat took
+        # over 30 s beside a loaded suite; the behaviour is that it yields, not how fast
+        assert second.wait(180.0) == 2
         assert any("already has a publisher" in ln and "shutting down" in ln for ln in second.lines)
         assert first.popen.poll() is None
 
@@ -95,6 +97,25 @@ def test_a_claim_first_heard_after_the_window_never_wins_whatever_its_start() ->
     within = plant_claim.ClaimBook(own, 0.0)
     within.hear(plant_claim.encode(fake), now_ns=own.start_ns + within.window_ns)
     assert within.rival(own.start_ns + within.window_ns) == fake  # a simultaneous start is arbitrated
+
+
+def test_the_window_starts_when_the_node_first_listens_not_at_its_claim() -> None:
+    """CI on Jazzy: a plant without a start-up wait compiled its model for longer than the window
+    before it first spun, heard the serving plant's latched claim only then, ignored it, and ran."""
+    own = plant_claim.Claim(10**9, 10, "new", "/msd/plant")
+    serving = plant_claim.Claim(5 * 10**8, 20, "old", "/msd/plant")
+    book = plant_claim.ClaimBook(own, 0.0)
+    spun_at = own.start_ns + 10 * book.window_ns  # a long build before the first spin
+    assert not book.established(spun_at)  # not listening yet: it never claims to be serving
+    book.begin_listening(spun_at)
+    book.hear(plant_claim.encode(serving, established=True), now_ns=spun_at + 10**8)
+    assert book.rival(spun_at + 10**8) == serving
+    book.begin_listening(spun_at + 2 * book.window_ns)  # once: a later call does not reopen the window
+    late = plant_claim.Claim(0, 1, "f", "/msd/plant")
+    heard_at = spun_at + book.window_ns + 1
+    book.hear(plant_claim.encode(late, established=True), now_ns=heard_at)
+    assert [h.claim for h in book.ignored(heard_at)] == [late]
+    assert book.established(heard_at)
 
 
 def test_a_newcomer_yields_to_an_established_claim_whatever_the_start_times() -> None:
@@ -164,7 +185,9 @@ def test_a_fake_early_claim_does_not_stop_a_serving_plant() -> None:
             plant.wait_for_line(r"ignoring the claim of .*pid 1\b", 5.0, since)
             assert plant.popen.poll() is None, plant.output()
             assert "already has a publisher" not in plant.output()
-            assert procs.stop_all()[plant.name] == 0
+            # a clean exit on SIGINT, given the time a loaded machine needs (stop_all's 5 s ended in
+            # SIGTERM once, beside a loaded suite)
+            assert launch.stop(plant, grace=(120.0, 5.0, 5.0)) == 0
     finally:
         executor.shutdown()
         node.destroy_node()

@@ -34,7 +34,7 @@ def test_plant_process_reports_health_and_logs_a_stall() -> None:
     got: list[tuple[float, DiagnosticArray]] = []
     with launch.process_group() as procs:
         plant = procs.start("plant.py", ["-p", "duplicate_check:=0.0"])
-        plant.wait_for_line(r"ready \(", 30.0)
+        plant.wait_for_line(r"ready \(", 120.0)
         try:
             node = Node("health_probe", context=ctx)
             node.create_subscription(DiagnosticArray, DIAGNOSTICS.name,

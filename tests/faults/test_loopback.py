@@ -73,7 +73,7 @@ def _start_by_hand(argv: list[str]) -> launch.NodeProcess:
 def test_node_sockets_bind_only_to_loopback_and_shm_is_used() -> None:
     with launch.process_group() as procs:
         plant = procs.start("plant.py", ["-p", "duplicate_check:=0.0"])
-        plant.wait_for_line(r"ready \(", 30.0)
+        plant.wait_for_line(r"ready \(", 120.0)
         sockets = _sockets(plant.pid)
         shm = launch.shm_files_of(plant.pid)
     assert sockets, "the plant holds no UDP socket: nothing was checked"

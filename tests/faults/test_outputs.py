@@ -14,6 +14,7 @@ import subprocess
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -202,35 +203,51 @@ def test_efficiency_on_a_read_only_out_is_one_line(read_only_dir: Path,
     assert capsys.readouterr().out == ""
 
 
+def _stop_after_first_task(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Ctrl-C in the driver as it is about to write its second task; returns the tasks written."""
+    from msd_bench.io.run_dir import RunDir
+
+    real = RunDir.run_task
+    written: list[str] = []
+
+    def run_then_stop(self: RunDir, task: str, produce: Any) -> bool:
+        if written:
+            raise KeyboardInterrupt
+        written.append(task)
+        return real(self, task, produce)
+
+    monkeypatch.setattr(RunDir, "run_task", run_then_stop)
+    return written
+
+
+def _mtimes(root: Path) -> dict[str, int]:
+    return {str(p.relative_to(root)): p.stat().st_mtime_ns for p in root.rglob("*") if p.is_file()}
+
+
 def test_paper_resumes_an_unfinished_run_without_redoing_its_tasks(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
-    from msd_bench.app import output
-
-    assert cli_main(["paper", *TINY, "--out", str(tmp_path / "whole")]) == 0
-    real_qtables, real_report = output.write_qtables, output.write_report
-
-    def die(*args: object, **kwargs: object) -> None:
-        raise KeyboardInterrupt  # Ctrl-C (or a crash) while the Q-tables are written
-
-    monkeypatch.setattr(output, "write_qtables", die)
-    assert cli_main(["paper", *TINY, "--out", str(tmp_path / "cut")]) == 130
-    assert not is_complete(tmp_path / "cut") and not (tmp_path / "cut" / "complete").exists()
-    assert (tmp_path / "cut" / "table1.json").is_file() and not (tmp_path / "cut" / "qtables").exists()
-
-    calls: list[str] = []
-    monkeypatch.setattr(output, "write_qtables",
-                        lambda *a, **k: calls.append("qtables") or real_qtables(*a, **k))
-    monkeypatch.setattr(output, "write_report",
-                        lambda *a, **k: calls.append("table1") or real_report(*a, **k))
+    args = ["paper", *TINY, "--id-seeds", "2"]
+    assert cli_main([*args, "--out", str(tmp_path / "whole")]) == 0
+    written = _stop_after_first_task(monkeypatch)
+    assert cli_main([*args, "--out", str(tmp_path / "cut")]) == 130
+    cut = tmp_path / "cut"
+    assert not is_complete(cut) and not (cut / "table1.json").exists()
+    (first,) = written  # either identification seed may finish first: two workers run them together
+    other = "id1" if first == "id0" else "id0"
+    before = {k: v for k, v in _mtimes(cut).items() if first in k and "tasks" not in k}
+    assert first in ("id0", "id1") and any(k.startswith(f"policies/glm/{first}/") for k in before)
+    monkeypatch.undo()
     capsys.readouterr()
-    assert cli_main(["paper", *TINY, "--out", str(tmp_path / "cut")]) == 0
-    assert calls == ["qtables"]  # table1, robustness and the models were written by the first attempt
-    assert "resumed an unfinished run: 3 of 4 tasks were done already" in capsys.readouterr().err
-    assert is_complete(tmp_path / "cut")
-    whole, cut = (json.loads((tmp_path / d / "table1.json").read_text()) for d in ("whole", "cut"))
-    assert cut["agents"] == whole["agents"]
-    for name in ("qtables/glm.npz", "models/id0/glm.json"):
-        a, b = (tmp_path / "whole" / name), (tmp_path / "cut" / name)
+    assert cli_main([*args, "--out", str(cut)]) == 0
+    assert "resuming: 1 of 2 tasks already written, not recomputed" in capsys.readouterr().err
+    assert {k: v for k, v in _mtimes(cut).items() if k in before} == before  # not recomputed
+    assert is_complete(cut)
+    whole, again = (json.loads((tmp_path / d / "table1.json").read_text()) for d in ("whole", "cut"))
+    assert again["agents"] == whole["agents"]
+    assert json.loads((cut / "robustness.json").read_text()) == json.loads(
+        (tmp_path / "whole" / "robustness.json").read_text())
+    for name in (f"policies/glm/{other}/qtables.npz", f"models/{other}/glm.json"):
+        a, b = (tmp_path / "whole" / name), (cut / name)
         if name.endswith(".npz"):
             with np.load(a) as x, np.load(b) as y:
                 assert all(np.array_equal(x[k], y[k]) for k in ("q", "first", "last"))
@@ -243,25 +260,21 @@ EFFICIENCY = ["efficiency", "--seeds", "1", "--id-seeds", "1", "--agents", "glm+
               "--episodes", "2"]
 
 
-def test_efficiency_resumes_without_resweeping_a_finished_route(tmp_path: Path,
-                                                                monkeypatch: pytest.MonkeyPatch) -> None:
-    from msd_bench.app import efficiency as eff
-
+def test_efficiency_resumes_without_recomputing_a_finished_point(tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
     assert cli_main([*EFFICIENCY, "--out", str(tmp_path / "whole")]) == 0
-    real_surrogate, real_plant = eff.surrogate_points, eff.plant_points
-    swept: list[str] = []
-
-    def die(*args: object, **kwargs: object) -> None:
-        raise KeyboardInterrupt  # stopped during the on-plant route
-
-    monkeypatch.setattr(eff, "surrogate_points",
-                        lambda *a, **k: swept.append("surrogate") or real_surrogate(*a, **k))
-    monkeypatch.setattr(eff, "plant_points", die)
+    assert "<h2>Data efficiency</h2>" in (tmp_path / "whole" / "index.html").read_text()
+    written = _stop_after_first_task(monkeypatch)
     assert cli_main([*EFFICIENCY, "--out", str(tmp_path / "cut")]) == 130
     assert not is_complete(tmp_path / "cut") and not (tmp_path / "cut" / "efficiency.json").exists()
-    monkeypatch.setattr(eff, "plant_points", lambda *a, **k: swept.append("plant") or real_plant(*a, **k))
+    first = tmp_path / "cut" / "points" / f"{written[0]}.json"
+    mtime = first.stat().st_mtime_ns
+    monkeypatch.undo()
+    capsys.readouterr()
     assert cli_main([*EFFICIENCY, "--out", str(tmp_path / "cut")]) == 0
-    assert swept == ["surrogate", "plant"]  # the surrogate route was not swept again on resume
+    assert "resuming: 1 of 2 tasks already written, not recomputed" in capsys.readouterr().err
+    assert first.stat().st_mtime_ns == mtime
     assert is_complete(tmp_path / "cut")
     whole, cut = (json.loads((tmp_path / d / "efficiency.json").read_text()) for d in ("whole", "cut"))
     assert cut == whole
@@ -281,12 +294,27 @@ def test_a_paper_run_of_other_options_is_not_resumed(tmp_path: Path,
 
 # --- the report stage of a received run ------------------------------------------------------------
 
+def _received_policy(root: Path) -> None:
+    """The model and the trained-policy artifact an agent node leaves beside its result.json (the
+    report loads both): the pinned GLM and a paper agent trained on it for a few steps."""
+    from msd_bench import designs
+    from msd_bench.designs import Settings
+    from msd_bench.io.artifacts import load_model
+
+    (root / "models").mkdir(parents=True, exist_ok=True)
+    pinned = Path(__file__).resolve().parents[1] / "data" / "pinned" / "glm.json"
+    (root / "models" / "glm.json").write_bytes(pinned.read_bytes())
+    policy = designs.make("glm", load_model(pinned), Settings(episodes=1, steps=20), [0])
+    designs.save(policy, root / "agents" / "glm", {"test": "received run"}, root=root)
+
+
 def _received_run(root: Path, training: str = "in-process") -> Path:
     rows = [{"seed": 0, "id_seed": 0, "mae": 0.1, "std": 0.1, "po": 1.0, "ts": 2.0, "ts5": 1.5, "sse": 1.0,
              "success": True}]
     doc = {"kind": "glm", "training": training, "real_interactions": 0, "per_seed": rows}
     (root / "agents" / "glm").mkdir(parents=True)
     (root / "agents" / "glm" / "result.json").write_text(json.dumps(doc))
+    _received_policy(root)
     return root
 
 

@@ -65,6 +65,8 @@ OUT_OF_RANGE = [
     ("plant", "duplicate_check:=-1.0", "duplicate_check"), ("plant", "m:=.nan", "m"),
     ("plant", "c:=.inf", "c"), ("plant", "preset:=bogus", "preset"),
     ("plant", "lockstep:=maybe", "lockstep"), ("plant", "m:=heavy", "m"),
+    ("plant", "live_port:=70000", "live_port"), ("plant", "live_port:=-5", "live_port"),
+    ("rig", "live_port:=65536", "live_port"),
     ("excitation", "prbs.n_samples:=100000000000", "prbs.n_samples"),
     ("excitation", "prbs.n_samples:=1e11", "prbs.n_samples"),
     ("excitation", "prbs.n_samples:=0", "prbs.n_samples"), ("excitation", "prbs.hold:=0", "prbs.hold"),

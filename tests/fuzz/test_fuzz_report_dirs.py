@@ -3,7 +3,8 @@
 Property: whatever the files hold — random bytes, random JSON, the valid
 documents truncated or with fields replaced by random JSON, deep nesting —
 the report stage's readers (``load_results``, ``on_node_robustness``,
-``write_run_facts``) either accept them, and then Table 1 and the robustness
+``write_run_facts``; each kind's trained-policy artifact is valid and fixed)
+either accept them, and then Table 1 and the robustness
 table are written from them without an error, or raise one MsdBenchError line
 naming the file; never a traceback from ``json``, a ``KeyError`` or a
 ``TypeError`` deeper in the report.
@@ -46,7 +47,20 @@ FACTS = {"preset": "default", "seeds": 2, "window": 500}
 
 @pytest.fixture(scope="module")
 def run_dir() -> Iterator[Path]:
+    """A run directory holding what the fuzzed files sit beside: each kind's model and trained-policy
+    artifact (``policy.json``, ``qtables.npz``), which the report loads its rows' policies from."""
+    from msd_bench import designs
+    from msd_bench.core.model import plant_model
+    from msd_bench.core.plant import PlantParams
+    from msd_bench.io import artifacts
+
     path = Path(tempfile.mkdtemp(prefix="fuzz_report_"))
+    model = plant_model(PlantParams())
+    for name in ("glm", "plm"):
+        artifacts.save_model(model, path / "models" / f"{name}.json", artifacts.Provenance(), root=path)
+    for kind in AGENTS:
+        policy = designs.make(kind, model, designs.Settings(episodes=1, steps=20), [0, 1])
+        designs.save(policy, path / "agents" / kind, {}, root=path)
     yield path
     shutil.rmtree(path)
 

@@ -32,6 +32,13 @@ from msd_msgs_py.contract import PLANT_NAMESPACE, REFERENCE
 from msd_msgs_py.ros import msg_class, qos
 from tests.nodes.conftest import spin_until
 
+
+def _qc(cfg):
+    """The learner the node's kind trains with at its budgets (the design's choice)."""
+    from msd_bench.app.agents import learner_config
+
+    return learner_config(cfg.kind, cfg.episodes, cfg.steps, cfg.force, cfg.shaping)
+
 pytestmark = pytest.mark.ros
 LOCKSTEP = PlantNodeConfig(lockstep=True, duplicate_check=0.0)
 
@@ -62,9 +69,9 @@ def test_ros_training_is_bit_identical_and_validation_matches_core(ctx, executor
                           window=100, out_dir=str(tmp_path))
     model = artifacts.load_model(glm_path)
     agent = _run(ctx, executor, cfg, surrogate=model)
-    reference = train(model, cfg.qconfig(), cfg.seeds)
-    assert np.array_equal(agent.q, reference.q)
-    x_ref, u_ref = greedy_rollouts(plant_model(PlantParams()), reference.q, cfg.qconfig(), 1.0, 300)
+    reference = train(model, _qc(cfg), cfg.seeds)
+    assert np.array_equal(agent.policy.q, reference.q)
+    x_ref, u_ref = greedy_rollouts(plant_model(PlantParams()), reference.q, _qc(cfg), 1.0, 300)
     for i, seed in enumerate(cfg.seeds):
         exp, params = read_experiment(tmp_path / "validation" / f"seed_{seed}")
         assert np.array_equal(exp.y, x_ref[i]) and np.array_equal(exp.u, u_ref[i])
@@ -84,21 +91,21 @@ def test_ros_training_keeps_the_tables_the_batch_selects(ctx, executor, glm_path
     cfg = AgentNodeConfig(kind="glm+robust", model_path=str(glm_path), seeds=(3, 4), episodes=4, steps=150,
                           via_ros=True, surrogate_ns="/surrogate/glm", validation_steps=100,
                           window=50, out_dir=str(tmp_path))
-    assert cfg.qconfig().selection_episodes() == (4, 3, 2)
+    assert _qc(cfg).selection_episodes() == (4, 3, 2)
     model = artifacts.load_model(glm_path)
     agent = _run(ctx, executor, cfg, surrogate=model)
-    reference = train(model, cfg.qconfig(), cfg.seeds)
+    reference = train(model, _qc(cfg), cfg.seeds)
     assert reference.kept_episodes is not None
-    assert np.array_equal(agent.q, reference.q)
+    assert np.array_equal(agent.policy.q, reference.q)
 
 
 def test_dyna_q_interacts_with_the_plant_node(ctx, executor, tmp_path):
     cfg = AgentNodeConfig(kind="dyna-q", planning_steps=5, seeds=(1,), episodes=2,
                           steps=100, validation_steps=200, window=50, out_dir=str(tmp_path))
     agent = _run(ctx, executor, cfg)
-    ref = train_dyna(plant_model(PlantParams()), DynaConfig(replace(cfg.qconfig()), 5), [1])
-    assert np.array_equal(agent.q, ref.q)
-    assert agent.real_steps == 200
+    ref = train_dyna(plant_model(PlantParams()), DynaConfig(replace(_qc(cfg)), 5), [1])
+    assert np.array_equal(agent.policy.q, ref.q)
+    assert agent.policy.facts.real_interactions == 200
 
 
 def test_validation_announces_the_set_point_and_bags_it(ctx, executor, tmp_path):
@@ -143,7 +150,7 @@ def test_ros_training_on_the_events_executor_is_bit_identical(ctx, glm_path, tmp
     try:
         agent = _run(ctx, events, cfg, surrogate=artifacts.load_model(glm_path))
         assert agent.done.result() == 0
-        assert np.array_equal(agent.q, train(artifacts.load_model(glm_path), cfg.qconfig(), cfg.seeds).q)
+        assert np.array_equal(agent.policy.q, train(artifacts.load_model(glm_path), _qc(cfg), cfg.seeds).q)
     finally:
         events.shutdown()
 

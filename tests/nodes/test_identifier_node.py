@@ -110,3 +110,26 @@ def test_node_runs_once_and_finishes(ctx, executor, bag_dir, tmp_path):
     executor.add_node(node)
     assert spin_until(executor, node.done.done, timeout=60.0)
     assert node.done.result() == 0 and (tmp_path / "fits.json").is_file()
+
+
+@pytest.mark.ros
+def test_node_from_a_job_file_announces_its_models_as_events(ctx, executor, bag_dir, tmp_path, capfd):
+    """``-p job:=<file>`` (as bench.py hands it): the node fits what the file says and reports each
+    model, and the end, as structured events on stdout."""
+    from rclpy.parameter import Parameter
+
+    from msd_bench.app.config import RunConfig
+    from msd_bench.app.job import job_document
+    from msd_bench.app.serve_protocol import parse_event
+
+    place = {"bags_dir": str(bag_dir), "out_dir": str(tmp_path / "models")}
+    doc = job_document("identifier", RunConfig(agents=("glm",)), place, seed=3)
+    job = tmp_path / "identifier.json"
+    job.write_text(json.dumps(doc))
+    node = IdentifierNode(context=ctx, parameter_overrides=[Parameter("job", value=str(job))])
+    assert (node.config.models, node.config.seed) == (("glm",), 3)
+    executor.add_node(node)
+    assert spin_until(executor, node.done.done, timeout=60.0) and node.done.result() == 0
+    events = [e for e in (parse_event(ln, "identifier") for ln in capfd.readouterr().out.splitlines()) if e]
+    assert [e["event"] for e in events] == ["model_saved", "identified"]
+    assert events[0]["model"] == "glm" and Path(events[0]["path"]) == tmp_path / "models" / "glm.json"

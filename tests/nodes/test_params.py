@@ -103,3 +103,39 @@ def test_pacer_deadlines_stay_an_exact_grid_at_any_uptime(uptime_s):
         deadlines += pacer.due(now)
         now = pacer.next_deadline_ns + 3_000  # each wake-up 3 µs late, as the thread's
     assert len(deadlines) == 100_000 and set(np.diff(deadlines).tolist()) == {10 * MS}
+
+
+def _agent_job_file(tmp_path, **run):
+    import json
+
+    from msd_bench.app.config import RunConfig
+    from msd_bench.app.job import job_document
+
+    doc = job_document("agent", RunConfig(**run), {"kind": "glm", "model_path": "m.json", "out_dir": "out"})
+    path = tmp_path / "agent.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_a_job_file_sets_the_declared_parameters_and_a_p_beside_it_wins(ctx, tmp_path):
+    from msd_bench.nodes.agent_node import AgentNodeConfig
+    from msd_bench.nodes.params import declare_config
+
+    path = _agent_job_file(tmp_path, episodes=7, steps=40)
+    node = Node("p", context=ctx, parameter_overrides=[Parameter("job", value=str(path)),
+                                                       Parameter("steps", value=55)])
+    cfg = declare_config(node, AgentNodeConfig, "agent")
+    assert (cfg.episodes, cfg.steps) == (7, 55)
+    assert node.get_parameter("episodes").value == 7  # ros2 param get shows what it runs with
+
+
+def test_without_a_job_file_the_parameters_alone_decide(ctx):
+    from msd_bench.app.job import SHARED_DEFAULTS
+    from msd_bench.nodes.agent_node import AgentNodeConfig
+    from msd_bench.nodes.params import declare_config
+
+    node = Node("p", context=ctx, parameter_overrides=[Parameter("out_dir", value="o"),
+                                                       Parameter("kind", value="dyna-q")])
+    cfg = declare_config(node, AgentNodeConfig, "agent")
+    assert (cfg.episodes, cfg.dt, cfg.force) == (SHARED_DEFAULTS["episodes"], SHARED_DEFAULTS["dt"],
+                                                 SHARED_DEFAULTS["force"])

@@ -16,6 +16,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
+from msd_bench.core.plant import PlantParams
 from msd_bench.nodes.plant_node import GraphConflictError
 from msd_bench.nodes.rig_node import RigNode
 from msd_msgs_py.contract import FORCE, JOINT_NAME, JOINT_STATES, POSITION, TRUTH_JOINT_STATES
@@ -26,9 +27,9 @@ pytestmark = pytest.mark.ros
 REPO = Path(__file__).resolve().parents[2]
 
 
-def make_rig(ctx, executor, **params: Any) -> RigNode:
+def make_rig(ctx, executor, namespace: str = "/rig", **params: Any) -> RigNode:
     overrides = [Parameter(n, value=v) for n, v in {"duplicate_check": 0.0, **params}.items()]
-    rig = RigNode(context=ctx, parameter_overrides=overrides)
+    rig = RigNode(context=ctx, namespace=namespace, parameter_overrides=overrides)
     executor.add_node(rig)
     return rig
 
@@ -148,6 +149,9 @@ def test_second_node_on_the_namespace_refuses_to_start(ctx, executor):
     (["-p", "jitter:=0.02"], "below the sample time"),
     (["-p", "delay_sample:=2"], "did you mean delay_samples"),
     (["-p", "lockstep:=true"], "real time only"),
+    (["-p", "population_seed:=-1"], "population_seed"),
+    (["-p", "population_seed:=2147483648"], "population_seed"),
+    (["-p", "population_seed:=abc"], "population_seed"),
 ])
 def test_bad_parameters_are_one_line_errors_in_a_real_process(args, needle):
     proc = subprocess.run([sys.executable, "launch_scripts/rig.py", "--ros-args", *args], cwd=REPO,
@@ -155,3 +159,33 @@ def test_bad_parameters_are_one_line_errors_in_a_real_process(args, needle):
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0 and needle in proc.stderr, proc.stderr
     assert "Traceback" not in proc.stdout + proc.stderr
+
+
+def test_a_population_seed_serves_that_member_and_explicit_parameters_win(ctx, executor):
+    from dataclasses import replace
+
+    from msd_bench.core.population import draw
+    member = draw(1001)
+    rig = make_rig(ctx, executor, "/pop_a", population_seed=1001)
+    assert rig.served() == member and rig.rig.params == member.params
+    assert rig.rig.imperfections == member.imperfections
+    assert rig._sensor_text().startswith(member.line() + " (population member)")
+    rig.destroy_node()
+    other = 1 - member.imperfections.delay_samples if member.imperfections.delay_samples < 2 else 0
+    rig = make_rig(ctx, executor, "/pop_b", population_seed=1001, delay_samples=other, m=2.0)
+    want = replace(member, params=replace(member.params, m=2.0),
+                   imperfections=replace(member.imperfections, delay_samples=other))
+    assert rig.served() == want
+    assert "explicit delay_samples, m" in rig._sensor_text()
+    rig.destroy_node()
+    rig = make_rig(ctx, executor, "/pop_c", population_seed=1001, preset="default")
+    assert rig.served().params == PlantParams() and rig.served().imperfections == member.imperfections
+    rig.destroy_node()
+
+
+def test_the_default_rig_is_the_reserved_member(ctx, executor):
+    from msd_bench.core.plant import PRESETS
+    from msd_bench.core.rig import RigImperfections
+    rig = make_rig(ctx, executor)
+    assert rig.served().params == PRESETS["rig"] and rig.imperfections == RigImperfections()
+    assert rig._sensor_text().startswith("rig 0: ")

@@ -32,9 +32,9 @@ from numpy.typing import NDArray
 from scipy.optimize import brentq
 
 from msd_bench.core import kernels
-from msd_bench.core.closed_loop import Conditions, _advance
+from msd_bench.core.closed_loop import Conditions, _advance, actuate
 from msd_bench.core.errors import ConfigError, InvalidInputError
-from msd_bench.core.kernels import KIND_PLANT, Kernel
+from msd_bench.core.kernels import KIND_GREYBOX_RIG, MOTION, POS, Kernel
 from msd_bench.core.model import StepModel
 from msd_bench.core.qconfig import QConfig
 
@@ -65,23 +65,47 @@ class OperatingPoint(NamedTuple):
     u_eq: float
     """Force that holds the model at the set-point, N."""
     s_eq: FloatArray
-    """The model's state slots at the equilibrium (``n`` of its four slots)."""
+    """The model's used state slots at the equilibrium (``n`` = :func:`kernels.used_slots`)."""
     a: FloatArray
     """State matrix (n, n) of the slots ``s[:n]``."""
     b: FloatArray
-    """Input column (n,): the response of the slots to a force."""
+    """Input column (n,): the response of the slots to the commanded force."""
     velocity: FloatArray
     """Row (n,) mapping slot deviations to velocity, m/s (plant: ``v``; ARX: ``(x_k - x_{k-1})/dt``)."""
+    load: FloatArray
+    """Load column (n,): the response of the slots to a force acting beside the actuator (the
+    observer's bias enters here). The same as ``b`` except behind a greybox-rig's delay and lag."""
 
 
 def slots(model: StepModel) -> int:
-    """How many state slots the kind uses: plant ``[x, v]``, ARX-type ``[x_k, x_{k-1}, u_{k-1}]``."""
-    return 2 if model.kind == KIND_PLANT else 3
+    """How many state slots the kind uses (:func:`kernels.used_slots`)."""
+    return int(kernels.used_slots(model.kernel))
 
 
 def _rest_state(model: StepModel, x: float, u: float) -> FloatArray:
-    """The state of a model at rest at ``x`` under force ``u``."""
-    return np.array([x, 0.0, 0.0, 0.0]) if model.kind == KIND_PLANT else np.array([x, x, u, 0.0])
+    """The full state of a model at rest at ``x`` under force ``u`` (every kind's layout)."""
+    s = model.initial_state()
+    s[POS] = x
+    if not kernels.holds_velocity(model.kind):  # ARX: x_{k-1} = x, u_{k-1} = u
+        s[MOTION] = x
+        s[kernels.ARX_INPUT] = u
+    elif model.kind == KIND_GREYBOX_RIG:  # the lag's output and every queued command are u
+        s[kernels.RIG_LAG:slots(model)] = u
+    return s
+
+
+def _smooth(model: StepModel) -> StepModel:
+    """``model`` without Coulomb friction: the part a linear design can see.
+
+    Why: friction holds a rig at rest over a band of forces, so the
+    equilibrium force and the Jacobian at v = 0 are not defined with it; the
+    designs are linear and meet friction as a disturbance, as a load.
+    """
+    if model.kind != KIND_GREYBOX_RIG:
+        return model
+    p = model.params.copy()
+    p[kernels.PLANT_SIZE] = 0.0
+    return StepModel(model.kind, p, model.name, dict(model.info), model.dt, model.force_limit)
 
 
 def _next(model: StepModel, s: FloatArray, u: float, load: float) -> FloatArray:
@@ -93,7 +117,7 @@ def _next(model: StepModel, s: FloatArray, u: float, load: float) -> FloatArray:
 def equilibrium_force(model: StepModel, target: float) -> float:
     """The force within ±F that holds ``model`` at rest at ``target`` (a root of its static map)."""
     def residual(u: float) -> float:
-        return float(_next(model, _rest_state(model, target, u), u, 0.0)[0] - target)
+        return float(_next(model, _rest_state(model, target, u), u, 0.0)[POS] - target)
 
     f = model.force_limit
     grid = np.linspace(-f, f, 41)
@@ -112,6 +136,7 @@ def operating_point(model: StepModel, target: float) -> OperatingPoint:
     """Equilibrium and Jacobians of ``model`` at ``target`` (central differences of the kernel)."""
     if not (math.isfinite(target) and abs(target) < model.x_max):
         raise ConfigError(f"set-point must be finite and inside the ±{model.x_max} m stroke, got {target}")
+    model = _smooth(model)
     u_eq = equilibrium_force(model, target)
     n = slots(model)
     s_eq = _rest_state(model, target, u_eq)
@@ -121,21 +146,32 @@ def operating_point(model: StepModel, target: float) -> OperatingPoint:
         up[i] += _FD_STEP
         down[i] -= _FD_STEP
         a[:, i] = (_next(model, up, u_eq, 0.0) - _next(model, down, u_eq, 0.0))[:n] / (2 * _FD_STEP)
-    # A load enters exactly like an unsaturated force and is never clipped, so it is the input column.
-    b = (_next(model, s_eq, u_eq, _FD_STEP) - _next(model, s_eq, u_eq, -_FD_STEP))[:n] / (2 * _FD_STEP)
+    # A load is never clipped; it enters like an unsaturated force except behind an actuator.
+    load = (_next(model, s_eq, u_eq, _FD_STEP) - _next(model, s_eq, u_eq, -_FD_STEP))[:n] / (2 * _FD_STEP)
+    b = load if model.kind != KIND_GREYBOX_RIG else _command_column(model, s_eq, u_eq, n)
     velocity = np.zeros(n)
-    if model.kind == KIND_PLANT:
-        velocity[1] = 1.0
+    if kernels.holds_velocity(model.kind):
+        velocity[MOTION] = 1.0
     else:
-        velocity[0], velocity[1] = 1.0 / model.dt, -1.0 / model.dt
-    return OperatingPoint(float(target), u_eq, s_eq[:n].copy(), a, b, velocity)
+        velocity[POS], velocity[MOTION] = 1.0 / model.dt, -1.0 / model.dt
+    return OperatingPoint(float(target), u_eq, s_eq[:n].copy(), a, b, velocity, load)
+
+
+def _command_column(model: StepModel, s_eq: FloatArray, u_eq: float, n: int) -> FloatArray:
+    """Response of the used slots to the command (into the delay line or the lag), central differences.
+
+    A one-sided difference at a saturated equilibrium force: the command cannot go beyond ±F.
+    """
+    hi = min(u_eq + _FD_STEP, model.force_limit)
+    lo = max(u_eq - _FD_STEP, -model.force_limit)
+    return np.asarray((_next(model, s_eq, hi, 0.0) - _next(model, s_eq, lo, 0.0))[:n] / (hi - lo))
 
 
 def transfer_function(op: OperatingPoint, dt: float) -> control.TransferFunction:
     """Force deviation to position deviation at the operating point, as a discrete transfer function."""
     n = op.b.size
     c = np.zeros((1, n))
-    c[0, 0] = 1.0
+    c[0, POS] = 1.0
     sys = control.ss(op.a, op.b.reshape(n, 1), c, np.zeros((1, 1)), dt)
     return control.minreal(control.ss2tf(sys), verbose=False)
 
@@ -149,6 +185,8 @@ class Observer(NamedTuple):
     """Current-estimate gains on the innovation: one per used slot, then the force bias (N/m)."""
     n: int
     """Used slots of the model's state."""
+    size: int
+    """Length of the model's state (:func:`kernels.state_size`); the force bias sits in slot ``size``."""
     bias_limit: float
     """The bias estimate is held within ±bias_limit N (a larger load could not be held anyway)."""
 
@@ -173,13 +211,13 @@ def observer_gain(op: OperatingPoint, noise: ObserverNoise) -> FloatArray:
     n = op.b.size
     a = np.zeros((n + 1, n + 1))
     a[:n, :n] = op.a
-    a[:n, n] = op.b
+    a[:n, n] = op.load
     a[n, n] = 1.0
     g = np.zeros((n + 1, 2))
-    g[:n, 0] = op.b
+    g[:n, 0] = op.load
     g[n, 1] = 1.0
     c = np.zeros((1, n + 1))
-    c[0, 0] = 1.0
+    c[0, POS] = 1.0
     qn = np.diag([noise.force ** 2, noise.bias ** 2])
     rn = np.array([[noise.sensor ** 2]])
     _, p, _ = control.dlqe(a, g, c, qn, rn)
@@ -187,34 +225,42 @@ def observer_gain(op: OperatingPoint, noise: ObserverNoise) -> FloatArray:
     return np.ascontiguousarray(m[:, 0])
 
 
-def observer_state() -> FloatArray:
-    """A zeroed observer state: the model's four slots, then the force-bias estimate."""
-    return np.zeros(5)
+@numba.njit(cache=True)
+def observer_state(ob: Observer) -> FloatArray:
+    """A zeroed observer state: the model's state (its own length), then the force-bias estimate."""
+    return np.zeros(ob.size + 1)
+
+
+@numba.njit(cache=True)
+def model_state(ob: Observer, ost: FloatArray) -> FloatArray:
+    """The model's state inside the observer's (a view: the predictor advances it in place)."""
+    return ost[:ob.size]
 
 
 @numba.njit(cache=True)
 def observe_first(ob: Observer, ost: FloatArray, y: float) -> None:
     """Start the estimate at rest at the first measurement, with no bias (as the Q-learners' observer)."""
     ost[:] = 0.0
-    ost[0] = y
-    if ob.model.kind != KIND_PLANT:
-        ost[1] = y
+    ost[POS] = y
+    if not kernels.holds_velocity(ob.model.kind):
+        ost[MOTION] = y
 
 
 @numba.njit(cache=True)
 def observe(ob: Observer, ost: FloatArray, u: float, y: float) -> None:
     """Predict one sample under the commanded ``u`` plus the bias estimate, then correct toward ``y``."""
-    pred = kernels.advance_loaded(ob.model, ost[:4], u, ost[4])
+    pred = kernels.advance_loaded(ob.model, model_state(ob, ost), u, ost[ob.size])
     r = y - pred
     for i in range(ob.n):
         ost[i] += ob.gain[i] * r
-    b = ost[4] + ob.gain[ob.n] * r
-    ost[4] = min(max(b, -ob.bias_limit), ob.bias_limit)
+    b = ost[ob.size] + ob.gain[ob.n] * r
+    ost[ob.size] = min(max(b, -ob.bias_limit), ob.bias_limit)
 
 
 def make_observer(model: StepModel, op: OperatingPoint, noise: ObserverNoise) -> Observer:
     """The compiled observer of ``model`` with its gain designed at ``op``."""
-    return Observer(model.kernel, observer_gain(op, noise), op.b.size, float(model.force_limit))
+    return Observer(model.kernel, observer_gain(op, noise), op.b.size, model.initial_state().size,
+                    float(model.force_limit))
 
 
 @numba.njit(cache=True)
@@ -232,11 +278,11 @@ def plant_side(plant: Kernel, state: FloatArray, queue: FloatArray, k: int, u: f
                cond: Conditions) -> float:
     """Command ``u`` issued at sample ``k``; the plant advances under the one issued ``delay`` ago.
 
-    Exactly :func:`closed_loop.greedy_under`'s plant half: a queue of
-    ``delay + 1`` commands, a load from ``load_step`` on, friction on the plant kind.
+    Exactly :func:`closed_loop.greedy_under`'s plant half: the rig's actuator
+    (``queue`` is its state, ``delay + 2`` long: :func:`closed_loop.actuator_state`;
+    the delay, then the lag), a load from ``load_step`` on, friction on the plant kind.
     """
-    queue[k % (cond.delay + 1)] = u
-    applied = queue[(k + 1) % (cond.delay + 1)]
+    applied = actuate(queue, k, u, cond.delay, cond.lag)
     load = cond.load if k >= cond.load_step else 0.0
     x: float = _advance(plant, state, applied, load, cond.friction)
     return x

@@ -32,11 +32,12 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from msd_bench.core import kernels
 from msd_bench.core.baselines import base
 from msd_bench.core.baselines.base import Observer, ObserverNoise
 from msd_bench.core.closed_loop import Conditions, quantise
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.kernels import Kernel
+from msd_bench.core.kernels import POS, Kernel
 from msd_bench.core.model import StepModel
 
 FloatArray = NDArray[np.float64]
@@ -103,7 +104,7 @@ def augmented(op: base.OperatingPoint, dt: float) -> tuple[FloatArray, FloatArra
     n = op.b.size
     a = np.zeros((n + 1, n + 1))
     a[:n, :n] = op.a
-    a[n, 0] = dt
+    a[n, POS] = dt
     a[n, n] = 1.0
     b = np.zeros((n + 1, 1))
     b[:n, 0] = op.b
@@ -114,7 +115,7 @@ def weights(op: base.OperatingPoint, opt: LqrOptions) -> tuple[FloatArray, Float
     """Bryson's Q (position, velocity, integral) and R (force) for the augmented state."""
     n = op.b.size
     pos = np.zeros(n + 1)
-    pos[0] = 1.0
+    pos[POS] = 1.0
     vel = np.zeros(n + 1)
     vel[:n] = op.velocity
     integ = np.zeros(n + 1)
@@ -154,7 +155,7 @@ def act(w: LqrLaw, ob: Observer, ost: FloatArray, cs: FloatArray, y: float, firs
     else:
         base.observe(ob, ost, cs[1], y)
     n = w.s_eq.size
-    e = ost[0] - w.target
+    e = ost[POS] - w.target
     u = w.u_eq - w.k[n] * cs[0]
     for i in range(n):
         u -= w.k[i] * (ost[i] - w.s_eq[i])
@@ -172,10 +173,10 @@ def rollout_under(plant: Kernel, w: LqrLaw, ob: Observer, cond: Conditions,
     n, n_steps = noise.shape
     xs = np.empty((n, n_steps))
     us = np.empty((n, n_steps))
-    state = np.zeros(4)
-    ost = np.zeros(5)
+    state = np.zeros(kernels.state_size(plant.kind))
+    ost = base.observer_state(ob)
     cs = np.zeros(2)
-    queue = np.zeros(cond.delay + 1)
+    queue = np.zeros(cond.delay + 2)  # the actuator's state (closed_loop.actuator_state)
     for j in range(n):
         state[:] = 0.0
         queue[:] = 0.0
@@ -196,7 +197,7 @@ class Lqr:
 
     def __init__(self, d: LqrDesign) -> None:
         self.law, self.observer = d.law, d.observer
-        self.ost = base.observer_state()
+        self.ost = base.observer_state(d.observer)
         self.cs = np.zeros(2)
         self.first = True
 

@@ -49,7 +49,7 @@ from msd_bench.core.baselines import base
 from msd_bench.core.baselines.base import Observer, ObserverNoise
 from msd_bench.core.closed_loop import Conditions, quantise
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.kernels import Kernel
+from msd_bench.core.kernels import POS, Kernel
 from msd_bench.core.model import StepModel
 
 FloatArray = NDArray[np.float64]
@@ -163,7 +163,7 @@ class Workspace(NamedTuple):
     """Scratch arrays of the search (allocated once, reused every sample)."""
 
     states: FloatArray
-    """Model state at the start of each depth (depth + 1, 4)."""
+    """Model state at the start of each depth (depth + 1, the model's state length)."""
     costs: FloatArray
     """Partial cost at the start of each depth."""
     choice: IntArray
@@ -177,8 +177,9 @@ class Workspace(NamedTuple):
 def workspace(law: MpcLaw) -> Workspace:
     """Scratch arrays for ``law``'s tree."""
     depth = law.blocks.size
-    return Workspace(np.zeros((depth + 1, 4)), np.zeros(depth + 1), np.zeros(depth, dtype=np.int64),
-                     np.zeros(depth, dtype=np.int64), np.full(depth, -1, dtype=np.int64))
+    return Workspace(np.zeros((depth + 1, kernels.state_size(law.model.kind))), np.zeros(depth + 1),
+                     np.zeros(depth, dtype=np.int64), np.zeros(depth, dtype=np.int64),
+                     np.full(depth, -1, dtype=np.int64))
 
 
 @numba.njit(cache=True)
@@ -269,10 +270,10 @@ def act(w: MpcLaw, ob: Observer, ws: Workspace, ost: FloatArray, cs: FloatArray,
     else:
         base.observe(ob, ost, cs[0], y)
     ref = w.target - w.ki * cs[1]
-    u = plan(w, ws, ost[:4], ost[4], cs[0], ref)
-    shift = w.ki * (cs[1] + w.dt * (ost[0] - w.target))
+    u = plan(w, ws, base.model_state(ob, ost), ost[ob.size], cs[0], ref)
+    shift = w.ki * (cs[1] + w.dt * (ost[POS] - w.target))
     if abs(shift) <= w.max_shift:  # clamped integral: it cannot wind up beyond the largest shift
-        cs[1] += w.dt * (ost[0] - w.target)
+        cs[1] += w.dt * (ost[POS] - w.target)
     cs[0] = u
     return u
 
@@ -284,13 +285,14 @@ def rollout_under(plant: Kernel, w: MpcLaw, ob: Observer, cond: Conditions,
     n, n_steps = noise.shape
     xs = np.empty((n, n_steps))
     us = np.empty((n, n_steps))
-    state = np.zeros(4)
-    ost = np.zeros(5)
+    state = np.zeros(kernels.state_size(plant.kind))
+    ost = base.observer_state(ob)
     cs = np.zeros(2)
     depth = w.blocks.size
-    ws = Workspace(np.zeros((depth + 1, 4)), np.zeros(depth + 1), np.zeros(depth, dtype=np.int64),
-                     np.zeros(depth, dtype=np.int64), np.full(depth, -1, dtype=np.int64))
-    queue = np.zeros(cond.delay + 1)
+    ws = Workspace(np.zeros((depth + 1, kernels.state_size(w.model.kind))), np.zeros(depth + 1),
+                   np.zeros(depth, dtype=np.int64), np.zeros(depth, dtype=np.int64),
+                   np.full(depth, -1, dtype=np.int64))
+    queue = np.zeros(cond.delay + 2)  # the actuator's state (closed_loop.actuator_state)
     for j in range(n):
         state[:] = 0.0
         queue[:] = 0.0
@@ -312,7 +314,7 @@ class Mpc:
     def __init__(self, d: MpcDesign) -> None:
         self.law, self.observer = d.law, d.observer
         self.ws = workspace(d.law)
-        self.ost = base.observer_state()
+        self.ost = base.observer_state(d.observer)
         self.cs = np.zeros(2)
         self.first = True
 

@@ -45,6 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
+from msd_bench.core import kernels
 from msd_bench.core.baselines import base
 from msd_bench.core.closed_loop import Conditions, quantise
 from msd_bench.core.errors import ConfigError
@@ -219,9 +220,9 @@ def rollout_under(plant: Kernel, g: PidGains, cond: Conditions,
     n, n_steps = noise.shape
     xs = np.empty((n, n_steps))
     us = np.empty((n, n_steps))
-    state = np.zeros(4)
+    state = np.zeros(kernels.state_size(plant.kind))
     cs = np.zeros(3)
-    queue = np.zeros(cond.delay + 1)
+    queue = np.zeros(cond.delay + 2)  # the actuator's state (closed_loop.actuator_state)
     for j in range(n):
         state[:] = 0.0
         queue[:] = 0.0

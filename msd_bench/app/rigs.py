@@ -1,0 +1,313 @@
+"""The whole method per rig, in-process: records played through the rig, every model kind identified
+from them only, each agent kind trained on its surrogate and validated through the rig itself.
+
+One rig is one task (:func:`rig_task`: its inputs in its arguments, its result a
+JSON-able dict), so a population runs on the sweep executor
+(``app/executor.py``) and a killed sweep resumes rig by rig. What one task does:
+
+1. draw the rig from its seed; play the paper's plan through it
+   (:mod:`msd_bench.core.rig_play`: rest without reset before every
+   experiment, the records its bags would hold);
+2. identify every model kind the agents need from those records only, and
+   score each on the rig's broad validation record;
+3. train each agent kind on its surrogate (one batch of learning seeds);
+4. validate every table on the same rig through its actuator and sensor,
+   each run from where the rig came to rest after the previous one
+   (:mod:`msd_bench.core.rig_loop`): the nominal set-point first (success is
+   judged on the true position there), then the scenarios a rig can be given —
+   other set-points, a load.
+
+:func:`document` pools the tasks into ``rigs.json``: per kind the success rate
+over (rig, seed) runs with its Wilson interval and a bootstrap-over-rigs
+interval (:mod:`msd_bench.core.rig_stats`), the per-rig results and the ten
+worst rigs.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from msd_bench.app.agents import agent_kind
+from msd_bench.app.config import RunConfig
+from msd_bench.app.plan import paper_plan
+from msd_bench.app.scoring import metric_row
+from msd_bench.core import population
+from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.core.identify import FitReport
+from msd_bench.core.model import StepModel
+from msd_bench.core.qconfig import QConfig
+from msd_bench.core.results import SUCCESS_SSE
+from msd_bench.core.rig import Rig
+from msd_bench.core.rig_loop import RigRun, run_on_rig
+from msd_bench.core.rig_play import play_plan, records_of
+from msd_bench.core.rig_stats import DEFAULT_RESAMPLES, rate_summary
+from msd_bench.core.risk import trace_risk
+from msd_bench.core.risk_table import summarise
+from msd_bench.core.scenarios import Scenario, noise_seed, parse
+
+RIG_SCENARIOS = ("setpoint=-1.5", "setpoint=-0.5", "setpoint=0.5", "setpoint=1.5",
+                 "disturbance=2@15", "disturbance=-2@15")
+"""What a rig can be given besides the nominal set-point: the standard suite's set-points and loads (its
+noise, delay and parameter drifts are the rig's own here)."""
+RIG_KEYS = ("setpoint", "disturbance")
+DEFAULT_AGENTS = ("plm", "nlarx-improved", "greybox", "plm+robust", "nlarx-improved+robust", "greybox+robust")
+WORST = 10
+"""Rigs listed with their parameters as the worst."""
+
+
+@dataclass(frozen=True)
+class RigsConfig:
+    """What a population run does."""
+
+    run: RunConfig
+    """Agents, learning seeds, budgets, record and validation lengths (one identification seed)."""
+    rigs: int = 20
+    """Rigs in the run."""
+    first_rig: int = population.HELD_OUT_RIGS.start
+    """Seed of the first rig; the rigs are first_rig, first_rig + 1, ..."""
+    design: bool = False
+    """Run design rigs (choose anything on them); False: held-out rigs only (what is reported)."""
+    scenarios: tuple[str, ...] = RIG_SCENARIOS
+    """Scenario ids run on every rig after the nominal validation (set-points and loads only)."""
+    resamples: int = DEFAULT_RESAMPLES
+    """Bootstrap resamples of the over-rigs interval."""
+
+    def __post_init__(self) -> None:
+        if self.rigs < 1 or self.first_rig < 0:
+            raise ConfigError(f"--rigs must be >= 1 and --first-rig >= 0, got {self.rigs} and "
+                              f"{self.first_rig}")
+        if self.resamples < 100:
+            raise ConfigError(f"--bootstrap must be >= 100 resamples, got {self.resamples}")
+        if self.run.id_seeds != 1:
+            raise ConfigError("rigs identifies once per rig from its own records: --id-seeds must be 1")
+        if self.run.record_noise or self.run.record_quant or self.run.scenarios:
+            raise ConfigError("--record-noise, --record-quant and --scenario do not apply: a rig measures "
+                              "through its own sensor (use --rig-scenario for set-points and loads)")
+        plant_kinds = [a for a in self.run.agents if agent_kind(a).on_plant]
+        if plant_kinds:
+            raise ConfigError(f"rigs trains on identified surrogates only, not {', '.join(plant_kinds)}")
+        for kind in self.run.agents:  # the rig's own loop validates Q-tables: other designs say so now
+            _learner(self.run, kind)
+        for sid in self.scenarios:
+            rig_scenario(sid)
+        self.check_rig_set()
+
+    def rig_seeds(self) -> list[int]:
+        """The rigs of the run."""
+        return list(range(self.first_rig, self.first_rig + self.rigs))
+
+    def check_rig_set(self) -> None:
+        """Design and held-out rigs never mix, and a design rig is never reported as held out."""
+        held = population.HELD_OUT_RIGS
+        span = f"0-{held.start - 1}"
+        last = self.first_rig + self.rigs - 1
+        if self.design and last >= held.start:
+            raise ConfigError(f"rig {max(self.first_rig, held.start)} is held out: --design runs only "
+                              f"design rigs {span}")
+        if not self.design and self.first_rig < held.start:
+            raise ConfigError(f"rig {self.first_rig} is a design rig (seeds {span}): held-out rigs start at "
+                              f"{held.start}; pass --design to run design rigs")
+        if last >= held.stop:
+            raise ConfigError(f"rig {last} is beyond the population's held-out seeds "
+                              f"{held.start}-{held.stop - 1}")
+
+
+def rig_scenario(sid: str) -> Scenario:
+    """A scenario a rig can be given: a set-point and/or a load, nothing the rig has of its own."""
+    sc = parse(sid)
+    keys = {item.partition("=")[0].strip() for item in sid.split(",")}
+    if sc.id == "nominal" or not keys <= set(RIG_KEYS):
+        raise ConfigError(f"rig scenario {sid!r}: only {' and '.join(RIG_KEYS)} can be given to a rig "
+                          "(its noise, delay, friction and parameters are its own)")
+    return sc
+
+
+def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
+    """Everything one rig gives: its parameters, fits, every (kind, seed) outcome and the times taken."""
+    t0 = time.perf_counter()
+    drawn = population.draw(seed)
+    rig = Rig(drawn.params, drawn.imperfections, seed=seed)  # the sensor's noise stream is the rig's own
+    run = cfg.run
+    played = play_plan(rig, paper_plan(run.id_first_seed, run.samples, run.val_samples))
+    records = records_of(played, drawn.params.dt)
+    t_play = time.perf_counter()
+    models, fits, failed = _identify(records, run, drawn.params, seed)
+    t_id = time.perf_counter()
+    outcomes, t_train = [], 0.0
+    for kind in run.agents:
+        surrogate = models.get(agent_kind(kind).surrogate)
+        t = time.perf_counter()
+        tables = _train(kind, surrogate, run) if surrogate is not None else None
+        t_train += time.perf_counter() - t
+        outcomes += _validate(cfg, rig, kind, surrogate, tables, seed)
+    done = time.perf_counter()
+    return {
+        "rig": seed, "design": seed not in population.HELD_OUT_RIGS, "parameters": rig_parameters(drawn),
+        "rests": {"before_experiments": [p.rest.samples for p in played],
+                  "not_still": sum(not p.rest.still for p in played)},
+        "fits": {name: fits[name].as_row() for name in fits}, "identification_failed": failed,
+        "outcomes": outcomes,
+        "seconds": {"play": t_play - t0, "identify": t_id - t_play, "train": t_train,
+                    "validate": done - t_id - t_train, "total": done - t0},
+    }
+
+
+def rig_parameters(spec: population.RigSpec) -> dict[str, Any]:
+    """Every drawn parameter by the report's names: the plant's multipliers, then the imperfections."""
+    mult = spec.multipliers()
+    imp = spec.imperfections
+    return {"mass": mult["m"], "damping": mult["c"], "spring": mult["k"], "hardening": mult["h"],
+            "friction": imp.friction, "delay": imp.delay_samples, "lag": imp.actuator_tau,
+            "noise": imp.sensor_noise, "quant": imp.sensor_quant}
+
+
+def _identify(records: Any, run: RunConfig, params: Any,
+              seed: int) -> tuple[dict[str, StepModel], dict[str, FitReport], dict[str, str]]:
+    """Every model kind the agents need, from the rig's records; a kind that cannot be identified says why."""
+    from msd_bench.app.pipeline import identify_surrogates
+
+    models: dict[str, StepModel] = {}
+    fits: dict[str, FitReport] = {}
+    failed: dict[str, str] = {}
+    for name in run.surrogates_needed():
+        try:
+            got, scored = identify_surrogates(records, [name], run.id_first_seed, params, run.nlarx_scale)
+        except MsdBenchError as err:  # its agents then count as failures on this rig, with the reason
+            failed[name] = f"rig {seed}: {err}"
+            continue
+        models.update(got)
+        fits.update(scored)
+    return models, fits, failed
+
+
+def _train(kind: str, surrogate: StepModel, run: RunConfig) -> np.ndarray:
+    """The kind's greedy tables, one per learning seed, trained on its surrogate only.
+
+    The one place that trains (the controller protocol replaces it when it lands)."""
+    from msd_bench.core.qtrain import train
+
+    return train(surrogate, _learner(run, kind), run.learning_seeds(0)).q
+
+
+def _learner(run: RunConfig, kind: str) -> QConfig:
+    """The Q-learner of ``kind`` at the run's budget (a kind of another design is one ConfigError line:
+    the rig sweep validates Q-tables through the rig's own loop)."""
+    from msd_bench.designs.qlearning import learner_config
+
+    return learner_config(kind, run.episodes, run.steps, run.plant.F, run.shaping)
+
+
+def _validate(cfg: RigsConfig, rig: Rig, kind: str, surrogate: StepModel | None,
+              tables: np.ndarray | None, rig_seed: int) -> list[dict[str, Any]]:
+    """Every learning seed's table on the rig: nominal first, then each rig scenario, in that order."""
+    run = cfg.run
+    out = []
+    for j, seed in enumerate(run.learning_seeds(0)):
+        if surrogate is None or tables is None:
+            out.append({"kind": kind, "seed": seed, "success": False, "identified": False})
+            continue
+        nominal = _one_run(cfg, rig, kind, surrogate, tables[j], seed, rig_seed,
+                           Scenario(setpoint=run.target))
+        row = {"kind": kind, "seed": seed, "identified": True, **_scores(nominal, run.target, run),
+               "start_x": float(nominal.x[0]), "risk": _risk(cfg, rig, nominal),
+               "scenarios": {}}
+        for sid in cfg.scenarios:
+            sc = rig_scenario(sid)
+            got = _one_run(cfg, rig, kind, surrogate, tables[j], seed, rig_seed, sc)
+            row["scenarios"][sid] = _scores(got, sc.setpoint, run, brief=True)
+        out.append(row)
+    return out
+
+
+def _one_run(cfg: RigsConfig, rig: Rig, kind: str, surrogate: StepModel, table: np.ndarray, seed: int,
+             rig_seed: int, sc: Scenario) -> RigRun:
+    """One validation run of ``table`` on the rig under ``sc`` (its noise stream named by rig, kind, seed)."""
+    rng = np.random.default_rng(noise_seed(seed, f"rig{rig_seed}/{kind}/{sc.id}"))
+    load_step = round(sc.disturbance_time / rig.params.dt)
+    return run_on_rig(rig, table, _learner(cfg.run, kind), surrogate, sc.setpoint, cfg.run.validation_steps,
+                      rng, load=sc.disturbance, load_step=load_step, limits=cfg.run.supervisor_limits)
+
+
+def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:
+    """A run's risk record: its true positions on the rig's stroke, and the supervisor's reasons and
+    abort when it guarded the run (its limits are the nominal plant's: all a rig's supervisor is told)."""
+    lim = cfg.run.supervisor_limits
+    return trace_risk(r.x, rig.params, lim, r.reason, r.abort).as_dict()
+
+
+def _scores(r: RigRun, target: float, run: RunConfig, brief: bool = False) -> dict[str, Any]:
+    """Metrics on the true position (success) and, beside them, on the measured one."""
+    true = metric_row(r.x, target, run.plant.dt, run.window)
+    seen = metric_row(r.y, target, run.plant.dt, run.window)
+    if brief:
+        return {"sse": true["sse"], "success": bool(true["sse"] < SUCCESS_SSE), "sse_measured": seen["sse"]}
+    return {"success": bool(true["sse"] < SUCCESS_SSE), **true,
+            "sse_measured": seen["sse"], "success_measured": bool(seen["sse"] < SUCCESS_SSE),
+            "rest_samples": r.rest.samples, "rest_still": r.rest.still}
+
+
+def rig_success(part: Mapping[str, Any], kind: str) -> tuple[int, int]:
+    """(successes, runs) of ``kind`` on one rig's result."""
+    rows = [o for o in part["outcomes"] if o["kind"] == kind]
+    return sum(bool(o["success"]) for o in rows), len(rows)
+
+
+def kind_summary(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]], kind: str,
+                 seed: int) -> dict[str, Any]:
+    """One kind's rate over (rig, seed) runs with both intervals, and its scenario cells."""
+    per_rig = [rig_success(p, kind) for p in parts]
+    rate = rate_summary([k for k, _ in per_rig], [n for _, n in per_rig], cfg.resamples, seed)
+    row: dict[str, Any] = {"kind": kind, "label": agent_kind(kind).label, **rate}
+    measured = [o for p in parts for o in p["outcomes"] if o["kind"] == kind and o.get("identified")]
+    row["measured_successes"] = sum(bool(o["success_measured"]) for o in measured)
+    row["risk"] = summarise(o.get("risk") for o in measured)
+    row["scenarios"] = {}
+    for sid in cfg.scenarios:
+        cells = [[o for o in p["outcomes"] if o["kind"] == kind] for p in parts]
+        ks = [sum(bool(o.get("scenarios", {}).get(sid, {}).get("success")) for o in c) for c in cells]
+        row["scenarios"][sid] = rate_summary(ks, [len(c) for c in cells], cfg.resamples, seed)
+    return row
+
+
+def worst_rigs(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """The rigs with the lowest success over every kind's runs (ties: lower seed first), with parameters."""
+    scored = []
+    for p in parts:
+        k = sum(rig_success(p, kind)[0] for kind in cfg.run.agents)
+        n = sum(rig_success(p, kind)[1] for kind in cfg.run.agents)
+        scored.append((k / n, p["rig"], k, n, p))
+    scored.sort(key=lambda s: (s[0], s[1]))
+    return [{"rig": rig, "successes": k, "runs": n, "parameters": p["parameters"],
+             "identification_failed": sorted(p["identification_failed"])}
+            for _, rig, k, n, p in scored[:WORST]]
+
+
+def document(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """``rigs.json`` from every rig's task result (in rig order)."""
+    parts = sorted(parts, key=lambda p: int(p["rig"]))
+    seed = cfg.first_rig
+    totals = [float(p["seconds"]["total"]) for p in parts]
+    return {
+        "schema": "msd-bench/rigs", "schema_version": 1,
+        "rig_set": "design" if cfg.design else "held-out",
+        "population": {"module": population.__name__, "design_seeds": [0, population.HELD_OUT_RIGS.start - 1],
+                       "held_out_first": population.HELD_OUT_RIGS.start},
+        "rigs_run": [int(p["rig"]) for p in parts],
+        "learning_seeds": cfg.run.learning_seeds(0), "agents": list(cfg.run.agents),
+        "success_sse_percent": SUCCESS_SSE,
+        "validation": {"target": cfg.run.target, "steps": cfg.run.validation_steps,
+                       "window": cfg.run.window, "scenarios": list(cfg.scenarios),
+                       "judged_on": "true position at the nominal set-point",
+                       "supervisor": cfg.run.supervisor},
+        "bootstrap": {"resamples": cfg.resamples, "seed": seed, "level": 0.95, "over": "rigs"},
+        "kinds": [kind_summary(cfg, parts, kind, seed) for kind in cfg.run.agents],
+        "worst": worst_rigs(cfg, parts),
+        "rigs": list(parts),
+        "seconds": {"per_rig_median": float(np.median(totals)), "per_rig_max": max(totals),
+                    "total": sum(totals)},
+    }

@@ -1,0 +1,127 @@
+"""A trained network in closed loop: a compiled batch rollout and the stepwise controller.
+
+Both run one compiled decision, :func:`decide`, so a deterministic policy gives
+the same force bit for bit in-process (:func:`greedy_under`) and over ROS
+(:class:`Controller`, fed one measurement at a time by the agent node).
+The rollout has :func:`msd_bench.core.closed_loop.greedy_under`'s semantics:
+the agent measures through the sensor (noise drawn by the caller, then
+quantisation, then the ADC clip the environment applies), its command acts
+``delay`` samples late through the actuator's first-order ``lag``, a load may
+push from ``load_step`` on, and Coulomb friction acts on the plant kind: one
+step is :func:`msd_bench.core.rig.transition`, the rig's own. Metrics are the caller's, on the true
+positions returned.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from msd_bench.core.closed_loop import Conditions, quantise
+from msd_bench.core.deeprl.mlp import Net, check_net, greedy
+from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.kernels import Kernel
+from msd_bench.core.rig import transition
+
+FloatArray = NDArray[np.float64]
+
+
+def y_bound(x_max: float, noise_std: float, quant: float) -> float:
+    """The measurement's clip, as the environment's: stroke + ten noise deviations + one step."""
+    return x_max + 10.0 * noise_std + quant
+
+
+@numba.njit(cache=True)
+def measure(x: float, noise: float, quant: float, bound: float) -> float:
+    """What the agent reads for true position ``x``: noise, quantisation, then the ADC's range."""
+    y = quantise(x + noise, quant)
+    return min(max(y, -bound), bound)
+
+
+@numba.njit(cache=True)
+def decide(net: Net, j: int, forces: FloatArray, y: float, y_prev: float, target: float,
+           u_prev: float, first: bool) -> float:
+    """Policy ``j``'s force for measurement ``y`` (the first of an episode has no difference)."""
+    dy = 0.0 if first else y - y_prev
+    u: float = forces[greedy(net, j, y, dy, target, u_prev)]
+    return u
+
+
+@numba.njit(cache=True)
+def greedy_under(model: Kernel, net: Net, forces: FloatArray, cond: Conditions, noise: FloatArray,
+                 bound: float) -> tuple[FloatArray, FloatArray]:
+    """Each policy's greedy run from rest; ``noise[j, k]`` is added to the k-th measurement of run j.
+
+    Returns (true x, commanded u), each (n_policies, n_steps); ``x[j, k]`` is
+    the position before command ``u[j, k]`` is issued.
+    """
+    n, n_steps = noise.shape
+    xs = np.empty((n, n_steps))
+    us = np.empty((n, n_steps))
+    state = np.zeros(4)
+    act = np.zeros(cond.delay + 2)  # the actuator (delay line, lag), as closed_loop.greedy_under
+    for j in range(n):
+        state[:] = 0.0
+        act[:] = 0.0
+        x = 0.0
+        y = measure(x, noise[j, 0], cond.quant, bound)
+        y_prev, u_prev = y, 0.0
+        for k in range(n_steps):
+            u = decide(net, j, forces, y, y_prev, cond.target, u_prev, k == 0)
+            xs[j, k] = x
+            us[j, k] = u
+            load = cond.load if k >= cond.load_step else 0.0
+            e = noise[j, k + 1] if k + 1 < n_steps else 0.0
+            _, x, y_new = transition(model, state, act, k, u, e, cond.delay, cond.lag, load, cond.friction,
+                                     cond.quant)
+            if k + 1 < n_steps:
+                y_prev, u_prev = y, u
+                y = min(max(y_new, -bound), bound)
+    return xs, us
+
+
+class Controller:
+    """The stepwise form: one measured position in, one force out (the agent node's loop).
+
+    ``reset()`` starts an episode (towards ``target``, or a new one if given:
+    the stepwise face of the baseline designs, :mod:`msd_bench.core.baselines.designs`);
+    ``act(y)`` takes the measurement of sample k and returns the force for it.
+    The observation is built exactly as the environment builds it (the first
+    difference of an episode is 0, the last force is the one this controller
+    commanded).
+    """
+
+    def __init__(self, net: Net, forces: FloatArray, index: int = 0, target: float = 1.0) -> None:
+        check_net(net)
+        if not 0 <= index < net.w1.shape[0]:
+            raise InvalidInputError(f"policy index {index} is not in 0..{net.w1.shape[0] - 1}")
+        if np.asarray(forces).shape != (net.w3.shape[1],):
+            raise InvalidInputError(f"need one force per network output ({net.w3.shape[1]}), got {forces!r}")
+        self.net, self.index = net, index
+        self.forces = np.ascontiguousarray(forces, dtype=np.float64)
+        self.target = 0.0
+        self._y_prev = 0.0
+        self._u_prev = 0.0
+        self._first = True
+        self.reset(target)
+
+    def reset(self, target: float | None = None) -> None:
+        """Start an episode from rest towards ``target`` (m; the last one if None)."""
+        if target is not None:
+            if not math.isfinite(target):
+                raise InvalidInputError(f"target must be finite, got {target!r}")
+            self.target = float(target)
+        self._u_prev, self._first = 0.0, True
+
+    def act(self, y: float) -> float:
+        """The force (N) for measurement ``y`` (m) of the current sample."""
+        if not math.isfinite(y):
+            raise InvalidInputError(f"measurement must be finite, got {y!r}")
+        y_prev = y if self._first else self._y_prev
+        u = float(decide(self.net, self.index, self.forces, float(y), y_prev, self.target,
+                         self._u_prev, self._first))
+        self._y_prev, self._u_prev, self._first = float(y), u, False
+        return u

@@ -1,0 +1,98 @@
+"""Controller designs behind one protocol (:mod:`.protocol`) and one registry (:mod:`.registry`).
+
+Callers use only what is here: make a policy for a kind, run it nominally,
+save it, load it back. Nothing here imports rclpy or torch; a design module's
+heavy imports happen inside it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from msd_bench.core.errors import ConfigError
+from msd_bench.designs.protocol import (
+    Controller,
+    Design,
+    Facts,
+    FloatArray,
+    KindSpec,
+    Policy,
+    Request,
+    Settings,
+    Stepwise,
+)
+from msd_bench.designs.registry import (
+    AGENT_KINDS,
+    DESIGNS,
+    PLANT,
+    AgentKind,
+    agent_kind,
+    design,
+    register,
+    unregister,
+)
+
+if TYPE_CHECKING:  # numba-compiled modules load only when a policy is made or run
+    from msd_bench.core.model import StepModel
+    from msd_bench.core.plant import PlantParams
+
+__all__ = ["AGENT_KINDS", "DESIGNS", "PLANT", "AgentKind", "Controller", "Design", "Facts", "KindSpec",
+           "Policy", "Request", "Settings", "Stepwise", "agent_kind", "budget_note", "design", "load",
+           "make", "nominal_runs", "register", "request", "stepwise", "unregister"]
+
+
+def request(kind: str, model: StepModel | None, settings: Settings, seeds: Sequence[int]) -> Request:
+    """The request for ``kind`` (an unknown kind is one ConfigError line)."""
+    if not seeds:
+        raise ConfigError(f"{kind}: need at least one learning seed")
+    return Request(agent_kind(kind).spec, model, settings, tuple(int(s) for s in seeds))
+
+
+def make(kind: str, model: StepModel | None, settings: Settings, seeds: Sequence[int]) -> Policy:
+    """Design or train ``kind`` in-process on ``model`` (the surrogate, or the plant's own model)."""
+    return agent_kind(kind).design.make(request(kind, model, settings, seeds))
+
+
+def stepwise(kind: str, model: StepModel | None, settings: Settings, seeds: Sequence[int]) -> Stepwise | None:
+    """Training of ``kind`` over topics (None: the design is made in-process only)."""
+    return agent_kind(kind).design.stepwise(request(kind, model, settings, seeds))
+
+
+def budget_note(kind: str, settings: Settings) -> str:
+    """What a reader must know about the budget of a row of ``kind`` ('' when it is the paper's)."""
+    return agent_kind(kind).design.budget_note(settings)
+
+
+def nominal_runs(policy: Policy, plant: PlantParams, target: float,
+                 steps: int) -> tuple[FloatArray, FloatArray]:
+    """The nominal validation: each member (a deterministic policy: its one) from rest on ``plant``."""
+    from msd_bench.core.closed_loop import nominal
+    from msd_bench.core.model import plant_model
+
+    rows = 1 if policy.facts.deterministic else len(policy.members)
+    return policy.rollout(plant_model(plant).kernel, nominal(target), np.zeros((rows, int(steps))))
+
+
+def save(policy: Policy, directory: Path, provenance: dict[str, Any], root: Path,
+         overwrite: bool = False) -> list[Path]:
+    """Write ``policy``'s artifact into ``directory``."""
+    return policy.save(Path(directory), provenance, root, overwrite)
+
+
+def load(directory: Path, model: StepModel | None) -> Policy:
+    """The policy saved in ``directory`` (``policy.json`` names its design), made on ``model``."""
+    from msd_bench.io import artifacts
+
+    doc = artifacts.load_policy(Path(directory) / "policy.json")
+    kind = agent_kind(str(doc["kind"]))
+    if kind.agent != doc["design"]:
+        raise artifacts.ArtifactError(f"{directory}: kind {kind.kind!r} is made by {kind.agent!r}, "
+                                      f"not {doc['design']!r}")
+    try:
+        return kind.design.load(doc, Path(directory), model)
+    except ConfigError as exc:
+        raise artifacts.ArtifactError(f"{directory}: {exc}") from None

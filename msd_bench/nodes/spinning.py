@@ -1,0 +1,110 @@
+"""How a node is spun and closed: the executors, the spin loop, the stop flag, the exit status.
+
+Shared by the one-node process (:mod:`.spin`) and the served process (:mod:`.serve`).
+Why a module of its own: :func:`msd_bench.nodes.spin.run` hands a ``--serve``
+process to :mod:`.serve`, and :mod:`.serve` needs these helpers; kept in
+:mod:`.spin` they made the two modules import each other (docs/design.md §Layers:
+no circle of modules). :mod:`.spin` re-exports every name here, so callers keep
+their imports.
+"""
+
+from __future__ import annotations
+
+import signal
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+import rclpy
+from rclpy.executors import Executor, SingleThreadedExecutor
+from rclpy.experimental.events_executor import EventsExecutor
+from rclpy.node import Node
+
+EXIT_USAGE = 2
+"""Exit status of a process that stopped on a user mistake."""
+
+
+def make_executor(context: rclpy.context.Context | None = None, events: bool = False) -> Executor:
+    """The executor a node runs on: rclpy's events executor if ``events``, else the single-threaded one.
+
+    Why two: rclpy's SingleThreadedExecutor rebuilds a wait set over every
+    entity of the node (parameter services, timers, QoS event handlers, ...)
+    in Python for each message it dispatches, which costs a lock-step exchange
+    more than the middleware round trip itself; the events executor (C++,
+    rclpy >= 7.1, ``rclpy.experimental``) dispatches each message from its rmw
+    callback. Nodes whose speed is one message per step opt in
+    (:func:`wants_events_executor`); the rest keep the executor rclpy spins by
+    default (benchmarks/bench_lockstep.py measures both against a bare
+    ping-pong that uses that default).
+    """
+    if events:
+        return EventsExecutor(context=context)
+    return SingleThreadedExecutor(context=context)
+
+
+def wants_events_executor(node: Node) -> bool:
+    """Whether ``node`` asks for the events executor (its ``events_executor`` attribute, default no)."""
+    return bool(getattr(node, "events_executor", False))
+
+
+EVENTS_SPIN_S = 0.5
+"""Longest single spin call on the events executor. Spun without a timeout it ran no callback at all
+here (a 100 Hz timer never fired; rclpy 9.1.2 on Kilted and 7.1.5 on Jazzy alike, busy in the
+spin), so it is spun in bounded slices until the node is done, stopped or the context shuts down."""
+
+
+def spin_node(node: Node, executor: Executor) -> int:
+    """Spin until shutdown or until ``node.done`` completes; return the exit status.
+
+    A ``done`` completed with an exception (a node that routes its one-line
+    errors through it) raises that exception here.
+    """
+    executor.add_node(node)
+    done = getattr(node, "done", None)
+    if not _is_events(executor):
+        if done is None:
+            executor.spin()
+            return 0
+        executor.spin_until_future_complete(done)
+    else:
+        with stops_requested() as stopped:
+            while not stopped() and executor.context.ok() and (done is None or not done.done()):
+                if done is None:
+                    executor.spin_once(timeout_sec=EVENTS_SPIN_S)
+                else:
+                    executor.spin_until_future_complete(done, timeout_sec=EVENTS_SPIN_S)
+        if stopped():
+            raise KeyboardInterrupt
+    return int(done.result()) if done is not None and done.done() else 0
+
+
+@contextmanager
+def stops_requested() -> Iterator[Callable[[], bool]]:
+    """SIGINT/SIGTERM only flag a stop (read through the yielded callable) while the block runs.
+
+    Why: the events executor calls Python callbacks from C++; a KeyboardInterrupt
+    raised inside one reaches the spin as a RuntimeError from pybind11 (a
+    traceback and exit 1 instead of a clean stop). The spin loop checks the
+    flag between slices and raises KeyboardInterrupt itself, outside any callback.
+    """
+    flagged: list[int] = []
+    held = (signal.SIGINT, signal.SIGTERM)
+    old = {sig: signal.getsignal(sig) for sig in held}
+    for sig in held:
+        signal.signal(sig, lambda signum, _frame: flagged.append(signum))
+    try:
+        yield lambda: bool(flagged)
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+
+
+def _is_events(executor: Executor) -> bool:
+    return not isinstance(executor, SingleThreadedExecutor)
+
+
+def close_node(node: Node) -> None:
+    """Let the node report (``close()``), then destroy it."""
+    close = getattr(node, "close", None)
+    if close is not None:
+        close()
+    node.destroy_node()

@@ -1,0 +1,53 @@
+"""The PLM's global refinement on its exact Jacobian by Levenberg–Marquardt (core/lm.py): the README's
+identification seeds fit as with least_squares' trf before, and the shared optimiser on its own."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from msd_bench.app.pipeline import records_from_plan
+from msd_bench.app.plan import paper_plan
+from msd_bench.core import lm, plant
+from msd_bench.core.identify import PlmConfig, evaluate, identify_plm
+from msd_bench.core.plm import EXACT_MAX_ITER
+
+TRF_BROAD_FIT = {0: 97.181701, 1: 96.524977}
+"""Broad validation fits of the exact refinement by trf (the code before core/lm.py), seeds 0 and 1."""
+
+
+@pytest.mark.parametrize("seed", sorted(TRF_BROAD_FIT))
+def test_the_ideal_plants_fits_are_unchanged_and_converge_under_the_cap(seed: int) -> None:
+    p = plant.preset("default")
+    records = records_from_plan(p, paper_plan(seed))
+    model = identify_plm(records.bias_train, PlmConfig(stroke=p.L))
+    refinement = model.info["refinement"]
+    assert refinement["kept"]
+    assert refinement["nfev"] < EXACT_MAX_ITER  # converged, not stopped by the cap
+    assert evaluate(model, records.broad_val).sim_fit == pytest.approx(TRF_BROAD_FIT[seed], abs=0.01)
+
+
+def _rosenbrock(z: np.ndarray) -> np.ndarray:
+    return np.array([10.0 * (z[1] - z[0] ** 2), 1.0 - z[0]])
+
+
+def _rosenbrock_jac(z: np.ndarray, _r: np.ndarray) -> tuple[np.ndarray, int]:
+    return np.array([[-20.0 * z[0], 10.0], [-1.0, 0.0]]), 1
+
+
+def test_levenberg_marquardt_finds_the_minimum_and_keeps_to_its_bounds() -> None:
+    inf = np.full(2, np.inf)
+    z, cost, _ = lm.levenberg_marquardt(_rosenbrock, _rosenbrock_jac, np.array([-1.2, 1.0]), -inf, inf, 200,
+                                        rel_stop=0.0)
+    np.testing.assert_allclose(z, [1.0, 1.0], atol=1e-6)
+    assert cost < 1e-12
+    hi = np.array([0.5, np.inf])
+    z, _, _ = lm.levenberg_marquardt(_rosenbrock, _rosenbrock_jac, np.array([-1.2, 1.0]), -inf, hi, 200)
+    assert z[0] <= 0.5 and z[0] == pytest.approx(0.5, abs=1e-3)
+
+
+def test_forward_differences_match_the_exact_jacobian() -> None:
+    z = np.array([0.3, -0.7])
+    jac, used = lm.forward_differences(_rosenbrock, np.full(2, np.inf), 1e-7)(z, _rosenbrock(z))
+    assert used == 2
+    np.testing.assert_allclose(jac, _rosenbrock_jac(z, _rosenbrock(z))[0], rtol=1e-5, atol=1e-6)

@@ -1,0 +1,132 @@
+"""The population of rigs: a stated distribution, one rig per seed, and one transition everywhere."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from msd_bench.core import population
+from msd_bench.core.closed_loop import greedy_under, nominal
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.model import plant_model
+from msd_bench.core.plant import PRESETS
+from msd_bench.core.population import DESIGN_RIGS, DISTRIBUTION, EMULATOR_SEED, HELD_OUT_RIGS, draw
+from msd_bench.core.qconfig import improved_config, packed
+from msd_bench.core.qtrain import train
+from msd_bench.core.rig import Rig, RigImperfections
+
+SPECS = [draw(s) for s in range(1, 401)]
+CFG = improved_config(episodes=20, steps=3000)
+
+
+def test_the_emulators_defaults_are_the_reserved_member():
+    spec = draw(EMULATOR_SEED)
+    assert spec.params == PRESETS["rig"] and spec.imperfections == RigImperfections()
+
+
+def test_a_seed_names_one_rig_and_seeds_differ():
+    assert draw(17) == draw(17)
+    assert draw(17) != draw(18)
+    assert len({s.params for s in SPECS}) == len(SPECS)
+
+
+def test_every_draw_lies_in_the_stated_ranges_and_covers_them():
+    lo, hi = DISTRIBUTION.multiplier
+    mult = np.array([list(s.multipliers().values()) for s in SPECS])
+    assert mult.min() >= lo and mult.max() <= hi
+    assert mult.min() < 0.82 and mult.max() > 1.22  # the ends are reached
+    imp = [s.imperfections for s in SPECS]
+    fric = np.array([i.friction for i in imp])
+    lag = np.array([i.actuator_tau for i in imp])
+    noise = np.array([i.sensor_noise for i in imp])
+    assert 0.0 <= fric.min() < 0.05 and 0.45 < fric.max() <= 0.5
+    assert 0.0 <= lag.min() < 0.004 and 0.036 < lag.max() <= 0.04
+    assert 0.0 <= noise.min() < 3e-4 and 2.7e-3 < noise.max() <= 3e-3
+    assert {i.delay_samples for i in imp} == {0, 1, 2}
+    assert {i.sensor_quant for i in imp} == {0.0, 1e-4, 5e-4}
+    assert {i.jitter for i in imp} == {0.002}
+    for s in SPECS:  # g, the stroke, the force limit and dt are the owner's contract
+        d = PRESETS["default"]
+        assert (s.params.g, s.params.L, s.params.F, s.params.dt) == (d.g, d.L, d.F, d.dt)
+
+
+def test_multipliers_are_drawn_independently_so_directions_mix():
+    mult = np.array([list(s.multipliers().values()) for s in SPECS])
+    up = mult > 1.0
+    mixed = np.mean(up.any(axis=1) & (~up).any(axis=1))
+    assert mixed > 0.8  # all-up or all-down would be 1/8 of rigs each if independent
+    corr = np.corrcoef(np.log(mult).T)
+    assert np.all(np.abs(corr[np.triu_indices(4, 1)]) < 0.2)
+
+
+def test_design_and_held_out_ranges_are_disjoint_and_exclude_the_reserved_seed():
+    assert not set(DESIGN_RIGS) & set(HELD_OUT_RIGS)
+    assert EMULATOR_SEED not in DESIGN_RIGS and EMULATOR_SEED not in HELD_OUT_RIGS
+
+
+@pytest.mark.parametrize("bad", [-1, 2**31, 1.5, "3", True, None])
+def test_a_bad_seed_is_one_line(bad):
+    with pytest.raises(ConfigError) as err:
+        draw(bad)
+    assert "rig seed" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_line_prints_every_parameter():
+    spec = draw(1234)
+    line = spec.line()
+    p, i = spec.params, spec.imperfections
+    assert "\n" not in line and line.startswith("rig 1234: ")
+    for text in (f"m={p.m:.4g}", f"c={p.c:.4g}", f"k={p.k:.4g}", f"h={p.h:.4g}", f"g={p.g:g}",
+                 f"L={p.L:g}", f"F={p.F:g}", f"dt={p.dt:g}", f"friction {i.friction:.3f} N",
+                 f"delay {i.delay_samples} samples", f"lag {i.actuator_tau * 1e3:.1f} ms",
+                 f"noise {i.sensor_noise * 1e3:.2f} mm", "quantisation", "jitter 2 ms"):
+        assert text in line
+
+
+@pytest.fixture(scope="module")
+def table():
+    """A briefly trained greedy table: its commands change with the state, so a run is not trivial."""
+    return train(plant_model(PRESETS["default"]), CFG, [3]).q
+
+
+@pytest.mark.parametrize("seed", [EMULATOR_SEED, 3, 1001])
+def test_the_node_rig_and_the_compiled_loop_are_one_transition_bit_for_bit(seed, table):
+    spec = draw(seed)
+    if seed == 3:  # make sure one case has every imperfection on at once
+        spec = replace(spec, imperfections=replace(spec.imperfections, delay_samples=2, sensor_quant=1e-4,
+                                                   sensor_noise=0.002, actuator_tau=0.03, friction=0.3))
+    steps, noise_seed = 600, 7
+    lr = packed(CFG)
+    kernel = plant_model(spec.params).kernel
+    xs, us = greedy_under(kernel, lr, table, population.conditions(spec, 1.0),
+                          population.measurement_noise(spec, [noise_seed], steps), kernel)
+    rig = Rig(spec.params, spec.imperfections, seed=noise_seed)
+    rows = [rig.step(u) for u in us[0]]
+    assert np.array_equal([r.x for r in rows], xs[0])
+    assert len(set(us[0].tolist())) >= 3 and np.ptp(xs[0]) > 0.05  # not a trivial run
+
+
+def test_a_rig_without_imperfections_validates_as_the_nominal_loop():
+    spec = replace(draw(5), imperfections=RigImperfections.none())
+    assert population.conditions(spec, 1.0) == nominal(1.0)
+    assert not population.measurement_noise(spec, [1, 2], 10).any()
+
+
+def test_the_baselines_plant_half_is_the_rig_transition_too():
+    from msd_bench.core.baselines.base import plant_side
+    from msd_bench.core.closed_loop import actuator_state
+
+    spec = draw(1002)
+    imp = replace(spec.imperfections, delay_samples=2, actuator_tau=0.03, friction=0.25,
+                  sensor_noise=0.0, sensor_quant=0.0)
+    spec = replace(spec, imperfections=imp)
+    cond = population.conditions(spec, 1.0)
+    kernel = plant_model(spec.params).kernel
+    state, act = np.zeros(4), actuator_state(imp.delay_samples)
+    u = np.where(np.arange(400) % 90 < 40, 6.0, -3.0)
+    xs = [plant_side(kernel, state, act, k, float(uk), cond) for k, uk in enumerate(u)]
+    rig = Rig(spec.params, imp)
+    assert np.array_equal(xs, [rig.step(uk).measured_next for uk in u])
+    assert np.ptp(xs) > 0.05
