@@ -46,8 +46,8 @@ def _rate(k: int, n: int) -> str:
 def _source(doc: dict[str, Any], name: str) -> str:
     m = doc.get("machine", {})
     return (f"_Generated from `docs/results/{name}.json`: `{doc['command']}` at commit "
-            f"`{str(doc['commit'])[:10]}` on {m.get('cpu', '?')} ({m.get('cores', '?')} cores), "
-            f"{doc.get('seconds', '?')} s._")
+            f"`{str(doc['commit'])[:10]}` on {m.get('cpu', '?')} ({m.get('cores', '?')} cores)"
+            + (f", {doc['seconds']} s._" if "seconds" in doc else "._"))
 
 
 def view_table1(doc: dict[str, Any], name: str) -> str:

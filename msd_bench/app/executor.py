@@ -255,6 +255,16 @@ def retry_or_fail(task: Task, deaths: int, retries: int, why: str, log: Log) -> 
     log(f"task {task.id}: worker died ({why}); retry {deaths} of {retries}")
 
 
+def lost_worker_errors() -> tuple[type[BaseException], ...]:
+    """Ray's errors for a task whose worker, memory or node went away, not for the task's own
+    failure: a crash (a segfault, SIGKILL), Ray's memory monitor killing it, its node dying, or its
+    result lost with the node that held it. Each is retried like a local worker's death; in Ray 2.60
+    they are siblings under ``RayError``, not subclasses of ``WorkerCrashedError``."""
+    from ray import exceptions as ex
+
+    return (ex.WorkerCrashedError, ex.OutOfMemoryError, ex.NodeDiedError, ex.ObjectLostError)
+
+
 def _remote_call(fn: Callable[..., Any], args: tuple[Any, ...]) -> tuple[str, Any]:
     """The Ray task body: the local worker's, single-threaded."""
     single_threaded()
@@ -337,8 +347,9 @@ class RayExecutor:
         self.remote = ray.remote(num_cpus=1, max_retries=0)(_remote_call)
 
     def run(self, tasks: Sequence[Task], on_result: OnResult) -> None:
-        from ray.exceptions import RayTaskError, WorkerCrashedError
+        from ray.exceptions import RayTaskError
 
+        lost = lost_worker_errors()
         deaths = dict.fromkeys((t.id for t in tasks), 0)
         pending = {self.remote.remote(t.fn, t.args): t for t in tasks}
         while pending:
@@ -346,9 +357,10 @@ class RayExecutor:
             task = pending.pop(done[0])
             try:
                 answer = self.ray.get(done[0])
-            except WorkerCrashedError:
+            except lost as err:
                 deaths[task.id] += 1
-                retry_or_fail(task, deaths[task.id], self.options.retries, "Ray worker crashed", self.log)
+                why = f"Ray lost it: {type(err).__name__}"
+                retry_or_fail(task, deaths[task.id], self.options.retries, why, self.log)
                 pending[self.remote.remote(task.fn, task.args)] = task
                 continue
             except RayTaskError as err:  # the body catches everything; this is Ray's own failure

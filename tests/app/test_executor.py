@@ -154,3 +154,41 @@ def test_an_unknown_failure_of_ray_is_not_disguised() -> None:
 
     with pytest.raises(Exception, match="something else"):
         start_ray(_FakeRay(init_error=Exception("something else")), None, {})
+
+
+class _LosingRay:
+    """Ray's scheduling surface, losing each task's first attempt with ``error``."""
+
+    def __init__(self, error: BaseException) -> None:
+        self.error, self.calls = error, 0
+
+    def wait(self, refs: list[Any], num_returns: int) -> tuple[list[Any], list[Any]]:
+        return refs[:num_returns], refs[num_returns:]
+
+    def get(self, ref: tuple[Any, ...]) -> tuple[str, Any]:
+        self.calls += 1
+        if self.calls == 1:
+            raise self.error
+        fn, args = ref
+        return "ok", fn(*args)
+
+
+def _lost_errors() -> list[BaseException]:
+    from ray import exceptions as ex
+
+    return [ex.WorkerCrashedError(), ex.OutOfMemoryError("killed by the memory monitor"),
+            ex.NodeDiedError("node died"), ex.ObjectLostError("ab" * 14, "owner", "call site")]
+
+
+@pytest.mark.parametrize("error", _lost_errors(), ids=lambda e: type(e).__name__)
+def test_a_task_ray_loses_to_memory_a_node_or_a_crash_is_retried_and_said(error: BaseException) -> None:
+    from msd_bench.app.executor import RayExecutor
+
+    ex = object.__new__(RayExecutor)  # the scheduling loop alone: no cluster is started
+    ex.ray, ex.options, log = _LosingRay(error), ExecutorOptions(kind="ray", retries=1), []
+    ex.log = log.append
+    ex.remote = type("Remote", (), {"remote": staticmethod(lambda fn, args: (fn, args))})()
+    got: dict[str, Any] = {}
+    ex.run([Task("t3", tasks.square, (3,))], lambda t, r: got.__setitem__(t.id, r))
+    assert got["t3"]["square"] == 9
+    assert log == [f"task t3: worker died (Ray lost it: {type(error).__name__}); retry 1 of 1"]
