@@ -193,7 +193,7 @@ def run_graph_stages(cfg: BenchConfig) -> None:
         servers = supervise.record_servers(procs, cfg) if recording else None
         guard = supervised_stages(cfg, procs, recording)
         agent_server = JobServer(procs, "agent.py", "agent") if "agents" in cfg.stages else None
-        ident_server = JobServer(procs, "identifier.py", "identifier") if "identify" in cfg.stages else None
+        ident_server = JobServer(procs, "identifier.py", "identifier") if identifies(cfg) else None
         plant = None
         if ("record" in cfg.stages or "agents" in cfg.stages) and cfg.plant_ns is None:
             plant = timed(cfg, "plant_start", lambda: start_plant(procs, cfg, sensor))
@@ -214,14 +214,15 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                 early = start_model_free(cfg, agent_server)
                 if early:
                     say(f"{', '.join(early)}: learning on the plant while the surrogates are identified")
-            say("identifying surrogates (identifier node)")
-            on_saved = (agent_starter(cfg, agent_server, early, say)
-                         if agent_server is not None and pipelined(cfg, sensor) else None)
-            fits = timed(cfg, "identify", lambda: stage_identify(cfg, procs, on_saved, ident_server))
-            for name, f in fits.items():
-                truth = "" if f.get("sim_fit_truth") is None else f" ({f['sim_fit_truth']:.1f} % vs truth)"
-                say(f"  {name}: fit {f['sim_fit']:.1f} % simulation{truth}, "
-                    f"{f['one_step_fit']:.2f} % one-step")
+            if identifies(cfg):
+                say("identifying surrogates (identifier node)")
+                on_saved = (agent_starter(cfg, agent_server, early, say)
+                            if agent_server is not None and pipelined(cfg, sensor) else None)
+                fits = timed(cfg, "identify", lambda: stage_identify(cfg, procs, on_saved, ident_server))
+                for name, f in fits.items():
+                    truth = "" if f.get("sim_fit_truth") is None else f" ({f['sim_fit_truth']:.1f} % vs truth)"
+                    say(f"  {name}: fit {f['sim_fit']:.1f} % simulation{truth}, "
+                        f"{f['one_step_fit']:.2f} % one-step")
             if cfg.plant_ns is None:
                 write_plant_model(cfg)
         if "agents" in cfg.stages:
@@ -237,6 +238,12 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                 timed(cfg, "agents", lambda: stage_agents(cfg, procs, say, agents_bar, agent_server, early))
         if guard is not None:
             say(supervise.report_line(timed(cfg, "supervisor_record", guard.finish))["line"])
+
+
+def identifies(cfg: BenchConfig) -> bool:
+    """Whether this run fits surrogates: only kinds that train on the plant (``dyna-q``, ``plant``,
+    on-plant deep RL) need none, and the identifier would refuse an empty list of model kinds."""
+    return "identify" in cfg.stages and bool(cfg.run.surrogates_needed())
 
 
 def supervised_stages(cfg: BenchConfig, procs: ProcessSet,
