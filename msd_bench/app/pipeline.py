@@ -147,12 +147,18 @@ def train_and_validate(kind: str, surrogate: StepModel, cfg: RunConfig, seeds: S
                        id_seed: int | None = None) -> Trained:
     """Make ``kind`` on ``surrogate`` (the plant's own model for on-plant kinds), run it on the plant."""
     policy = designs.make(kind, surrogate, settings(cfg), seeds)
+    return validate_policy(policy, cfg, seeds, cfg.id_first_seed if id_seed is None else id_seed)
+
+
+def validate_policy(policy: Policy, cfg: RunConfig, seeds: Sequence[int], id_seed: int) -> Trained:
+    """The nominal validation of a made (or loaded) ``policy`` on the plant, each member's metrics and
+    risk: what Table 1 is assembled from, whoever made the policy."""
     x, risks = robustness.nominal_validation(policy, cfg.plant, cfg.target, cfg.validation_steps,
                                              cfg.supervisor_limits)
     rows: list[dict[str, Any]] = [
         {**metric_row(xi, cfg.target, cfg.plant.dt, cfg.window), "risk": r.as_dict()}
         for xi, r in zip(x, risks, strict=True)]
-    return Trained(policy, list(seeds), cfg.id_first_seed if id_seed is None else id_seed, x, rows)
+    return Trained(policy, list(seeds), id_seed, x, rows)
 
 
 def run_paper(cfg: RunConfig, progress: Progress | None = None) -> PaperRun:
