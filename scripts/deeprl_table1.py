@@ -17,24 +17,26 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
-from make_results import REPO, RESULTS, commit, machine
+from make_results import RESULTS, commit, machine
 
-sys.path.insert(0, str(REPO))
-
-from msd_bench.app import scoring  # noqa: E402
-from msd_bench.app.config import RunConfig  # noqa: E402
-from msd_bench.app.pipeline import identify_surrogates, make_records, settings  # noqa: E402
-from msd_bench.app.pipeline import train_and_validate, validate_policy  # noqa: E402
-from msd_bench.core.model import plant_model  # noqa: E402
-from msd_bench.designs.deeprl import DeepPolicy  # noqa: E402
-from msd_bench.designs.protocol import Facts  # noqa: E402
-from msd_bench.io.deeprl_artifact import load_policy  # noqa: E402
-from msd_bench.io.report import robustness_json, table_json  # noqa: E402
+from msd_bench.app import scoring
+from msd_bench.app.config import RunConfig
+from msd_bench.app.pipeline import (
+    identify_surrogates,
+    make_records,
+    settings,
+    train_and_validate,
+    validate_policy,
+)
+from msd_bench.core.model import plant_model
+from msd_bench.designs.deeprl import DeepPolicy
+from msd_bench.designs.protocol import Facts
+from msd_bench.io.deeprl_artifact import load_policy
+from msd_bench.io.report import robustness_json, table_json
 
 POLICIES = RESULTS / "deeprl_policies"
 SAVED = {"plant+dqn": ("plant_dqn", "plant-dqn"), "plant+ppo": ("plant_ppo", "plant-ppo"),

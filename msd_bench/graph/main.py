@@ -220,7 +220,8 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                             if agent_server is not None and pipelined(cfg, sensor) else None)
                 fits = timed(cfg, "identify", lambda: stage_identify(cfg, procs, on_saved, ident_server))
                 for name, f in fits.items():
-                    truth = "" if f.get("sim_fit_truth") is None else f" ({f['sim_fit_truth']:.1f} % vs truth)"
+                    truth = ("" if f.get("sim_fit_truth") is None
+                             else f" ({f['sim_fit_truth']:.1f} % vs truth)")
                     say(f"  {name}: fit {f['sim_fit']:.1f} % simulation{truth}, "
                         f"{f['one_step_fit']:.2f} % one-step")
             if cfg.plant_ns is None:

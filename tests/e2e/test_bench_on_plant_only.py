@@ -20,8 +20,9 @@ REPO = Path(__file__).resolve().parents[2]
 
 def test_a_run_of_dyna_q_alone_completes_without_identifying(tmp_path: Path) -> None:
     out = tmp_path / "run"
-    argv = [sys.executable, "launch_scripts/bench.py", "--agents", "dyna-q", "--seeds", "1", "--episodes", "2",
-            "--steps", "200", "--samples", "600", "--val-samples", "400", "--validation-steps", "400",
+    argv = [sys.executable, "launch_scripts/bench.py", "--agents", "dyna-q", "--seeds", "1",
+            "--episodes", "2", "--steps", "200", "--samples", "600", "--val-samples", "400",
+            "--validation-steps", "400",
             "--out", str(out), "--domain-id", os.environ["ROS_DOMAIN_ID"]]
     proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
