@@ -73,11 +73,14 @@ def machine() -> dict[str, str | int | None]:
 
 
 def commit() -> str:
-    """The commit the numbers came from (``+dirty`` when the tree had uncommitted changes)."""
+    """The commit the numbers came from (``+dirty`` when the tree had uncommitted changes).
+
+    Stored results (``docs/results/``) do not count: they are what these commands write, not code
+    that ran, so regenerating several files one after another does not mark the later ones dirty."""
     head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True,
                           text=True).stdout.strip()
-    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=REPO,
-                           capture_output=True, text=True).stdout.strip()
+    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".",
+                            ":(exclude)docs/results"], cwd=REPO, capture_output=True, text=True).stdout.strip()
     return head + ("+dirty" if dirty else "")
 
 
