@@ -14,10 +14,12 @@ import json
 import numpy as np
 import pytest
 
+from msd_bench import designs
 from msd_bench.core.deeprl.hyper import CHOSEN
 from msd_bench.core.model import plant_model
 from msd_bench.core.plant import PlantParams
 from msd_bench.designs.deeprl_train import train
+from msd_bench.io.bags import read_experiment
 from msd_bench.nodes.agent_node import AgentNode, AgentNodeConfig
 from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
 from tests.nodes.conftest import ctx, executor, spin_until  # noqa: F401 (fixtures)
@@ -44,3 +46,9 @@ def test_the_plant_node_sees_exactly_the_steps_charged(ctx, executor, tmp_path, 
     ref = train(plant_model(PlantParams()), CHOSEN[algo], 2, 200, episode_steps=100)
     for got, want in zip(agent.policy.net, ref.net, strict=True):
         assert np.array_equal(got, want)
+    # validation parity: the node's closed loop over ROS is the compiled rollout of its network, bit for bit
+    x, u = designs.nominal_runs(agent.policy, PlantParams(), cfg.target, cfg.validation_steps)
+    exp, _ = read_experiment(tmp_path / "validation" / "seed_2")
+    assert np.array_equal(exp.y, x[0]) and np.array_equal(exp.u, u[0])
+    back = designs.load(tmp_path, None)  # the artifact the node wrote is the policy it validated
+    assert np.array_equal(designs.nominal_runs(back, PlantParams(), cfg.target, cfg.validation_steps)[0], x)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 import os
 import subprocess
@@ -158,3 +159,16 @@ def test_every_node_ran_from_its_job_file(run):
         kind, signal = played["signal"], params[played["signal"]]
         assert {k: played[f"{kind}.{k}"] for k in signal} == signal and played["seed"] == params["seed"]
         assert played["dt"] == PlantParams().dt and played["wait_recorder"] == stored["bag_path"]
+
+
+def test_the_run_is_on_one_self_contained_page(run):
+    """bench.py writes report/index.html like the in-process commands: every kind's row, every figure
+    embedded, nothing fetched from anywhere (the browser tier checks a paper run's page in Chromium)."""
+    out, _ = run
+    page = (out / "report" / "index.html").read_text()
+    table = json.loads((out / "report" / "table1.json").read_text())
+    assert all(html.escape(a["label"]) in page for a in table["agents"])
+    figures = list((out / "report" / "figures").glob("*.png"))
+    assert figures and page.count('src="data:image/png;base64,') == len(figures)
+    assert "<script" not in page and "http://" not in page.replace("http://www.w3.org", "")
+    assert "https://" not in page and "default-src 'none'" in page
