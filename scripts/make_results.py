@@ -80,7 +80,8 @@ def commit() -> str:
     head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True,
                           text=True).stdout.strip()
     dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".",
-                            ":(exclude)docs/results"], cwd=REPO, capture_output=True, text=True).stdout.strip()
+                            ":(exclude)docs/results"],
+                           cwd=REPO, capture_output=True, text=True).stdout.strip()
     return head + ("+dirty" if dirty else "")
 
 
