@@ -88,6 +88,15 @@ PLAYING_EVENT = "playing"
 """The structured event the node prints as it plays its first command (a launcher waits for it)."""
 
 
+REALTIME_HISTORY = 256
+"""History of the command publisher in real time. The plant takes only the latest command (its
+subscription keeps one), but the recorder must get every one: the cut checks the last commands it
+recorded against the signal. With a history of one, a reliable writer may replace a command a loaded
+recorder has not yet acknowledged when the timer catches up two ticks at once: the likely cause of a
+ros2_control-face cut refused as ambiguous (a recorded command that was not the signal's), seen once
+in the suite run beside a second suite."""
+
+
 @dataclass(frozen=True)
 class ExcitationNodeConfig:
     """Which signal to play and how to pace it."""
@@ -191,7 +200,7 @@ class ExcitationNode(Node):
         self.sent = 0
         self.done: Future[int] = Future()
         cmd = self.interface.command
-        depth = max(cmd.depth, self.config.window) if self.config.lockstep else cmd.depth
+        depth = max(cmd.depth, self.config.window if self.config.lockstep else REALTIME_HISTORY)
         pooled = self.config.pooled
         self._pub: Publisher[Any] = endpoints.create_publisher(
             self, msg_class(cmd), cmd.name, qos(cmd, depth), pooled)
