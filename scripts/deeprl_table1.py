@@ -16,6 +16,7 @@ The document has ``table1`` and ``robustness`` like ``scripts/make_results.py``'
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import time
 from pathlib import Path
@@ -47,11 +48,16 @@ LEARNERS = ("plant", "plm+robust", "greybox+robust")
 PAPER_STEPS = 900_000
 
 
+@functools.cache
+def paper_budget_rows() -> dict[str, dict[str, Any]]:
+    """``deeprl_table.json``'s row of each kind at the paper's budget (read once)."""
+    rows = json.loads((RESULTS / "deeprl_table.json").read_text())["rows"]
+    return {r["kind"]: r for r in rows if r["steps_per_seed"] == PAPER_STEPS}
+
+
 def taken(kind: str) -> int:
     """The plant steps the saved run of ``kind`` really took (``deeprl_table.json``), 0 on a surrogate."""
-    rows = json.loads((RESULTS / "deeprl_table.json").read_text())["rows"]
-    row = next(r for r in rows if r["kind"] == kind and r["steps_per_seed"] == PAPER_STEPS)
-    return int(row["real_taken"])
+    return int(paper_budget_rows()[kind]["real_taken"])
 
 
 def saved_policy(kind: str) -> tuple[DeepPolicy, int | None, str]:

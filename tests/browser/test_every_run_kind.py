@@ -10,7 +10,6 @@ import json
 import os
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -35,12 +34,6 @@ RUNS = {
 }
 """A small run of each kind besides paper (tests/browser/test_report_page.py has paper's)."""
 PAGES = {"bench": "report/index.html", "efficiency": "index.html", "rigs": "index.html"}
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    with Browser() as b:
-        yield b
 
 
 @pytest.fixture(scope="module", params=sorted(RUNS))
