@@ -47,13 +47,13 @@ from rclpy.timer import Timer
 from std_msgs.msg import Empty, Float64, String
 
 from msd_bench.app.job import shared
+from msd_bench.app.serve_protocol import event_line
 from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, InterfaceError
 from msd_bench.core.rest import RestConfig, RestDetector
 from msd_bench.nodes import endpoints
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import Section, check_job_used, declare_config, declare_from_dataclass
-from msd_bench.nodes.serve_protocol import event_line
 from msd_msgs_py.contract import (
     JOINT_STATES,
     LOCKSTEP_COMMAND_DEPTH,

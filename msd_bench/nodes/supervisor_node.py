@@ -25,7 +25,7 @@ counts by reason, the e-stop state and latch count, and the abort reason.
 With ``run_steps`` > 0 (how ``bench.py`` starts it, docs/supervisor.md §bench.py) a ``reference``
 starts a *run* of that many state samples: a rig has no ``reset``, and the agent announces each
 validation run's set-point as it starts, so that is where a run begins. Each run ends as one
-``run`` event line on stdout (:func:`msd_bench.nodes.serve_protocol.event_line`: its overrides
+``run`` event line on stdout (:func:`msd_bench.app.serve_protocol.event_line`: its overrides
 by reason and its abort, if any), and the node's whole life as one ``supervisor_done`` event
 when it closes; the launcher reads them, the node never writes a file. Outside a run (the rests
 between runs, a learner training on the rig) no set-point is known, so the divergence detector
@@ -47,6 +47,7 @@ from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile
 from std_msgs.msg import Empty, Float64, String
 
+from msd_bench.app.serve_protocol import event_line
 from msd_bench.core.errors import InterfaceError
 from msd_bench.core.plant import preset
 from msd_bench.core.supervisor import (
@@ -62,7 +63,6 @@ from msd_bench.io.supervisor_file import read_options
 from msd_bench.nodes.health import diagnostic_array
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
-from msd_bench.nodes.serve_protocol import event_line
 from msd_msgs_py.contract import DIAGNOSTICS, ESTOP, ESTOP_CLEAR, REFERENCE, TopicSpec
 from msd_msgs_py.ros import command, command_force, msg_class, qos
 

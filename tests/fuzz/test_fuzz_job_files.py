@@ -2,7 +2,7 @@
 
 Property: whatever the bytes, :func:`msd_bench.nodes.params.config_from_job` gives a node config
 or one :class:`~msd_bench.app.job.JobError` line naming the file, and
-:func:`msd_bench.nodes.serve_protocol.parse_event` gives an event, None, or one EventError line
+:func:`msd_bench.app.serve_protocol.parse_event` gives an event, None, or one EventError line
 naming the node; never another exception. Documents are drawn near the valid job (one field of
 the real params replaced by any JSON value, or an extra one) and far from it (any JSON, any text).
 The excitation's job is fuzzed too: its fields come in sections (``prbs.bias``), each taken by one
@@ -21,13 +21,13 @@ from hypothesis import strategies as st
 
 from msd_bench.app.config import RunConfig
 from msd_bench.app.job import JobError, job_document
+from msd_bench.app.serve_protocol import EVENT_PREFIX, EventError, parse_event
 from msd_bench.graph.bench import BenchConfig, agent_job, record_plan
 from msd_bench.graph.jobs import JobFiles
 from msd_bench.graph.record import Placement, excitation_placement
 from msd_bench.nodes.agent_node import AgentNodeConfig
 from msd_bench.nodes.excitation_node import SECTIONS
 from msd_bench.nodes.params import config_from_job, sections_from_job
-from msd_bench.nodes.serve_protocol import EVENT_PREFIX, EventError, parse_event
 from msd_msgs_py.interface import MSD_INTERFACE
 from tests.fuzz.json_values import JSON
 

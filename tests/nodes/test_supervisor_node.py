@@ -10,12 +10,12 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, Float64, String
 
+from msd_bench.app.serve_protocol import parse_event
 from msd_bench.core.adversaries import adversary, run_on_plant
 from msd_bench.core.plant import PRESETS
 from msd_bench.core.supervisor import SupervisorOptions
 from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
 from msd_bench.nodes.rig_node import RigNode
-from msd_bench.nodes.serve_protocol import parse_event
 from msd_bench.nodes.supervisor_node import NODE_NAME, SupervisorNode
 from msd_msgs_py.contract import ESTOP, ESTOP_CLEAR, FORCE, JOINT_STATES, POSITION, REFERENCE
 from msd_msgs_py.interface import make
