@@ -92,9 +92,9 @@ REALTIME_HISTORY = 256
 """History of the command publisher in real time. The plant takes only the latest command (its
 subscription keeps one), but the recorder must get every one: the cut checks the last commands it
 recorded against the signal. With a history of one, a reliable writer may replace a command a loaded
-recorder has not yet acknowledged when the timer catches up two ticks at once: the likely cause of a
-ros2_control-face cut refused as ambiguous (a recorded command that was not the signal's), seen once
-in the suite run beside a second suite."""
+recorder has not yet acknowledged when the timer catches up two ticks at once. (The cuts refused as
+ambiguous beside a second suite had another cause: the supervisor's watch wrote 0 N on the plant's
+command topic during the unsupervised recording; ``SupervisorNode._in_charge`` ends that.)"""
 
 
 @dataclass(frozen=True)

@@ -113,6 +113,8 @@ class SupervisorNode(Node):
         self._t_state: float | None = None
         self._holding = False
         """The watch sent 0 N for the silence in progress (:meth:`_watch_stale`)."""
+        self._t_command: float | None = None
+        """When a controller's command last came through (monotonic s): :meth:`_in_charge`."""
         self._logged_abort: str | None = None
         self.runs = RunLog()
         self._wire()
@@ -178,6 +180,7 @@ class SupervisorNode(Node):
         u = command_force(self.iface, msg)
         if u is None:  # a command the face cannot read (wrong length): the plant's to count
             return
+        self._t_command = time.monotonic()
         if not math.isfinite(u):  # judged as 0 N: the plant would keep its last force instead
             u = 0.0
         stale = self._is_stale()
@@ -198,7 +201,7 @@ class SupervisorNode(Node):
         now = time.monotonic()
         starved = now - self._last_watch > self.supervisor.limits.stale_timeout
         self._last_watch = now
-        if starved or self._t_state is None or self.supervisor.aborted is not None:
+        if starved or self._t_state is None or self.supervisor.aborted is not None or not self._in_charge():
             return
         silent = now - self._t_state
         if silent > self.supervisor.limits.stale_timeout and not self._holding:
@@ -209,6 +212,20 @@ class SupervisorNode(Node):
             self._send(self.supervisor.stale())
             if self.config.run_steps > 0 and self.runs.in_run:
                 self._end_run()
+
+    def _in_charge(self) -> bool:
+        """Whether a silent plant is this node's to hold at 0 N: a run is in progress, or a controller
+        commanded through it within :data:`COMMANDING_WINDOW_S` of the plant's last state.
+
+        Why not always: the node stays in the graph while others command the plant straight (the
+        bench's unsupervised recordings, a Dyna-Q agent's real-time training). A 0 N it wrote then
+        would land in their experiment: on a loaded host a stalled plant had the watch insert one
+        among a recording's commands, and the recording was refused (its commands were not the
+        signal's). The plant holds the newest command, so only the node that sent it may replace it."""
+        if self.runs.in_run:
+            return True
+        return (self._t_command is not None and self._t_state is not None
+                and self._t_command >= self._t_state - COMMANDING_WINDOW_S)
 
     def _is_stale(self) -> bool:
         if self.config.lockstep or self._t_state is None:
@@ -293,6 +310,9 @@ class SupervisorNode(Node):
 SILENT_ABORT_S = 0.5
 """Silence (s) after which the watch ends the run as stale: the plant's own watchdog's default (by
 then a drive with one holds 0 N anyway, and a missed sample of a loaded host is long over)."""
+COMMANDING_WINDOW_S = 1.0
+"""A controller that commanded through the node this long before the plant's last state is the one
+the plant listens to (its rate is 1 Hz or more): the watch holds 0 N for it (``_in_charge``)."""
 STALE_WATCHES = 2
 """Looks per ``stale_timeout`` the node's watch for a silent plant takes
 (:meth:`SupervisorNode._watch_stale`)."""

@@ -3,6 +3,8 @@ supervisor bit for bit, and the e-stop over ROS (0 N at the plant from the next 
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 from rclpy.node import Node
@@ -212,6 +214,35 @@ def test_a_plant_that_falls_silent_gets_zero_force_and_ends_the_run_as_stale(ctx
     runs = events(capsys.readouterr().out, "run")
     assert len(runs) == 1 and runs[0]["aborted"] == "stale" and not runs[0]["complete"]
     assert runs[0]["samples"] == 1
+
+
+def test_a_silent_plant_commanded_by_another_node_gets_nothing_from_the_supervisor(ctx, executor):
+    """Real time, no run and no command through the node (the bench's recordings play straight to
+    the plant while the supervisor waits for validation): the plant falls silent, and the watch
+    writes nothing on the plant's command topic, where a 0 N would land in the experiment. Once a
+    controller commands through the node, the same silence is held at 0 N."""
+    sup = SupervisorNode(context=ctx, parameter_overrides=[Parameter("plant_ns", value="/fake")])
+    executor.add_node(sup)
+    node = Node("fake_plant", namespace="/fake", context=ctx)
+    executor.add_node(node)
+    state = node.create_publisher(Float64, POSITION.name, qos(POSITION))
+    sent: list[float] = []
+    node.create_subscription(Float64, FORCE.name, lambda m: sent.append(m.data), qos(FORCE))
+    client = Controller(ctx, executor)
+    assert spin_until(executor, lambda: state.get_subscription_count() > 0
+                      and client.force.get_subscription_count() > 0
+                      and sup._pub_cmd.get_subscription_count() > 0, timeout=20.0)
+    state.publish(float64(0.5))  # the plant's last word
+    assert spin_until(executor, lambda: sup._t_state is not None, timeout=20.0)
+    limit = sup.supervisor.limits.stale_timeout
+    assert spin_until(executor, lambda: time.monotonic() - sup._t_state > 4 * limit, timeout=20.0)
+    spin_for(executor, 2 * limit)  # the watch has looked at the silence several times
+    assert sent == [] and not sup._holding
+    client.force.publish(float64(5.0))
+    assert spin_until(executor, lambda: len(sent) >= 1, timeout=20.0)
+    state.publish(float64(0.5))
+    assert spin_until(executor, lambda: sup._holding or sup.supervisor.aborted == "stale", timeout=20.0)
+    assert sent[-1] == 0.0
 
 
 def test_a_reference_starts_a_run_reported_as_one_event_and_an_estop_aborts_it(ctx, executor, capsys):
