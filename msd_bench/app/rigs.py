@@ -44,7 +44,7 @@ from msd_bench.core.qconfig import QConfig
 from msd_bench.core.results import SUCCESS_SSE
 from msd_bench.core.rig import Rig
 from msd_bench.core.rig_loop import RigRun, run_on_rig
-from msd_bench.core.rig_play import play_plan, records_of
+from msd_bench.core.rig_play import measured_actuator, play_plan, records_of
 from msd_bench.core.rig_stats import DEFAULT_RESAMPLES, rate_summary
 from msd_bench.core.risk import trace_risk
 from msd_bench.core.risk_table import summarise
@@ -57,6 +57,9 @@ noise, delay and parameter drifts are the rig's own here)."""
 RIG_KEYS = ("setpoint", "disturbance")
 DEFAULT_AGENTS = ("plm", "nlarx-improved", "greybox", "plm+robust", "nlarx-improved+robust", "greybox+robust")
 WORST = 10
+ACTUATOR_CHOICES = ("measured", "none")
+"""What the robust agent is told of a rig's drive: the delay its records show, or nothing (the agent as
+chosen on the ideal plant's surrogates): :func:`msd_bench.designs.qlearning.for_actuator`."""
 """Rigs listed with their parameters as the worst."""
 
 
@@ -76,11 +79,17 @@ class RigsConfig:
     """Scenario ids run on every rig after the nominal validation (set-points and loads only)."""
     resamples: int = DEFAULT_RESAMPLES
     """Bootstrap resamples of the over-rigs interval."""
+    actuator: str = "measured"
+    """``measured``: the robust agent's observer assumes the actuator delay fitted between the broad
+    record's commands and effort; ``none``: it assumes none (:data:`ACTUATOR_CHOICES`)."""
 
     def __post_init__(self) -> None:
         if self.rigs < 1 or self.first_rig < 0:
             raise ConfigError(f"--rigs must be >= 1 and --first-rig >= 0, got {self.rigs} and "
                               f"{self.first_rig}")
+        if self.actuator not in ACTUATOR_CHOICES:
+            raise ConfigError(f"--robust-actuator must be one of {', '.join(ACTUATOR_CHOICES)}, "
+                              f"got {self.actuator!r}")
         if self.resamples < 100:
             raise ConfigError(f"--bootstrap must be >= 100 resamples, got {self.resamples}")
         if self.run.id_seeds != 1:
@@ -135,6 +144,8 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
     run = cfg.run
     played = play_plan(rig, paper_plan(run.id_first_seed, run.samples, run.val_samples))
     records = records_of(played, drawn.params.dt)
+    drive = measured_actuator(played, drawn.params.dt)
+    delay = drive.delay_samples if cfg.actuator == "measured" else 0
     t_play = time.perf_counter()
     models, fits, failed = _identify(records, run, drawn.params, seed)
     t_id = time.perf_counter()
@@ -142,15 +153,17 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
     for kind in run.agents:
         surrogate = models.get(agent_kind(kind).surrogate)
         t = time.perf_counter()
-        tables = _train(kind, surrogate, run) if surrogate is not None else None
+        tables = _train(kind, surrogate, run, delay) if surrogate is not None else None
         t_train += time.perf_counter() - t
-        outcomes += _validate(cfg, rig, kind, surrogate, tables, seed)
+        outcomes += _validate(cfg, rig, kind, surrogate, tables, seed, delay)
     done = time.perf_counter()
     return {
         "rig": seed, "design": seed not in population.HELD_OUT_RIGS, "parameters": rig_parameters(drawn),
         "rests": {"before_experiments": [p.rest.samples for p in played],
                   "not_still": sum(not p.rest.still for p in played)},
         "fits": {name: fits[name].as_row() for name in fits}, "identification_failed": failed,
+        "actuator": {"delay_samples": drive.delay_samples, "lag_s": drive.time_constant_s,
+                     "fit_percent": drive.fit_percent, "told_robust_agent": delay},
         "outcomes": outcomes,
         "seconds": {"play": t_play - t0, "identify": t_id - t_play, "train": t_train,
                     "validate": done - t_id - t_train, "total": done - t0},
@@ -185,25 +198,26 @@ def _identify(records: Any, run: RunConfig, params: Any,
     return models, fits, failed
 
 
-def _train(kind: str, surrogate: StepModel, run: RunConfig) -> np.ndarray:
+def _train(kind: str, surrogate: StepModel, run: RunConfig, delay: int = 0) -> np.ndarray:
     """The kind's greedy tables, one per learning seed, trained on its surrogate only.
 
     The one place that trains (the controller protocol replaces it when it lands)."""
     from msd_bench.core.qtrain import train
 
-    return train(surrogate, _learner(run, kind), run.learning_seeds(0)).q
+    return train(surrogate, _learner(run, kind, delay), run.learning_seeds(0)).q
 
 
-def _learner(run: RunConfig, kind: str) -> QConfig:
-    """The Q-learner of ``kind`` at the run's budget (a kind of another design is one ConfigError line:
-    the rig sweep validates Q-tables through the rig's own loop)."""
-    from msd_bench.designs.qlearning import learner_config
+def _learner(run: RunConfig, kind: str, delay: int = 0) -> QConfig:
+    """The Q-learner of ``kind`` at the run's budget, told the rig's actuator ``delay`` (samples) if it
+    has a model observer (a kind of another design is one ConfigError line: the rig sweep validates
+    Q-tables through the rig's own loop)."""
+    from msd_bench.designs.qlearning import for_actuator, learner_config
 
-    return learner_config(kind, run.episodes, run.steps, run.plant.F, run.shaping)
+    return for_actuator(learner_config(kind, run.episodes, run.steps, run.plant.F, run.shaping), delay)
 
 
 def _validate(cfg: RigsConfig, rig: Rig, kind: str, surrogate: StepModel | None,
-              tables: np.ndarray | None, rig_seed: int) -> list[dict[str, Any]]:
+              tables: np.ndarray | None, rig_seed: int, delay: int = 0) -> list[dict[str, Any]]:
     """Every learning seed's table on the rig: nominal first, then each rig scenario, in that order."""
     run = cfg.run
     out = []
@@ -212,25 +226,26 @@ def _validate(cfg: RigsConfig, rig: Rig, kind: str, surrogate: StepModel | None,
             out.append({"kind": kind, "seed": seed, "success": False, "identified": False})
             continue
         nominal = _one_run(cfg, rig, kind, surrogate, tables[j], seed, rig_seed,
-                           Scenario(setpoint=run.target))
+                           Scenario(setpoint=run.target), delay)
         row = {"kind": kind, "seed": seed, "identified": True, **_scores(nominal, run.target, run),
                "start_x": float(nominal.x[0]), "risk": _risk(cfg, rig, nominal),
                "scenarios": {}}
         for sid in cfg.scenarios:
             sc = rig_scenario(sid)
-            got = _one_run(cfg, rig, kind, surrogate, tables[j], seed, rig_seed, sc)
+            got = _one_run(cfg, rig, kind, surrogate, tables[j], seed, rig_seed, sc, delay)
             row["scenarios"][sid] = _scores(got, sc.setpoint, run, brief=True)
         out.append(row)
     return out
 
 
 def _one_run(cfg: RigsConfig, rig: Rig, kind: str, surrogate: StepModel, table: np.ndarray, seed: int,
-             rig_seed: int, sc: Scenario) -> RigRun:
+             rig_seed: int, sc: Scenario, delay: int = 0) -> RigRun:
     """One validation run of ``table`` on the rig under ``sc`` (its noise stream named by rig, kind, seed)."""
     rng = np.random.default_rng(noise_seed(seed, f"rig{rig_seed}/{kind}/{sc.id}"))
     load_step = round(sc.disturbance_time / rig.params.dt)
-    return run_on_rig(rig, table, _learner(cfg.run, kind), surrogate, sc.setpoint, cfg.run.validation_steps,
-                      rng, load=sc.disturbance, load_step=load_step, limits=cfg.run.supervisor_limits)
+    return run_on_rig(rig, table, _learner(cfg.run, kind, delay), surrogate, sc.setpoint,
+                      cfg.run.validation_steps, rng, load=sc.disturbance, load_step=load_step,
+                      limits=cfg.run.supervisor_limits)
 
 
 def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:

@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 
 def register(sub: Any) -> None:
     """Add the ``rigs`` subcommand."""
-    from msd_bench.app.rigs import DEFAULT_AGENTS, RIG_SCENARIOS
+    from msd_bench.app.rigs import ACTUATOR_CHOICES, DEFAULT_AGENTS, RIG_SCENARIOS
     from msd_bench.core.population import HELD_OUT_RIGS
     from msd_bench.core.rig_stats import DEFAULT_RESAMPLES
 
@@ -54,6 +54,11 @@ def register(sub: Any) -> None:
                         "('' for none)")
     p.add_argument("--bootstrap", type=int, default=DEFAULT_RESAMPLES,
                    help=f"bootstrap-over-rigs resamples ({DEFAULT_RESAMPLES})")
+    p.add_argument("--robust-actuator", default="measured",
+                   help="what the robust agent's observer is told of each rig's drive, one of "
+                        f"{', '.join(ACTUATOR_CHOICES)}: the delay fitted between its broad record's "
+                        "commands and effort (measured, the default) or none (the agent as chosen on "
+                        "the ideal plant)")
     p.add_argument("--out", type=Path, required=True, help="output run directory (created)")
     add_executor_arguments(p)
     p.set_defaults(func=run)
@@ -65,7 +70,8 @@ def rigs_config(args: argparse.Namespace) -> RigsConfig:
 
     scenarios = tuple(s.strip() for s in str(args.rig_scenarios).split(";") if s.strip())
     return RigsConfig(run_config_from_args(args), rigs=args.rigs, first_rig=args.first_rig,
-                      design=args.design, scenarios=scenarios, resamples=args.bootstrap)
+                      design=args.design, scenarios=scenarios, resamples=args.bootstrap,
+                      actuator=args.robust_actuator)
 
 
 def task_id(seed: int) -> str:
@@ -81,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = rigs_config(args)
     options = executor_from_args(args)
     config = run_config_doc(cfg.run, rigs=cfg.rig_seeds(), design=cfg.design, scenarios=list(cfg.scenarios),
-                            resamples=cfg.resamples)
+                            resamples=cfg.resamples, robust_actuator=cfg.actuator)
     rd = RunDir.open(Path(args.out), "rigs", [*map(task_id, cfg.rig_seeds()), "rigs"], config)  # before work
     if rd.pending():
         _sweep(rd, cfg, options)

@@ -31,7 +31,9 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from msd_bench.core.actuation import EffortAgreement, effort_agreement
 from msd_bench.core.data import Experiment, IOData
+from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.excitation import MultilevelConfig, PrbsConfig, multilevel, prbs
 from msd_bench.core.records import Records
 from msd_bench.core.rest import RestConfig, RestDetector
@@ -153,3 +155,17 @@ def records_of(played: Sequence[PlayedExperiment], dt: float) -> Records:
         else:
             bias[p.role][p.bias] = data
     return Records(bias[TRAIN], bias[VALIDATION], broad[TRAIN], broad[VALIDATION])
+
+
+def measured_actuator(played: Sequence[PlayedExperiment], dt: float) -> EffortAgreement:
+    """The actuator between the commands and the effort of the broad training record, as its bag holds them.
+
+    What a rig's records show of its drive (dead time and lag), fitted as check-rig and the
+    ros2_control reader fit it (:func:`~msd_bench.core.actuation.effort_agreement`): the
+    identification records carry the applied force, so no surrogate sees the drive, but an
+    agent's observer can be told its delay (docs/rigs.md §The robust agent told the drive's delay).
+    """
+    broad = [p for p in played if p.bias is None and p.role == TRAIN]
+    if not broad:
+        raise InvalidInputError("the played plan has no broad training record")
+    return effort_agreement(broad[0].command, broad[0].effort, dt)

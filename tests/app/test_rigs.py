@@ -49,6 +49,8 @@ def test_the_command_writes_rigs_json_md_and_figure(whole: Path) -> None:
         assert [(o["kind"], o["seed"]) for o in rig["outcomes"]] == [("glm", 0), ("glm+robust", 0)]
         assert all(isinstance(o["success"], bool) and "sse_measured" in o for o in rig["outcomes"])
         assert rig["rests"]["before_experiments"][0] == 300  # the first experiment starts from start-up rest
+        drive = rig["actuator"]  # what the broad record shows of the drive, told to the robust agent
+        assert drive["delay_samples"] == rig["parameters"]["delay"] == drive["told_robust_agent"]
     starts = [o["start_x"] for r in doc["rigs"] for o in r["outcomes"]]
     assert all(s != 0.0 for s in starts)  # every validation run starts where the rig came to rest
     assert (whole / "rigs.md").read_text() == render(doc)  # generated from rigs.json only
@@ -108,6 +110,7 @@ def test_an_interrupted_sweep_resumes_without_recomputing_a_rig(whole: Path, tmp
     (["--rig-scenarios", "setpoint=9"], "setpoint must be non-zero and within"),
     (["--bootstrap", "10"], "--bootstrap must be >= 100"),
     (["--agents", "nope"], "unknown agent kind 'nope'"),
+    (["--robust-actuator", "guess"], "--robust-actuator must be one of measured, none, got 'guess'"),
 ])
 def test_bad_options_are_one_line_and_write_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                     extra: list[str], message: str) -> None:
@@ -125,3 +128,22 @@ def test_a_design_run_says_so(tmp_path: Path) -> None:
     args = build_parser().parse_args([*RIGS, "--design", "--first-rig", "10", "--out", str(tmp_path / "d")])
     cfg = rigs_config(args)
     assert isinstance(cfg, RigsConfig) and cfg.design and cfg.rig_seeds() == [10, 11]
+
+
+def test_the_robust_agent_told_no_delay_trains_as_on_the_ideal_plant() -> None:
+    """``--robust-actuator none``: the rig's delay is still measured and reported, but the observer is
+    told none, so the robust learner is the ideal plant's; a rig with a delay changes the learner."""
+    from msd_bench.app.rigs import _learner, rig_task
+    from msd_bench.cli import build_parser
+    from msd_bench.commands.rigs import rigs_config
+    from msd_bench.designs.qlearning import learner_config
+
+    args = build_parser().parse_args([*RIGS, "--agents", "glm+robust", "--rigs", "1", "--first-rig", "1012",
+                                      "--robust-actuator", "none", "--rig-scenarios", "", "--out", "unused"])
+    cfg = rigs_config(args)
+    got = rig_task(cfg, 1012)
+    assert got["parameters"]["delay"] == got["actuator"]["delay_samples"] == 2
+    assert got["actuator"]["told_robust_agent"] == 0
+    run = cfg.run
+    plain = learner_config("glm+robust", run.episodes, run.steps, run.plant.F, run.shaping)
+    assert _learner(run, "glm+robust", 0) == plain and _learner(run, "glm+robust", 2).obs_delay == 2
