@@ -98,9 +98,10 @@ def real_time(rig: int, agents: str, out: Path) -> dict[str, Any]:
 
 
 def in_process(rig: int, agents: str, out: Path) -> dict[str, Any]:
-    """``msd-bench rigs`` on the same one rig, at the same size."""
+    """``msd-bench rigs`` on the same one rig, at the same size, with the robust agent told no actuator
+    delay: ``bench.py`` does not tell it one (docs/rigs.md §The robust agent told the drive's delay)."""
     argv = [sys.executable, "-m", "msd_bench.cli", "rigs", "--first-rig", str(rig), "--rigs", "1", *SIZE,
-            "--agents", agents, "--out", str(out)]
+            "--agents", agents, "--robust-actuator", "none", "--out", str(out)]
     started = time.monotonic()
     proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True, timeout=BENCH_TIMEOUT_S)
     seconds = round(time.monotonic() - started, 1)

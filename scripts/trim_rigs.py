@@ -1,0 +1,50 @@
+"""A ``rigs.json`` made small enough to commit: each run's per-scenario cells left out.
+
+A 100-rig x 4-seed x 8-kind run's ``rigs.json`` is about 3.5 MB, over the repository's 2 MiB per
+file; the per-run scenario cells (``rigs[*].outcomes[*].scenarios``) are most of it, and every kind's
+scenario cells pooled over all rigs (``kinds[*].scenarios``) stay, so every generated view renders
+the same from the trimmed file. The file records that it was trimmed (``trimmed``):
+
+    python scripts/trim_rigs.py runs/rigs-heldout-100/rigs.json docs/results/rigs_heldout100.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from msd_bench.io.atomic import write_text_atomic
+
+DROPPED = "rigs[*].outcomes[*].scenarios"
+
+
+def trimmed(doc: dict[str, Any]) -> dict[str, Any]:
+    """``doc`` without each run's scenario cells, saying so."""
+    rigs = [{**rig, "outcomes": [{k: v for k, v in o.items() if k != "scenarios"} for o in rig["outcomes"]]}
+            for rig in doc["rigs"]]
+    return {**doc, "rigs": rigs, "trimmed": {"dropped": DROPPED}}
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("source", type=Path, help="a rigs.json written by msd-bench rigs")
+    p.add_argument("out", type=Path, help="where the trimmed copy goes (written atomically)")
+    args = p.parse_args(argv)
+    try:
+        doc = json.loads(args.source.read_text())
+    except (OSError, ValueError) as exc:
+        print(f"trim_rigs: error: {args.source}: {exc}", file=sys.stderr)
+        return 2
+    if doc.get("schema") != "msd-bench/rigs":
+        print(f"trim_rigs: error: {args.source} is not a rigs.json (schema {doc.get('schema')!r})",
+              file=sys.stderr)
+        return 2
+    write_text_atomic(args.out, json.dumps(trimmed(doc), separators=(",", ":")) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
