@@ -153,9 +153,10 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
     for kind in run.agents:
         surrogate = models.get(agent_kind(kind).surrogate)
         t = time.perf_counter()
-        tables = _train(kind, surrogate, run, delay) if surrogate is not None else None
+        lr = _learner(run, kind, delay)
+        tables = _train(surrogate, lr, run) if surrogate is not None else None
         t_train += time.perf_counter() - t
-        outcomes += _validate(cfg, rig, kind, surrogate, tables, seed, delay)
+        outcomes += _validate(cfg, rig, kind, lr, surrogate, tables, seed)
     done = time.perf_counter()
     return {
         "rig": seed, "design": seed not in population.HELD_OUT_RIGS, "parameters": rig_parameters(drawn),
@@ -198,13 +199,13 @@ def _identify(records: Any, run: RunConfig, params: Any,
     return models, fits, failed
 
 
-def _train(kind: str, surrogate: StepModel, run: RunConfig, delay: int = 0) -> np.ndarray:
-    """The kind's greedy tables, one per learning seed, trained on its surrogate only.
+def _train(surrogate: StepModel, lr: QConfig, run: RunConfig) -> np.ndarray:
+    """The kind's greedy tables (learner ``lr``), one per learning seed, trained on its surrogate only.
 
     The one place that trains (the controller protocol replaces it when it lands)."""
     from msd_bench.core.qtrain import train
 
-    return train(surrogate, _learner(run, kind, delay), run.learning_seeds(0)).q
+    return train(surrogate, lr, run.learning_seeds(0)).q
 
 
 def _learner(run: RunConfig, kind: str, delay: int = 0) -> QConfig:
@@ -216,8 +217,8 @@ def _learner(run: RunConfig, kind: str, delay: int = 0) -> QConfig:
     return for_actuator(learner_config(kind, run.episodes, run.steps, run.plant.F, run.shaping), delay)
 
 
-def _validate(cfg: RigsConfig, rig: Rig, kind: str, surrogate: StepModel | None,
-              tables: np.ndarray | None, rig_seed: int, delay: int = 0) -> list[dict[str, Any]]:
+def _validate(cfg: RigsConfig, rig: Rig, kind: str, lr: QConfig, surrogate: StepModel | None,
+              tables: np.ndarray | None, rig_seed: int) -> list[dict[str, Any]]:
     """Every learning seed's table on the rig: nominal first, then each rig scenario, in that order."""
     run = cfg.run
     out = []
@@ -225,27 +226,26 @@ def _validate(cfg: RigsConfig, rig: Rig, kind: str, surrogate: StepModel | None,
         if surrogate is None or tables is None:
             out.append({"kind": kind, "seed": seed, "success": False, "identified": False})
             continue
-        nominal = _one_run(cfg, rig, kind, surrogate, tables[j], seed, rig_seed,
-                           Scenario(setpoint=run.target), delay)
+        nominal = _one_run(cfg, rig, kind, lr, surrogate, tables[j], seed, rig_seed,
+                           Scenario(setpoint=run.target))
         row = {"kind": kind, "seed": seed, "identified": True, **_scores(nominal, run.target, run),
                "start_x": float(nominal.x[0]), "risk": _risk(cfg, rig, nominal),
                "scenarios": {}}
         for sid in cfg.scenarios:
             sc = rig_scenario(sid)
-            got = _one_run(cfg, rig, kind, surrogate, tables[j], seed, rig_seed, sc, delay)
+            got = _one_run(cfg, rig, kind, lr, surrogate, tables[j], seed, rig_seed, sc)
             row["scenarios"][sid] = _scores(got, sc.setpoint, run, brief=True)
         out.append(row)
     return out
 
 
-def _one_run(cfg: RigsConfig, rig: Rig, kind: str, surrogate: StepModel, table: np.ndarray, seed: int,
-             rig_seed: int, sc: Scenario, delay: int = 0) -> RigRun:
+def _one_run(cfg: RigsConfig, rig: Rig, kind: str, lr: QConfig, surrogate: StepModel, table: np.ndarray,
+             seed: int, rig_seed: int, sc: Scenario) -> RigRun:
     """One validation run of ``table`` on the rig under ``sc`` (its noise stream named by rig, kind, seed)."""
     rng = np.random.default_rng(noise_seed(seed, f"rig{rig_seed}/{kind}/{sc.id}"))
     load_step = round(sc.disturbance_time / rig.params.dt)
-    return run_on_rig(rig, table, _learner(cfg.run, kind, delay), surrogate, sc.setpoint,
-                      cfg.run.validation_steps, rng, load=sc.disturbance, load_step=load_step,
-                      limits=cfg.run.supervisor_limits)
+    return run_on_rig(rig, table, lr, surrogate, sc.setpoint, cfg.run.validation_steps, rng,
+                      load=sc.disturbance, load_step=load_step, limits=cfg.run.supervisor_limits)
 
 
 def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:

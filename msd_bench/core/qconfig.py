@@ -46,6 +46,9 @@ STATE_MODES = {"paper": MODE_PAPER, "improved": MODE_IMPROVED}
 SHAPINGS = ("away", "toward")
 OBSERVERS = ("none", "alpha-beta", "model")
 OBS_NONE, OBS_ALPHA_BETA, OBS_MODEL = 0, 1, 2
+MAX_DELAY_SAMPLES = 10
+"""The longest actuator delay (samples) a model observer assumes (``obs_delay``) or training draws
+(``train_delay``)."""
 N_ACTIONS = 5
 N_DIRECTIONS = 3
 
@@ -174,7 +177,8 @@ class QConfig:
                  "an observer needs a gain in (0, 1] (and none without one); velocity gain in [0, 1]")
         _require(math.isfinite(self.train_noise) and 0.0 <= self.train_noise <= 0.1,
                  "train_noise must be in [0, 0.1] m")
-        _require(0 <= self.train_delay <= 10, "train_delay must be in 0..10 samples")
+        _require(0 <= self.train_delay <= MAX_DELAY_SAMPLES,
+                 f"train_delay must be in 0..{MAX_DELAY_SAMPLES} samples")
         _require(0 <= self.select_every <= 100_000, "select_every must be in 0..100000 episodes")
         _require(0.0 <= self.obs_velocity_share <= 1.0
                  and (self.obs_velocity_share == 1.0 or self.observer == "model"),
@@ -185,8 +189,10 @@ class QConfig:
         _require(math.isfinite(self.obs_bias_gain) and 0.0 <= self.obs_bias_gain <= 1000.0
                  and (self.obs_bias_gain == 0.0 or self.observer == "model"),
                  "obs_bias_gain must be in [0, 1000] N/m, and only a model observer has one")
-        _require(0 <= self.obs_delay <= 10 and (self.obs_delay == 0 or self.observer == "model"),
-                 "obs_delay must be in 0..10 samples, and only a model observer assumes one")
+        _require(0 <= self.obs_delay <= MAX_DELAY_SAMPLES
+                 and (self.obs_delay == 0 or self.observer == "model"),
+                 f"obs_delay must be in 0..{MAX_DELAY_SAMPLES} samples, and only a model observer "
+                 "assumes one")
         _require(self.state != "paper" or not self.observed,
                  "the observer and training perturbations need the improved state")
 

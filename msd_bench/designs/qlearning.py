@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.qconfig import QConfig, improved_config
+from msd_bench.core.qconfig import MAX_DELAY_SAMPLES, QConfig, improved_config
 from msd_bench.designs.protocol import Controller, Facts, KindSpec, Request, Settings
 from msd_bench.designs.registry import PLANT, plus_kinds
 
@@ -80,10 +80,6 @@ def learner_config(kind: str, episodes: int, steps: int, force: float, shaping: 
     return learner(k.spec, k.design.learner_name, s, episodes)
 
 
-MAX_OBS_DELAY = 10
-"""The longest delay a model observer assumes or its training draws (QConfig's bounds)."""
-
-
 def for_actuator(lr: QConfig, delay_samples: int) -> QConfig:
     """``lr`` told the actuator delay ``d`` a rig's records show: a model observer (the robust agent)
     predicts with the force commanded ``d`` samples ago, and its training draws delays up to
@@ -97,8 +93,8 @@ def for_actuator(lr: QConfig, delay_samples: int) -> QConfig:
     """
     if lr.observer != "model" or delay_samples <= 0:
         return lr
-    d = min(int(delay_samples), MAX_OBS_DELAY)
-    return replace(lr, obs_delay=d, train_delay=min(lr.train_delay + d, MAX_OBS_DELAY))
+    d = min(int(delay_samples), MAX_DELAY_SAMPLES)
+    return replace(lr, obs_delay=d, train_delay=min(lr.train_delay + d, MAX_DELAY_SAMPLES))
 
 
 def learner_from_meta(meta: Mapping[str, Any]) -> QConfig:

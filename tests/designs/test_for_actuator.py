@@ -10,9 +10,10 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.plan import paper_plan
 from msd_bench.core import population
 from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.qconfig import MAX_DELAY_SAMPLES
 from msd_bench.core.rig import Rig, RigImperfections
 from msd_bench.core.rig_play import measured_actuator, play_plan
-from msd_bench.designs.qlearning import MAX_OBS_DELAY, for_actuator, learner_config, robust_config
+from msd_bench.designs.qlearning import for_actuator, learner_config, robust_config
 
 RUN = RunConfig(samples=600, val_samples=400)
 
@@ -25,7 +26,7 @@ def test_only_a_model_observer_is_told_the_delay() -> None:
     robust = learner_config("glm+robust", 10, 100, 10.0)
     assert for_actuator(robust, 2) == replace(robust, obs_delay=2, train_delay=robust.train_delay + 2)
     assert for_actuator(robust, 0) == robust  # an ideal plant's records: the agent as chosen, unchanged
-    assert for_actuator(robust, 99).obs_delay == for_actuator(robust, 99).train_delay == MAX_OBS_DELAY
+    assert for_actuator(robust, 99).obs_delay == for_actuator(robust, 99).train_delay == MAX_DELAY_SAMPLES
     improved = learner_config("glm+improved", 10, 100, 10.0)
     paper = learner_config("glm", 10, 100, 10.0)
     assert for_actuator(improved, 2) == improved and for_actuator(paper, 2) == paper

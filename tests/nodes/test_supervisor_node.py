@@ -156,10 +156,10 @@ def _ns(r: JointState) -> int:
     return r.header.stamp.sec * 10**9 + r.header.stamp.nanosec
 
 
-def test_a_stale_state_ends_the_run_with_zero_force(ctx, executor):
-    """Real time: a command arriving when the newest state is older than stale_timeout is
-    answered with 0 N and the run is aborted as stale (more waiting only makes it staler)."""
-    sup = SupervisorNode(context=ctx, parameter_overrides=[Parameter("plant_ns", value="/fake")])
+def _behind_supervisor(ctx, executor, *params: Parameter):
+    """A supervisor in front of a fake msd-face plant under /fake (its newest position published by
+    the test, the forces it is sent collected) and a controller, every endpoint matched."""
+    sup = SupervisorNode(context=ctx, parameter_overrides=[Parameter("plant_ns", value="/fake"), *params])
     executor.add_node(sup)
     node = Node("fake_plant", namespace="/fake", context=ctx)
     executor.add_node(node)
@@ -170,6 +170,13 @@ def test_a_stale_state_ends_the_run_with_zero_force(ctx, executor):
     assert spin_until(executor, lambda: state.get_subscription_count() > 0
                       and client.force.get_subscription_count() > 0
                       and sup._pub_cmd.get_subscription_count() > 0, timeout=20.0)
+    return sup, state, sent, client
+
+
+def test_a_stale_state_ends_the_run_with_zero_force(ctx, executor):
+    """Real time: a command arriving when the newest state is older than stale_timeout is
+    answered with 0 N and the run is aborted as stale (more waiting only makes it staler)."""
+    sup, state, sent, client = _behind_supervisor(ctx, executor)
     state.publish(float64(0.5))
     assert spin_until(executor, lambda: sup._t_state is not None, timeout=20.0)
     client.force.publish(float64(5.0))
@@ -191,19 +198,9 @@ def events(text: str, name: str) -> list[dict]:
 def test_a_plant_that_falls_silent_gets_zero_force_and_ends_the_run_as_stale(ctx, executor, capsys):
     """Real time, no command at all after the plant's last state (an agent waits on the next one):
     the node's own watch sends 0 N, and the run in progress ends as one ``run`` event, aborted stale."""
-    sup = SupervisorNode(context=ctx, parameter_overrides=[Parameter("plant_ns", value="/fake"),
-                                                           Parameter("run_steps", value=500)])
-    executor.add_node(sup)
-    node = Node("fake_plant", namespace="/fake", context=ctx)
-    executor.add_node(node)
-    state = node.create_publisher(Float64, POSITION.name, qos(POSITION))
-    sent: list[float] = []
-    node.create_subscription(Float64, FORCE.name, lambda m: sent.append(m.data), qos(FORCE))
-    client = Controller(ctx, executor)
+    sup, state, sent, client = _behind_supervisor(ctx, executor, Parameter("run_steps", value=500))
     reference = client.node.create_publisher(Float64, REFERENCE.name, qos(REFERENCE))
-    assert spin_until(executor, lambda: state.get_subscription_count() > 0
-                      and reference.get_subscription_count() > 0
-                      and sup._pub_cmd.get_subscription_count() > 0, timeout=20.0)
+    assert spin_until(executor, lambda: reference.get_subscription_count() > 0, timeout=20.0)
     reference.publish(float64(1.0))
     assert spin_until(executor, lambda: sup.runs.in_run, timeout=20.0)
     capsys.readouterr()
@@ -221,17 +218,7 @@ def test_a_silent_plant_commanded_by_another_node_gets_nothing_from_the_supervis
     the plant while the supervisor waits for validation): the plant falls silent, and the watch
     writes nothing on the plant's command topic, where a 0 N would land in the experiment. Once a
     controller commands through the node, the same silence is held at 0 N."""
-    sup = SupervisorNode(context=ctx, parameter_overrides=[Parameter("plant_ns", value="/fake")])
-    executor.add_node(sup)
-    node = Node("fake_plant", namespace="/fake", context=ctx)
-    executor.add_node(node)
-    state = node.create_publisher(Float64, POSITION.name, qos(POSITION))
-    sent: list[float] = []
-    node.create_subscription(Float64, FORCE.name, lambda m: sent.append(m.data), qos(FORCE))
-    client = Controller(ctx, executor)
-    assert spin_until(executor, lambda: state.get_subscription_count() > 0
-                      and client.force.get_subscription_count() > 0
-                      and sup._pub_cmd.get_subscription_count() > 0, timeout=20.0)
+    sup, state, sent, client = _behind_supervisor(ctx, executor)
     state.publish(float64(0.5))  # the plant's last word
     assert spin_until(executor, lambda: sup._t_state is not None, timeout=20.0)
     limit = sup.supervisor.limits.stale_timeout
