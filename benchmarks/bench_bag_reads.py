@@ -29,10 +29,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from msd_bench.core.records import Records
-from msd_bench.io import cdr
-from msd_bench.io.bag_records import load_records, roles_from_dir
-from msd_bench.io.bags import write_experiment
+from msd_bench.core.identification.records import Records
+from msd_bench.io.bags import cdr
+from msd_bench.io.bags.bag_records import load_records, roles_from_dir
+from msd_bench.io.bags.reader import write_experiment
 
 SIZES = {"broad": 12_000, "val_broad": 2_000,
          **{f"bias_{b}": 13_000 for b in ("m10", "m5", "0", "p5", "p10")},

@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 
-from msd_bench.io.bags import BagRecorder, read_experiment, typestore, write_experiment
+from msd_bench.io.bags.reader import BagRecorder, read_experiment, typestore, write_experiment
 
 TOPIC, TYPE = "/msd/joint_states", "sensor_msgs/msg/JointState"
 

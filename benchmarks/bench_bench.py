@@ -41,7 +41,7 @@ def timed(argv: list[str]) -> float:
 
 def plant_samples(bags: list[Path]) -> int:
     """The plant's ``joint_states`` rows in these bags (one per lock-step step)."""
-    from msd_bench.io.bags import bag_info
+    from msd_bench.io.bags.reader import bag_info
 
     return sum(n for b in bags for t, (_, n) in bag_info(b).topics.items() if t.endswith("/joint_states")
                and not t.endswith("truth/joint_states"))

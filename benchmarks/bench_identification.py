@@ -18,8 +18,7 @@ import json
 import time
 from dataclasses import asdict
 
-from msd_bench.core import plant
-from msd_bench.core.identify import (
+from msd_bench.core.identification.identify import (
     GlmConfig,
     PlmConfig,
     bias_record,
@@ -29,8 +28,9 @@ from msd_bench.core.identify import (
     identify_nlarx,
     identify_plm,
 )
-from msd_bench.core.nlarx import NlarxConfig
-from msd_bench.core.plm import PLM_BIASES
+from msd_bench.core.identification.nlarx import NlarxConfig
+from msd_bench.core.identification.plm import PLM_BIASES
+from msd_bench.core.physics import plant
 
 BUDGET_S = 30.0
 

@@ -10,7 +10,7 @@ records are the paper plan of identification seed ``--seed`` on the preset's
 plant, or with ``--rig N`` played through population rig ``N`` as ``msd-bench
 rigs`` plays it (its friction, delay, lag and sensor: the records a rig's bags
 would hold; a frictional rig is where the PLM used to take longest). ``new`` is the
-product path (:func:`msd_bench.core.registry.fit_model` for every registered kind);
+product path (:func:`msd_bench.core.identification.model_kinds.fit_model` for every registered kind);
 ``old`` fits the same kinds with the earlier
 numerics selected by their configs (the PLM's finite-difference Jacobian, the
 NLARX's torch-autograd simulation stage; the other kinds did not change), so
@@ -40,17 +40,18 @@ import torch
 
 from msd_bench.app.pipeline import records_from_plan
 from msd_bench.app.plan import paper_plan
-from msd_bench.core import plant, population
-from msd_bench.core.data import IOData
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.identify import PlmConfig, evaluate, identify_nlarx, identify_plm
-from msd_bench.core.model import StepModel
-from msd_bench.core.nlarx import NlarxConfig
-from msd_bench.core.records import Records
-from msd_bench.core.registry import MODEL_KINDS, FitRequest, fit_model
-from msd_bench.core.rig import Rig
-from msd_bench.core.rig_play import play_plan, records_of
-from msd_bench.io.atomic import write_text_atomic
+from msd_bench.core.identification.data import IOData
+from msd_bench.core.identification.identify import PlmConfig, evaluate, identify_nlarx, identify_plm
+from msd_bench.core.identification.model_kinds import MODEL_KINDS, FitRequest, fit_model
+from msd_bench.core.identification.nlarx import NlarxConfig
+from msd_bench.core.identification.records import Records
+from msd_bench.core.physics import plant
+from msd_bench.core.physics.model import StepModel
+from msd_bench.core.rigs import population
+from msd_bench.core.rigs.rig import Rig
+from msd_bench.core.rigs.rig_play import play_plan, records_of
+from msd_bench.io.storage.atomic import write_text_atomic
 
 RIG_KINDS = ("plm", "nlarx-improved", "greybox", "greybox-rig")
 """The model kinds ``msd-bench rigs`` identifies per rig for issue 21's agents (their sum is reported)."""
@@ -169,7 +170,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--preset", default="default", choices=sorted(plant.PRESETS))
     ap.add_argument("--rig", type=int,
-                    help="play the records through this population rig (core/population.py)")
+                    help="play the records through this population rig (core/rigs/population.py)")
     ap.add_argument("--seed", type=int, default=0, help="identification seed of the rig's records")
     ap.add_argument("--repeats", type=int, default=3, help="runs per kind and path (the median is reported)")
     ap.add_argument("--out", type=Path, help="also write the JSON here (must not exist)")

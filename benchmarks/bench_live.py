@@ -37,7 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import ClientConnection, connect
 
-from msd_bench.io.live import SUBPROTOCOL, LiveServer
+from msd_bench.io.reports.live_server import SUBPROTOCOL, LiveServer
 
 
 def _subscribe_all(ws: ClientConnection) -> None:
@@ -125,8 +125,8 @@ def watch_bench_run(out: Path) -> dict[str, Any]:
 
     from websockets.exceptions import ConnectionClosed
 
-    from msd_bench.io import live
-    from msd_bench.io.bags import read_samples
+    from msd_bench.io.bags.reader import read_samples
+    from msd_bench.io.reports import live_server as live
     from tests.graph.foxglove_client import FoxgloveClient, Received
 
     topics = [live.PLANT_TOPIC, live.SETPOINT_TOPIC, live.PROGRESS_TOPIC, live.LOG_TOPIC]

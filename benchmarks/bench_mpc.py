@@ -33,12 +33,12 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from msd_bench.core import kernels
 from msd_bench.core.baselines import mpc
-from msd_bench.core.closed_loop import quantise
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.plant import PlantParams
-from msd_bench.io.artifacts import load_model
+from msd_bench.core.evaluation.closed_loop import quantise
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.io.storage.artifacts import load_model
 
 REPO = Path(__file__).resolve().parents[1]
 PINNED = REPO / "tests" / "data" / "pinned" / "plm.json"

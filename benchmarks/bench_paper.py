@@ -35,8 +35,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig as PaperConfig
 from msd_bench.app.pipeline import Trained, identify_surrogates, make_records, train_and_validate
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PRESETS
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PRESETS
 
 FLOOR_S = 600.0
 """Whole command, 20 seeds, default budgets, 2-core machine."""

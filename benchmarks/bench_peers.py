@@ -20,7 +20,7 @@ fitted on the training record(s) and scored on the broad validation record:
 * ``fit_seconds`` — wall time of the fit on this (shared, 2-core) machine.
 
 Methods: ours (GLM, PLM, NLARX improved, grey-box) through
-:mod:`msd_bench.core.identify`; SysIdentPy FROLS (polynomial NARX of degree 3,
+:mod:`msd_bench.core.identification.identify`; SysIdentPy FROLS (polynomial NARX of degree 3,
 lags 2) with AIC order selection and with 20 terms forced; PySINDy with a
 polynomial (degree 3) + sin library on the state (x, v) and the force u,
 stop samples masked, derivatives by Euler-consistent differences on clean
@@ -48,13 +48,14 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
-from msd_bench.core import identify, plant
-from msd_bench.core.data import Experiment, IOData
-from msd_bench.core.excitation import MultilevelConfig, PrbsConfig
-from msd_bench.core.fit import fit_percent
-from msd_bench.core.nlarx import NlarxConfig
-from msd_bench.core.plm import PLM_BIASES
-from msd_bench.core.sensor import SensorModel, clear_of_stops
+from msd_bench.core.identification import identify
+from msd_bench.core.identification.data import Experiment, IOData
+from msd_bench.core.identification.excitation import MultilevelConfig, PrbsConfig
+from msd_bench.core.identification.fit import fit_percent
+from msd_bench.core.identification.nlarx import NlarxConfig
+from msd_bench.core.identification.plm import PLM_BIASES
+from msd_bench.core.physics import plant
+from msd_bench.core.physics.sensor import SensorModel, clear_of_stops
 
 FloatArray = np.ndarray
 Simulator = Callable[[FloatArray, FloatArray], FloatArray]

@@ -28,10 +28,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from msd_bench.core.plant import preset, simulate
+from msd_bench.core.physics.plant import preset, simulate
 from msd_bench.graph import launch, record
 from msd_bench.graph.jobs import JobFiles
-from msd_bench.io.bags import write_experiment
+from msd_bench.io.bags.reader import write_experiment
 
 
 def through_processes(plan: list[record.ExperimentSpec], out: Path, window: int) -> dict[str, float]:

@@ -29,14 +29,15 @@ from typing import Any
 import numba
 import numpy as np
 
-from msd_bench.core import rng, robustness
-from msd_bench.core.dyna import DynaConfig, train_dyna
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PlantParams, preset
-from msd_bench.core.qconfig import QConfig, improved_config, packed
-from msd_bench.core.qtrain import budget, run_batch, train
-from msd_bench.core.scenarios import parse
-from msd_bench.core.stats import summarize
+from msd_bench.core.evaluation import robustness
+from msd_bench.core.evaluation.scenarios import parse
+from msd_bench.core.evaluation.stats import summarize
+from msd_bench.core.learning import rng
+from msd_bench.core.learning.dyna import DynaConfig, train_dyna
+from msd_bench.core.learning.qconfig import QConfig, improved_config, packed
+from msd_bench.core.learning.qtrain import budget, run_batch, train
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PlantParams, preset
 
 FloatArray = np.ndarray
 

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 from msd_bench._version import __version__
 
 if TYPE_CHECKING:
-    from msd_bench.core.model import StepModel
+    from msd_bench.core.physics.model import StepModel
 
 __all__ = ["__version__", "load_model"]
 
@@ -25,6 +25,6 @@ def load_model(path: str | os.PathLike[str]) -> StepModel:
     ``control.step_response(msd_bench.load_model("models/glm.json").to_transfer_function())``.
     A missing or malformed file raises a one-line ``ArtifactError``.
     """
-    from msd_bench.io.artifacts import load_model as _load
+    from msd_bench.io.storage.artifacts import load_model as _load
 
     return _load(Path(path))

@@ -34,10 +34,10 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import identify_surrogates, make_records
 from msd_bench.core.baselines import designs
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.model import StepModel
-from msd_bench.core.robustness import merge
-from msd_bench.core.scenarios import parse, suite
-from msd_bench.io.artifacts import load_model
+from msd_bench.core.evaluation.robustness import merge
+from msd_bench.core.evaluation.scenarios import parse, suite
+from msd_bench.core.physics.model import StepModel
+from msd_bench.io.storage.artifacts import load_model
 
 KINDS = ("glm+pid", "glm+pid-continuous", "greybox+lqr", "plm+mpc")
 SETPOINTS = (-1.5, -1.0, -0.5, 0.5, 1.0, 1.5)

@@ -47,8 +47,8 @@ from msd_bench.core.deeprl import mlp  # noqa: E402
 from msd_bench.core.deeprl.hyper import ALGOS, DEFAULTS, DESIGN_SEEDS, PAPER_STEPS, Hyper, from_dict, grid  # noqa: E402
 from msd_bench.core.deeprl.validate import SETPOINT_IDS, evaluate, setpoints_held  # noqa: E402
 from msd_bench.core.errors import ConfigError, MsdBenchError  # noqa: E402
-from msd_bench.core.model import StepModel, plant_model  # noqa: E402
-from msd_bench.core.scenarios import parse, suite  # noqa: E402
+from msd_bench.core.evaluation.scenarios import parse, suite  # noqa: E402
+from msd_bench.core.physics.model import StepModel, plant_model  # noqa: E402
 from msd_bench.designs import AgentKind, agent_kind  # noqa: E402
 
 
@@ -146,7 +146,7 @@ def chosen(path: Path | None, algo: str) -> Hyper:
     """The tuned entry for ``algo`` from a ``tune`` document, or SB3's defaults without one."""
     if path is None:
         return DEFAULTS[algo]
-    from msd_bench.io.safe_read import read_json_bounded
+    from msd_bench.io.storage.safe_read import read_json_bounded
 
     doc = read_json_bounded(path, MsdBenchError)
     try:
@@ -175,7 +175,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         print(f"  {kind}: held {setpoints_held(cells)}/5 set-points; nominal "
               f"{cells['nominal']['n_success']}/{cells['nominal']['n']}", flush=True)
         if args.artifacts is not None:
-            from msd_bench.io.deeprl_artifact import save_policy
+            from msd_bench.io.storage.deeprl_artifact import save_policy
 
             save_policy(args.artifacts / kind.replace("+", "_"), net,
                         {"kind": kind, "algo": algo, "hyper": hyper.as_dict(), "seeds": args.seeds,
@@ -185,7 +185,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def _run_doc(path: Path) -> dict[str, Any]:
     """A ``run`` document, checked for the fields the table reads (one line naming what is wrong)."""
-    from msd_bench.io.safe_read import read_json_bounded
+    from msd_bench.io.storage.safe_read import read_json_bounded
 
     doc = read_json_bounded(path, MsdBenchError)
     if not isinstance(doc, dict) or not isinstance(doc.get("kinds"), dict) or not doc["kinds"]:
@@ -234,7 +234,7 @@ def steps_taken(row: dict[str, Any], steps: int, n_seeds: int) -> int:
 
 def table_rows(paths: list[Path]) -> list[dict[str, Any]]:
     """One row per (run document, kind), in Table 1's columns, budget and seeds stated."""
-    from msd_bench.core.stats import wilson
+    from msd_bench.core.evaluation.stats import wilson
 
     rows: list[dict[str, Any]] = []
     cache: dict[tuple[str, int], dict[str, Any]] = {}
@@ -255,7 +255,7 @@ def table_rows(paths: list[Path]) -> list[dict[str, Any]]:
 
 def efficiency_methods(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """The on-plant kinds as methods of the efficiency curve: real samples per agent vs success."""
-    from msd_bench.core.stats import wilson
+    from msd_bench.core.evaluation.stats import wilson
 
     methods: dict[str, dict[str, Any]] = {}
     for r in sorted(rows, key=lambda r: r["steps_per_seed"]):
@@ -276,8 +276,8 @@ def table(args: argparse.Namespace) -> dict[str, Any]:
     methods = efficiency_methods(rows)
     out: dict[str, Any] = {"rows": rows, "efficiency_methods": methods}
     if args.figure is not None:
-        from msd_bench.io.figures import efficiency_figure
-        from msd_bench.io.safe_read import read_json_bounded
+        from msd_bench.io.reports.figures import efficiency_figure
+        from msd_bench.io.storage.safe_read import read_json_bounded
 
         curve = read_json_bounded(args.efficiency, MsdBenchError)
         if isinstance(curve, dict) and isinstance(curve.get("efficiency"), dict):
@@ -291,7 +291,7 @@ def table(args: argparse.Namespace) -> dict[str, Any]:
 
 def validate(args: argparse.Namespace) -> dict[str, Any]:
     """Re-validate a saved policy artifact (no SB3, no torch): the same cells its run wrote."""
-    from msd_bench.io.deeprl_artifact import load_policy
+    from msd_bench.io.storage.deeprl_artifact import load_policy
 
     net, meta = load_policy(args.policy)
     seeds = meta.get("seeds")
@@ -409,8 +409,8 @@ def main() -> int:
         t0 = time.perf_counter()
         doc = {**prov, **{"tune": tune, "run": run, "validate": validate, "table": table}[args.cmd](args)}
         doc["seconds"] = round(time.perf_counter() - t0, 1)
-        from msd_bench.io.artifacts import jsonable
-        from msd_bench.io.atomic import write_text_atomic
+        from msd_bench.io.storage.artifacts import jsonable
+        from msd_bench.io.storage.atomic import write_text_atomic
 
         write_text_atomic(args.out, json.dumps(jsonable(doc), indent=1) + "\n", exclusive=True,
                           error=MsdBenchError)

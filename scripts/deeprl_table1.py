@@ -33,11 +33,11 @@ from msd_bench.app.pipeline import (
     train_and_validate,
     validate_policy,
 )
-from msd_bench.core.model import plant_model
+from msd_bench.core.physics.model import plant_model
 from msd_bench.designs.deeprl import DeepPolicy
 from msd_bench.designs.protocol import Facts
-from msd_bench.io.deeprl_artifact import load_policy
-from msd_bench.io.report import robustness_json, table_json
+from msd_bench.io.reports.report import robustness_json, table_json
+from msd_bench.io.storage.deeprl_artifact import load_policy
 
 POLICIES = RESULTS / "deeprl_policies"
 SAVED = {"plant+dqn": ("plant_dqn", "plant-dqn"), "plant+ppo": ("plant_ppo", "plant-ppo"),

@@ -3,7 +3,7 @@
 For every rig (drawn below with its seed until a population module lands in
 core) the paper's broad identification record (the multilevel record of the
 plan's identification seed 1, the one ``greybox-rig`` trains on) is played
-through :class:`msd_bench.core.rig.Rig` from rest, the model is identified from
+through :class:`msd_bench.core.rigs.rig.Rig` from rest, the model is identified from
 the *commanded* force and the measured position, and it is scored against the
 truth: the simulation fit on the plan's validation multilevel record against
 the rig's noise-free true position, its delay, the lag and friction errors.
@@ -43,13 +43,13 @@ from typing import Any
 import numpy as np
 
 from msd_bench.app.plan import TRAIN, VALIDATION, paper_plan
-from msd_bench.core import greybox_rig as gr
-from msd_bench.core.data import IOData
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.excitation import MultilevelConfig, multilevel
-from msd_bench.core.fit import fit_percent
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.rig import Rig, RigImperfections
+from msd_bench.core.identification import greybox_rig as gr
+from msd_bench.core.identification.data import IOData
+from msd_bench.core.identification.excitation import MultilevelConfig, multilevel
+from msd_bench.core.identification.fit import fit_percent
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.rigs.rig import Rig, RigImperfections
 
 HELD_OUT_FIRST = 10_000
 """First held-out rig seed; below it are design rigs."""

@@ -44,14 +44,16 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from msd_bench.core import identify, plant, qtrain  # noqa: E402
-from msd_bench.core.excitation import MultilevelConfig  # noqa: E402
-from msd_bench.core.fit import fit_percent  # noqa: E402
-from msd_bench.core.learner import GreedyPolicy  # noqa: E402
-from msd_bench.core.metrics import SUCCESS_SSE, compute  # noqa: E402
-from msd_bench.core.model import StepModel, plant_model  # noqa: E402
-from msd_bench.core.plm import PLM_BIASES  # noqa: E402
-from msd_bench.core.qconfig import QConfig, improved_config  # noqa: E402
+from msd_bench.core.evaluation.metrics import SUCCESS_SSE, compute  # noqa: E402
+from msd_bench.core.identification import identify  # noqa: E402
+from msd_bench.core.identification.excitation import MultilevelConfig  # noqa: E402
+from msd_bench.core.identification.fit import fit_percent  # noqa: E402
+from msd_bench.core.identification.plm import PLM_BIASES  # noqa: E402
+from msd_bench.core.learning import qtrain  # noqa: E402
+from msd_bench.core.learning.learner import GreedyPolicy  # noqa: E402
+from msd_bench.core.learning.qconfig import QConfig, improved_config  # noqa: E402
+from msd_bench.core.physics import plant  # noqa: E402
+from msd_bench.core.physics.model import StepModel, plant_model  # noqa: E402
 
 NOISE_MM = (0.0, 0.2, 0.5, 1.0, 2.0, 5.0)
 """Sensor noise levels, standard deviation in mm."""

@@ -1,6 +1,6 @@
 """Which input a ros2_control bag should identify from: the applied force, the held commands, or the effort.
 
-Drives the rig emulator's model in process (``core.rig.Rig``, preset ``rig``,
+Drives the rig emulator's model in process (``core.rigs.rig.Rig``, preset ``rig``,
 default imperfections: sensor noise, 1 sample of dead time, 20 ms lag,
 friction) with the paper's experiment plan, and identifies every model kind
 three ways from the same runs (docs/ros2-control.md §Force):
@@ -33,13 +33,13 @@ import numpy as np
 
 from msd_bench.app.pipeline import identify_surrogates
 from msd_bench.app.plan import paper_plan
-from msd_bench.core import excitation as exc
-from msd_bench.core.actuation import actuator_force, effort_agreement
-from msd_bench.core.data import Experiment, IOData
-from msd_bench.core.plant import preset
-from msd_bench.core.records import Records
-from msd_bench.core.registry import MODEL_KINDS
-from msd_bench.core.rig import Rig, RigImperfections
+from msd_bench.core.identification import excitation as exc
+from msd_bench.core.identification.data import Experiment, IOData
+from msd_bench.core.identification.model_kinds import MODEL_KINDS
+from msd_bench.core.identification.records import Records
+from msd_bench.core.physics.plant import preset
+from msd_bench.core.rigs.actuation import actuator_force, effort_agreement
+from msd_bench.core.rigs.rig import Rig, RigImperfections
 
 REPO = Path(__file__).resolve().parents[1]
 FACES = ("msd", "r2c_applied", "r2c_held")

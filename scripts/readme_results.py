@@ -27,8 +27,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from msd_bench.app.efficiency import reaches  # noqa: E402
-from msd_bench.core.risk_table import RISK_HEADERS, RISK_NOTE, compact, summary_of  # noqa: E402
-from msd_bench.core.stats import wilson  # noqa: E402
+from msd_bench.core.evaluation.risk_table import RISK_HEADERS, RISK_NOTE, compact, summary_of  # noqa: E402
+from msd_bench.core.evaluation.stats import wilson  # noqa: E402
 
 BLOCK = re.compile(r"(<!-- results:(?P<name>[\w.-]+):(?P<view>[\w-]+) -->\n)(?P<body>.*?)(<!-- /results -->)",
                    re.DOTALL)

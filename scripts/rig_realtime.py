@@ -35,10 +35,10 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from msd_bench.core.errors import ConfigError, MsdBenchError  # noqa: E402
-from msd_bench.core.population import HELD_OUT_RIGS, check_seed, draw  # noqa: E402
+from msd_bench.core.rigs.population import HELD_OUT_RIGS, check_seed, draw  # noqa: E402
 from msd_bench.graph import launch  # noqa: E402
 from msd_bench.graph.domains import claim_domain  # noqa: E402
-from msd_bench.io.atomic import write_text_atomic  # noqa: E402
+from msd_bench.io.storage.atomic import write_text_atomic  # noqa: E402
 
 SIZE = ("--samples", "600", "--val-samples", "400", "--seeds", "2", "--validation-steps", "1000")
 """The reduced size of both runs: the README's short records, two learning seeds, 10 s validation runs

@@ -15,7 +15,7 @@ the first choice fell below the improved agent on held-out seeds (delay=2,
 setpoint=-1.5, and its mirror setpoint=1.5), and a constant load of ∓2 N
 from 15 s on (disturbance=-2@15, where the second choice fell below, and its
 mirror), which an ARX-type stand-in takes on its input
-(:func:`msd_bench.core.kernels.advance_loaded`).
+(:func:`msd_bench.core.physics.kernels.advance_loaded`).
 
 Round 4 differs from round 3 only in the stand-ins: three design
 identification seeds instead of one, because the floors pool three
@@ -56,14 +56,14 @@ sys.path.insert(0, str(REPO))
 
 from msd_bench.app.config import RunConfig  # noqa: E402
 from msd_bench.app.pipeline import identify_surrogates, make_records  # noqa: E402
-from msd_bench.core.closed_loop import greedy_under  # noqa: E402
-from msd_bench.core.identify import PlmConfig  # noqa: E402
-from msd_bench.core.metrics import compute  # noqa: E402
-from msd_bench.core.model import StepModel  # noqa: E402
-from msd_bench.core.qconfig import QConfig, improved_config, packed  # noqa: E402
-from msd_bench.core.qtrain import train  # noqa: E402
-from msd_bench.core.robustness import conditions, sensor_noise  # noqa: E402
-from msd_bench.core.scenarios import parse  # noqa: E402
+from msd_bench.core.evaluation.closed_loop import greedy_under  # noqa: E402
+from msd_bench.core.evaluation.metrics import compute  # noqa: E402
+from msd_bench.core.evaluation.robustness import conditions, sensor_noise  # noqa: E402
+from msd_bench.core.evaluation.scenarios import parse  # noqa: E402
+from msd_bench.core.identification.identify import PlmConfig  # noqa: E402
+from msd_bench.core.learning.qconfig import QConfig, improved_config, packed  # noqa: E402
+from msd_bench.core.learning.qtrain import train  # noqa: E402
+from msd_bench.core.physics.model import StepModel  # noqa: E402
 
 sys.path.insert(0, str(REPO / "scripts"))
 from make_results import commit, machine  # noqa: E402
@@ -90,8 +90,8 @@ def candidates() -> list[tuple[str, QConfig]]:
     trained, 64 learning seeds per id seed) found that the final tables failing on the stand-in were
     nearly all tables failing their own greedy run on the training surrogate, and that among each run's
     snapshots every 10 episodes over the second half, the one rehearsing best on the surrogate
-    (:mod:`msd_bench.core.selection`) failed far less often. Candidates: round 4's three leading rows,
-    each as it was and with ``select_every`` = 10 — and the product's row also at 25 (fewer candidate
+    (:mod:`msd_bench.core.learning.selection`) failed far less often. Candidates: round 4's three leading
+    rows, each as it was and with ``select_every`` = 10 — and the product's row also at 25 (fewer candidate
     tables) to see whether the cadence matters.
     """
     # (L, velocity share, bias gain N/m, training delay 0..d, select_every), round 4's order under its rule.

@@ -13,7 +13,7 @@ on the PLM it trained on. Printed per id seed, as JSON lines:
 * ``stand_in_per_snapshot``: stand-in successes of the snapshots every 10
   episodes over the second half (episodes 150 … 300);
 * ``selected``: stand-in successes of the tables rehearsal selection keeps
-  (``select_every`` = 10, :mod:`msd_bench.core.selection`);
+  (``select_every`` = 10, :mod:`msd_bench.core.learning.selection`);
 * with ``--episodes-600``: the stand-in successes of the same seeds trained
   for 600 episodes.
 
@@ -36,10 +36,10 @@ from robust_design import DESIGN_FIRST_SEED, DESIGN_ID_SEEDS, stand_ins, success
 
 from msd_bench.app.agents import robust_config  # noqa: E402
 from msd_bench.app.config import RunConfig  # noqa: E402
-from msd_bench.core.model import StepModel  # noqa: E402
-from msd_bench.core.qconfig import QConfig  # noqa: E402
-from msd_bench.core.qtrain import train  # noqa: E402
-from msd_bench.core.selection import select_tables  # noqa: E402
+from msd_bench.core.learning.qconfig import QConfig  # noqa: E402
+from msd_bench.core.learning.qtrain import train  # noqa: E402
+from msd_bench.core.learning.selection import select_tables  # noqa: E402
+from msd_bench.core.physics.model import StepModel  # noqa: E402
 
 SEEDS = 64
 CONDITIONS = ("nominal", "noise=0.005", "delay=1")

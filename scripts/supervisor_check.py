@@ -1,6 +1,6 @@
 """The adversarial controllers with and without the supervisor: hard-stop contacts and envelope exits.
 
-Each adversary of ``core/adversaries.py`` runs one 30 s episode from rest on
+Each adversary of ``core/safety/adversaries.py`` runs one 30 s episode from rest on
 the ideal plant (the random one over ``--seeds`` seeds) and on the rig emulator
 (the rig preset's plant under each imperfection set of ``RIGS``; the random
 one over the first ``--rig-seeds`` seeds), once behind the supervisor and once
@@ -14,7 +14,7 @@ object of ``SupervisorOptions`` fields); the limits in force are printed first.
 Two more measurements of issue 23's done-when, each its own document:
 
 ``population`` runs the deterministic adversaries on ``--rigs`` held-out rigs of
-the population (``core/population.py``, seeds from 1000) and the random one over
+the population (``core/rigs/population.py``, seeds from 1000) and the random one over
 ``--random-seeds`` seeds spread over the same rigs, with and without the
 supervisor (told the nominal plant only), and lists any rig it failed on.
 
@@ -42,15 +42,15 @@ import numpy as np
 from supervisor_good_kinds import GOOD_KINDS, good_kinds_check
 
 from msd_bench.app.agents import parse_agents
-from msd_bench.core import population
-from msd_bench.core.adversaries import ADVERSARIES, Runs, adversary, run_on_plant, run_on_rig
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.plant import PRESETS, PlantParams
-from msd_bench.core.population import RigSpec
-from msd_bench.core.rig import RigImperfections
-from msd_bench.core.risk import RunRisk, run_risk
-from msd_bench.core.supervisor import Limits, Supervisor, SupervisorOptions
-from msd_bench.io.supervisor_file import read_options
+from msd_bench.core.evaluation.risk import RunRisk, run_risk
+from msd_bench.core.physics.plant import PRESETS, PlantParams
+from msd_bench.core.rigs import population
+from msd_bench.core.rigs.population import RigSpec
+from msd_bench.core.rigs.rig import RigImperfections
+from msd_bench.core.safety.adversaries import ADVERSARIES, Runs, adversary, run_on_plant, run_on_rig
+from msd_bench.core.safety.supervisor import Limits, Supervisor, SupervisorOptions
+from msd_bench.io.storage.supervisor_file import read_options
 
 REPO = Path(__file__).resolve().parents[1]
 STEPS = 3000

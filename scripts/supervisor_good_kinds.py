@@ -22,13 +22,13 @@ from msd_bench import designs
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import identify_surrogates, make_records, settings
-from msd_bench.core import robustness
-from msd_bench.core.metrics import compute
-from msd_bench.core.results import SUCCESS_SSE
-from msd_bench.core.risk import RunRisk
-from msd_bench.core.risk_table import summarise
-from msd_bench.core.scenarios import Scenario
-from msd_bench.core.supervisor import Limits, SupervisorOptions
+from msd_bench.core.evaluation import robustness
+from msd_bench.core.evaluation.metrics import compute
+from msd_bench.core.evaluation.results import SUCCESS_SSE
+from msd_bench.core.evaluation.risk import RunRisk
+from msd_bench.core.evaluation.risk_table import summarise
+from msd_bench.core.evaluation.scenarios import Scenario
+from msd_bench.core.safety.supervisor import Limits, SupervisorOptions
 from msd_bench.designs import Policy
 
 GOOD_KINDS = ("plm+robust", "glm+pid", "greybox+lqr")
@@ -106,7 +106,7 @@ def _merge(by_id: dict[str, dict[str, Any]], sid: str, c: dict[str, Any]) -> Non
 
 
 def _finish(c: dict[str, Any]) -> dict[str, Any]:
-    """A pooled cell with each side's per-run risks summed up (``core.risk_table.summarise``)."""
+    """A pooled cell with each side's per-run risks summed up (``core.evaluation.risk_table.summarise``)."""
     out = {k: v for k, v in c.items() if not k.startswith("risks_")}
     return {**out, "risk_off": summarise(c["risks_off"]), "risk_on": summarise(c["risks_on"])}
 

@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from msd_bench.io.atomic import write_text_atomic
+from msd_bench.io.storage.atomic import write_text_atomic
 
 DROPPED = "rigs[*].outcomes[*].scenarios"
 

@@ -50,7 +50,7 @@ def tracked_text_files() -> dict[str, str]:
 @pytest.fixture(scope="module")
 def files() -> dict[str, str]:
     texts = tracked_text_files()
-    assert "README.md" in texts and "msd_bench/core/plant.py" in texts  # the listing really ran
+    assert "README.md" in texts and "msd_bench/core/physics/plant.py" in texts  # the listing really ran
     return texts
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.registry import MODEL_KINDS
+from msd_bench.core.identification.model_kinds import MODEL_KINDS
 from msd_bench.designs import AGENT_KINDS, PLANT, AgentKind, agent_kind
 from msd_bench.designs.qlearning import (
     LEARNERS,

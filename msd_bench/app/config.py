@@ -12,12 +12,12 @@ from typing import TYPE_CHECKING
 
 from msd_bench.app.agents import DEFAULT_AGENTS, SHAPINGS, agent_kind, check_agents, surrogates_of
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.plant import PlantParams, preset
+from msd_bench.core.physics.plant import PlantParams, preset
 
 if TYPE_CHECKING:  # the supervisor is compiled: loaded only when a run is validated behind it
-    from msd_bench.core.supervisor import Limits
-from msd_bench.core.scenarios import Scenario, suite
-from msd_bench.core.sensor import SensorModel
+    from msd_bench.core.safety.supervisor import Limits
+from msd_bench.core.evaluation.scenarios import Scenario, suite
+from msd_bench.core.physics.sensor import SensorModel
 
 _POSITIVE = ("seeds", "id_seeds", "episodes", "steps", "dyna_episodes", "samples", "val_samples",
              "validation_steps", "window")
@@ -66,7 +66,7 @@ class RunConfig:
     record_quant: float = 0.0
     """Sensor quantisation of the identification records, m (after the noise, as an ADC)."""
     scenarios: tuple[str, ...] = ()
-    """Scenario ids evaluated besides the standard suite (:mod:`msd_bench.core.scenarios`)."""
+    """Scenario ids evaluated besides the standard suite (:mod:`msd_bench.core.evaluation.scenarios`)."""
     supervisor: bool = False
     """Validate every run behind the safety supervisor (its default limits on the plant:
     docs/supervisor.md); off in-process, so the tables measure the controllers themselves."""
@@ -105,7 +105,7 @@ class RunConfig:
     @property
     def supervisor_limits(self) -> Limits | None:
         """The supervisor's limits on the plant when runs are validated behind it, else None."""
-        from msd_bench.core.supervisor import SupervisorOptions
+        from msd_bench.core.safety.supervisor import SupervisorOptions
 
         return SupervisorOptions().limits(self.plant) if self.supervisor else None
 

@@ -29,10 +29,10 @@ from msd_bench.app.executor import task_name
 from msd_bench.app.pipeline import identify_surrogates, records_from_plan, train_and_validate
 from msd_bench.app.plan import paper_plan, real_samples
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.model import plant_model
-from msd_bench.core.registry import model_kind
-from msd_bench.core.results import SUCCESS_SSE
-from msd_bench.core.stats import wilson
+from msd_bench.core.evaluation.results import SUCCESS_SSE
+from msd_bench.core.evaluation.stats import wilson
+from msd_bench.core.identification.model_kinds import model_kind
+from msd_bench.core.physics.model import plant_model
 
 Progress = Callable[[str, int, int], None]
 

@@ -3,7 +3,7 @@
 A sweep (``paper``, ``efficiency``, ``rigs``) is a list of :class:`Task`: a
 module-level function and the arguments it needs, every input carried in the
 arguments (records, models, configurations), the result returned by value. The
-driver alone writes files (through :mod:`msd_bench.io.run_dir`), so workers need
+driver alone writes files (through :mod:`msd_bench.io.storage.run_dir`), so workers need
 no shared filesystem and a result never depends on where it was computed.
 
 Why our own local pool rather than ``concurrent.futures``: a worker that dies

@@ -25,8 +25,8 @@ from typing import Any
 
 from msd_bench.app.config import RunConfig
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.plant import PlantParams, preset
-from msd_bench.io.safe_read import read_json_bounded
+from msd_bench.core.physics.plant import PlantParams, preset
+from msd_bench.io.storage.safe_read import read_json_bounded
 
 JOB_SCHEMA = "msd-bench.job"
 """The ``schema`` of every job document."""

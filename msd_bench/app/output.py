@@ -1,6 +1,6 @@
 """What an in-process run writes once its parts are done: Table 1, robustness and figures.
 
-Each group of files is one task of the run directory (``io/run_dir.py``), so a
+Each group of files is one task of the run directory (``io/storage/run_dir.py``), so a
 run that died while writing is resumed without rewriting what it had finished,
 and ``complete`` is written only after the last group. The models and policies
 are the part tasks' own files (:mod:`msd_bench.app.paper_tasks`).
@@ -12,11 +12,11 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from msd_bench.app.pipeline import PaperRun
-from msd_bench.core.results import AgentResult
-from msd_bench.io.html_report import write_index
-from msd_bench.io.report import write_report, write_robustness
-from msd_bench.io.run_dir import RunDir
-from msd_bench.io.run_output import FigureData, write_figures
+from msd_bench.core.evaluation.results import AgentResult
+from msd_bench.io.reports.html_report import write_index
+from msd_bench.io.reports.report import write_report, write_robustness
+from msd_bench.io.storage.run_dir import RunDir
+from msd_bench.io.storage.run_output import FigureData, write_figures
 
 
 def figure_data(run: PaperRun) -> FigureData:

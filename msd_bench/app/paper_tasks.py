@@ -40,14 +40,14 @@ from msd_bench.app.pipeline import (
     train_and_validate,
 )
 from msd_bench.app.scoring import PolicyRecord, Validation, assemble, record_cells
-from msd_bench.core.identify import FitReport
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.io import artifacts
-from msd_bench.io.atomic import savez_atomic, write_text_atomic
-from msd_bench.io.run_dir import RunDir, RunDirError
-from msd_bench.io.run_output import write_models
-from msd_bench.io.safe_npz import read_npz_bounded
-from msd_bench.io.safe_read import read_json_bounded
+from msd_bench.core.identification.identify import FitReport
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.io.storage import artifacts
+from msd_bench.io.storage.atomic import savez_atomic, write_text_atomic
+from msd_bench.io.storage.run_dir import RunDir, RunDirError
+from msd_bench.io.storage.run_output import write_models
+from msd_bench.io.storage.safe_npz import read_npz_bounded
+from msd_bench.io.storage.safe_read import read_json_bounded
 
 Found = tuple[PolicyRecord, dict[str, dict[str, Any]], np.ndarray]
 """A kind's record read back from a part: the policy and its rows, its robustness cells, its responses."""

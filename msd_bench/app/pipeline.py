@@ -28,16 +28,17 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.job import shared
 from msd_bench.app.plan import TRAIN, PlannedExperiment, paper_plan
 from msd_bench.app.scoring import PolicyRecord, Validation, assemble, metric_row
-from msd_bench.core import identify, robustness
-from msd_bench.core.data import IOData
-from msd_bench.core.excitation import MultilevelConfig
-from msd_bench.core.identify import FitReport
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.records import Records
-from msd_bench.core.registry import FitRequest, fit_model
-from msd_bench.core.results import AgentResult, per_seed_row
-from msd_bench.core.sensor import SensorModel
+from msd_bench.core.evaluation import robustness
+from msd_bench.core.evaluation.results import AgentResult, per_seed_row
+from msd_bench.core.identification import identify
+from msd_bench.core.identification.data import IOData
+from msd_bench.core.identification.excitation import MultilevelConfig
+from msd_bench.core.identification.identify import FitReport
+from msd_bench.core.identification.model_kinds import FitRequest, fit_model
+from msd_bench.core.identification.records import Records
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.physics.sensor import SensorModel
 from msd_bench.designs import Policy, Settings
 
 FloatArray = NDArray[np.float64]

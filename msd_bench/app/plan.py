@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from msd_bench.core.excitation import MultilevelConfig, PrbsConfig
-from msd_bench.core.operating_points import PLM_BIASES
+from msd_bench.core.identification.excitation import MultilevelConfig, PrbsConfig
+from msd_bench.core.identification.operating_points import PLM_BIASES
 
 TRAIN, VALIDATION = "train", "validation"
 

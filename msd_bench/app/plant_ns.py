@@ -28,9 +28,9 @@ from typing import Any
 from msd_bench.app import plan
 from msd_bench.app.agents import agent_kind
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.excitation import PrbsConfig
-from msd_bench.core.registry import needs_bias_records
-from msd_bench.core.scenarios import Scenario, parse
+from msd_bench.core.evaluation.scenarios import Scenario, parse
+from msd_bench.core.identification.excitation import PrbsConfig
+from msd_bench.core.identification.model_kinds import needs_bias_records
 
 DEFAULT_AGENTS: tuple[str, ...] = (
     "glm+improved", "plm", "plm+improved", "plm+robust", "nlarx-improved+improved",

@@ -6,20 +6,20 @@ JSON-able dict), so a population runs on the sweep executor
 (``app/executor.py``) and a killed sweep resumes rig by rig. What one task does:
 
 1. draw the rig from its seed; play the paper's plan through it
-   (:mod:`msd_bench.core.rig_play`: rest without reset before every
+   (:mod:`msd_bench.core.rigs.rig_play`: rest without reset before every
    experiment, the records its bags would hold);
 2. identify every model kind the agents need from those records only, and
    score each on the rig's broad validation record;
 3. train each agent kind on its surrogate (one batch of learning seeds);
 4. validate every table on the same rig through its actuator and sensor,
    each run from where the rig came to rest after the previous one
-   (:mod:`msd_bench.core.rig_loop`): the nominal set-point first (success is
+   (:mod:`msd_bench.core.rigs.rig_loop`): the nominal set-point first (success is
    judged on the true position there), then the scenarios a rig can be given —
    other set-points, a load.
 
 :func:`document` pools the tasks into ``rigs.json``: per kind the success rate
 over (rig, seed) runs with its Wilson interval and a bootstrap-over-rigs
-interval (:mod:`msd_bench.core.rig_stats`), the per-rig results and the ten
+interval (:mod:`msd_bench.core.rigs.rig_stats`), the per-rig results and the ten
 worst rigs.
 """
 
@@ -36,19 +36,19 @@ from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.app.plan import paper_plan
 from msd_bench.app.scoring import metric_row
-from msd_bench.core import population
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.identify import FitReport
-from msd_bench.core.model import StepModel
-from msd_bench.core.qconfig import QConfig
-from msd_bench.core.results import SUCCESS_SSE
-from msd_bench.core.rig import Rig
-from msd_bench.core.rig_loop import RigRun, run_on_rig
-from msd_bench.core.rig_play import measured_actuator, play_plan, records_of
-from msd_bench.core.rig_stats import DEFAULT_RESAMPLES, rate_summary
-from msd_bench.core.risk import trace_risk
-from msd_bench.core.risk_table import summarise
-from msd_bench.core.scenarios import Scenario, noise_seed, parse
+from msd_bench.core.evaluation.results import SUCCESS_SSE
+from msd_bench.core.evaluation.risk import trace_risk
+from msd_bench.core.evaluation.risk_table import summarise
+from msd_bench.core.evaluation.scenarios import Scenario, noise_seed, parse
+from msd_bench.core.identification.identify import FitReport
+from msd_bench.core.learning.qconfig import QConfig
+from msd_bench.core.physics.model import StepModel
+from msd_bench.core.rigs import population
+from msd_bench.core.rigs.rig import Rig
+from msd_bench.core.rigs.rig_loop import RigRun, run_on_rig
+from msd_bench.core.rigs.rig_play import measured_actuator, play_plan, records_of
+from msd_bench.core.rigs.rig_stats import DEFAULT_RESAMPLES, rate_summary
 
 RIG_SCENARIOS = ("setpoint=-1.5", "setpoint=-0.5", "setpoint=0.5", "setpoint=1.5",
                  "disturbance=2@15", "disturbance=-2@15")
@@ -203,7 +203,7 @@ def _train(surrogate: StepModel, lr: QConfig, run: RunConfig) -> np.ndarray:
     """The kind's greedy tables (learner ``lr``), one per learning seed, trained on its surrogate only.
 
     The one place that trains (the controller protocol replaces it when it lands)."""
-    from msd_bench.core.qtrain import train
+    from msd_bench.core.learning.qtrain import train
 
     return train(surrogate, lr, run.learning_seeds(0)).q
 

@@ -18,13 +18,13 @@ from numpy.typing import NDArray
 from msd_bench import designs
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
-from msd_bench.core import robustness
-from msd_bench.core.identify import FitReport
-from msd_bench.core.metrics import compute
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.results import AgentResult
-from msd_bench.core.scenarios import Scenario
-from msd_bench.core.supervisor import Limits
+from msd_bench.core.evaluation import robustness
+from msd_bench.core.evaluation.metrics import compute
+from msd_bench.core.evaluation.results import AgentResult
+from msd_bench.core.evaluation.scenarios import Scenario
+from msd_bench.core.identification.identify import FitReport
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.safety.supervisor import Limits
 from msd_bench.designs import Policy, Settings
 
 FloatArray = NDArray[np.float64]
@@ -73,7 +73,7 @@ class PolicyRecord:
     seeds: Sequence[int]
     """The learning seeds the run gave it (a deterministic policy's noise draws)."""
     per_seed: Sequence[Mapping[str, Any]]
-    """One row per validated member (:func:`msd_bench.core.results.per_seed_row`)."""
+    """One row per validated member (:func:`msd_bench.core.evaluation.results.per_seed_row`)."""
     fit: FitReport | None
     """Its surrogate's validation fit (None on the plant)."""
 
@@ -97,7 +97,7 @@ class Validation:
 
 
 Cells = dict[str, dict[str, Any]]
-"""Robustness cells of one kind: scenario id → its cell (:mod:`msd_bench.core.robustness`)."""
+"""Robustness cells of one kind: scenario id → its cell (:mod:`msd_bench.core.evaluation.robustness`)."""
 
 
 def record_cells(policy: Policy, seeds: Sequence[int], val: Validation) -> Cells:

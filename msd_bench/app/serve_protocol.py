@@ -10,7 +10,7 @@ import json
 from typing import Any
 
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.io.safe_read import loads_bounded
+from msd_bench.io.storage.safe_read import loads_bounded
 
 SERVE_FLAG = "--serve"
 """The launch-script argument (before ``--ros-args``) that turns on serving."""

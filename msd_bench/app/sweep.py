@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from msd_bench.app.executor import ExecutorOptions, Log, Task, run_tasks
-from msd_bench.io.run_dir import RunDir
+from msd_bench.io.storage.run_dir import RunDir
 
 WriteResult = Callable[[Task, Any], Sequence[Path]]
 """Writes a task's result under the run directory (atomically) and returns the files it wrote."""

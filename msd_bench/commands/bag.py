@@ -15,9 +15,9 @@ from collections.abc import Sequence
 from typing import Any
 
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.io.bag_check import check_bag, crc_problem
-from msd_bench.io.bag_recover import RECOVERED_SUFFIX, recover
-from msd_bench.io.bags import bag_info
+from msd_bench.io.bags.bag_check import check_bag, crc_problem
+from msd_bench.io.bags.bag_recover import RECOVERED_SUFFIX, recover
+from msd_bench.io.bags.reader import bag_info
 
 EXIT_USAGE = 2
 """Exit status on a user mistake (bad path, unreadable bag)."""

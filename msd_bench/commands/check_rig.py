@@ -25,12 +25,12 @@ from typing import Any
 
 import rclpy
 
-from msd_bench.core.conformance import Clause, Limits
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.plant import DT, PlantParams
-from msd_bench.io.atomic import write_text_atomic
-from msd_bench.io.paths import writable_dir
-from msd_bench.io.safe_read import read_json_bounded
+from msd_bench.core.physics.plant import DT, PlantParams
+from msd_bench.core.rigs.conformance import Clause, Limits
+from msd_bench.io.storage.atomic import write_text_atomic
+from msd_bench.io.storage.paths import writable_dir
+from msd_bench.io.storage.safe_read import read_json_bounded
 from msd_bench.nodes.spin import ros_session
 from msd_msgs_py.interface import add_cli_options, from_cli
 

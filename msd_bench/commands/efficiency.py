@@ -31,7 +31,7 @@ from msd_bench.commands.paper import run_config_doc
 if TYPE_CHECKING:
     from msd_bench.app.efficiency import EfficiencyConfig
     from msd_bench.app.executor import ExecutorOptions
-    from msd_bench.io.run_dir import RunDir
+    from msd_bench.io.storage.run_dir import RunDir
 
 
 def register(sub: Any) -> None:
@@ -67,8 +67,8 @@ def _ints(text: str, option: str) -> tuple[int, ...]:
 def run(args: argparse.Namespace) -> int:
     """Probe --out, sweep the points not written yet, write the JSON and the figure, print the crossings."""
     from msd_bench.app.efficiency import EfficiencyConfig, crossings
-    from msd_bench.io.run_dir import RunDir, RunDirError
-    from msd_bench.io.safe_read import read_json_bounded
+    from msd_bench.io.storage.run_dir import RunDir, RunDirError
+    from msd_bench.io.storage.safe_read import read_json_bounded
 
     run_cfg = run_config_from_args(args)
     cfg = EfficiencyConfig(run_cfg, surrogate_agents=tuple(run_cfg.surrogate_agents()),
@@ -100,11 +100,11 @@ def _sweep(rd: RunDir, cfg: EfficiencyConfig, options: ExecutorOptions) -> None:
     from msd_bench.app import efficiency as eff
     from msd_bench.app.executor import Task
     from msd_bench.app.sweep import run_sweep
-    from msd_bench.io.atomic import write_text_atomic
-    from msd_bench.io.figures import efficiency_figure
-    from msd_bench.io.html_report import write_index
-    from msd_bench.io.run_dir import RunDirError
-    from msd_bench.io.safe_read import read_json_bounded
+    from msd_bench.io.reports.figures import efficiency_figure
+    from msd_bench.io.reports.html_report import write_index
+    from msd_bench.io.storage.atomic import write_text_atomic
+    from msd_bench.io.storage.run_dir import RunDirError
+    from msd_bench.io.storage.safe_read import read_json_bounded
     from msd_bench.progress import StageProgress
 
     tasks = [Task(tid, eff.surrogate_point, (cfg, n, j)) for tid, n, j in eff.surrogate_tasks(cfg)]

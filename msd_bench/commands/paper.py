@@ -31,7 +31,7 @@ from msd_bench.app.options import (
 if TYPE_CHECKING:
     from msd_bench.app.config import RunConfig
     from msd_bench.app.executor import ExecutorOptions
-    from msd_bench.io.run_dir import RunDir
+    from msd_bench.io.storage.run_dir import RunDir
 
 # The pipeline pulls in torch and python-control (seconds): it is imported when a run
 # starts, so `--help` and option errors answer at once.
@@ -58,7 +58,7 @@ def run_facts(cfg: RunConfig, seconds: float, mode: str) -> dict[str, Any]:
 
 def run_config_doc(cfg: RunConfig, **extra: Any) -> dict[str, Any]:
     """The configuration a run directory's manifest records: a rerun resumes only the same one."""
-    from msd_bench.io.artifacts import jsonable
+    from msd_bench.io.storage.artifacts import jsonable
 
     return {"run": jsonable(asdict(cfg)), **extra}
 
@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = run_config_from_args(args)
     options = executor_from_args(args)
     figures = not args.no_figures
-    from msd_bench.io.run_dir import RunDir
+    from msd_bench.io.storage.run_dir import RunDir
 
     rd = RunDir.open(Path(args.out), "paper", paper_tasks(cfg, figures), run_config_doc(cfg, figures=figures))
     t0 = time.perf_counter()
@@ -102,7 +102,7 @@ def _run_parts(rd: RunDir, cfg: RunConfig, options: ExecutorOptions, facts: dict
     from msd_bench.app import paper_tasks as pt
     from msd_bench.app.executor import Task
     from msd_bench.app.sweep import run_sweep
-    from msd_bench.io import artifacts
+    from msd_bench.io.storage import artifacts
     from msd_bench.progress import StageProgress
 
     prov = artifacts.Provenance(parameters=dict(facts), seed=cfg.first_seed)

@@ -32,14 +32,14 @@ from msd_bench.app.options import (
 if TYPE_CHECKING:
     from msd_bench.app.executor import ExecutorOptions
     from msd_bench.app.rigs import RigsConfig
-    from msd_bench.io.run_dir import RunDir
+    from msd_bench.io.storage.run_dir import RunDir
 
 
 def register(sub: Any) -> None:
     """Add the ``rigs`` subcommand."""
     from msd_bench.app.rigs import ACTUATOR_CHOICES, DEFAULT_AGENTS, RIG_SCENARIOS
-    from msd_bench.core.population import HELD_OUT_RIGS
-    from msd_bench.core.rig_stats import DEFAULT_RESAMPLES
+    from msd_bench.core.rigs.population import HELD_OUT_RIGS
+    from msd_bench.core.rigs.rig_stats import DEFAULT_RESAMPLES
 
     p = sub.add_parser("rigs", help="the whole method on each rig of a population",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -82,7 +82,7 @@ def task_id(seed: int) -> str:
 def run(args: argparse.Namespace) -> int:
     """Probe --out, sweep the rigs not written yet, write rigs.json, rigs.md and the figure."""
     from msd_bench.commands.paper import run_config_doc
-    from msd_bench.io.run_dir import RunDir
+    from msd_bench.io.storage.run_dir import RunDir
 
     cfg = rigs_config(args)
     options = executor_from_args(args)
@@ -109,12 +109,12 @@ def _sweep(rd: RunDir, cfg: RigsConfig, options: ExecutorOptions) -> None:
     from msd_bench.app.executor import Task
     from msd_bench.app.rigs import document, rig_task
     from msd_bench.app.sweep import run_sweep
-    from msd_bench.io.artifacts import jsonable
-    from msd_bench.io.atomic import write_text_atomic
-    from msd_bench.io.html_report import write_index
-    from msd_bench.io.rig_parts import read_part
-    from msd_bench.io.rigs_figure import rigs_figure
-    from msd_bench.io.rigs_report import write_rigs_markdown
+    from msd_bench.io.reports.html_report import write_index
+    from msd_bench.io.rigs.rig_parts import read_part
+    from msd_bench.io.rigs.rigs_figure import rigs_figure
+    from msd_bench.io.rigs.rigs_report import write_rigs_markdown
+    from msd_bench.io.storage.artifacts import jsonable
+    from msd_bench.io.storage.atomic import write_text_atomic
     from msd_bench.progress import StageProgress
 
     tasks = [Task(task_id(s), rig_task, (cfg, s)) for s in cfg.rig_seeds()]

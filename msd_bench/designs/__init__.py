@@ -37,8 +37,8 @@ from msd_bench.designs.registry import (
 )
 
 if TYPE_CHECKING:  # numba-compiled modules load only when a policy is made or run
-    from msd_bench.core.model import StepModel
-    from msd_bench.core.plant import PlantParams
+    from msd_bench.core.physics.model import StepModel
+    from msd_bench.core.physics.plant import PlantParams
 
 __all__ = ["AGENT_KINDS", "DESIGNS", "PLANT", "AgentKind", "Controller", "Design", "Facts", "KindSpec",
            "Policy", "Request", "Settings", "Stepwise", "agent_kind", "budget_note", "design", "load",
@@ -70,8 +70,8 @@ def budget_note(kind: str, settings: Settings) -> str:
 def nominal_runs(policy: Policy, plant: PlantParams, target: float,
                  steps: int) -> tuple[FloatArray, FloatArray]:
     """The nominal validation: each member (a deterministic policy: its one) from rest on ``plant``."""
-    from msd_bench.core.closed_loop import nominal
-    from msd_bench.core.model import plant_model
+    from msd_bench.core.evaluation.closed_loop import nominal
+    from msd_bench.core.physics.model import plant_model
 
     rows = 1 if policy.facts.deterministic else len(policy.members)
     return policy.rollout(plant_model(plant).kernel, nominal(target), np.zeros((rows, int(steps))))
@@ -85,7 +85,7 @@ def save(policy: Policy, directory: Path, provenance: dict[str, Any], root: Path
 
 def load(directory: Path, model: StepModel | None) -> Policy:
     """The policy saved in ``directory`` (``policy.json`` names its design), made on ``model``."""
-    from msd_bench.io import artifacts
+    from msd_bench.io.storage import artifacts
 
     doc = artifacts.load_policy(Path(directory) / "policy.json")
     kind = agent_kind(str(doc["kind"]))

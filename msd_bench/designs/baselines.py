@@ -24,9 +24,9 @@ from msd_bench.designs.protocol import Controller, Facts, KindSpec, PolicyBase, 
 from msd_bench.designs.registry import plus_kinds
 
 if TYPE_CHECKING:  # numba-compiled modules load only when a policy is made or run
-    from msd_bench.core.closed_loop import Conditions
-    from msd_bench.core.kernels import Kernel
-    from msd_bench.core.model import StepModel
+    from msd_bench.core.evaluation.closed_loop import Conditions
+    from msd_bench.core.physics.kernels import Kernel
+    from msd_bench.core.physics.model import StepModel
 
 FloatArray = NDArray[np.float64]
 
@@ -109,7 +109,7 @@ class BaselineDesign:
 
     def load(self, doc: dict[str, Any], directory: Path, model: StepModel | None) -> BaselinePolicy:
         """Redesign on ``model`` (deterministic) and check it is the design the artifact describes."""
-        from msd_bench.io import artifacts
+        from msd_bench.io.storage import artifacts
 
         body = artifacts.policy_body(doc, directory, ("model", "target", "force", "dt", "design"))
         if model is None or model.name != body["model"]:

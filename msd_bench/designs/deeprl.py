@@ -10,7 +10,7 @@ steps charged. Both budgets are the paper's 900,000 by default; the hyper-parame
 on design seeds (:data:`msd_bench.core.deeprl.hyper.CHOSEN`, docs/deeprl.md
 §Hyper-parameters). Training, the compiled rollout and the stepwise
 controller live in :mod:`msd_bench.core.deeprl`; the weights are
-:mod:`msd_bench.io.deeprl_artifact`'s ``deeprl.json`` + ``deeprl.npz`` beside
+:mod:`msd_bench.io.storage.deeprl_artifact`'s ``deeprl.json`` + ``deeprl.npz`` beside
 ``policy.json``. Listed as baselines: reported beside the learners, never in
 the default matrix. SB3 and torch load only when a policy is trained.
 """
@@ -31,10 +31,10 @@ from msd_bench.designs.protocol import Controller, Facts, KindSpec, PolicyBase, 
 from msd_bench.designs.registry import PLANT, plus_kinds
 
 if TYPE_CHECKING:
-    from msd_bench.core.closed_loop import Conditions
     from msd_bench.core.deeprl.mlp import Net
-    from msd_bench.core.kernels import Kernel
-    from msd_bench.core.model import StepModel
+    from msd_bench.core.evaluation.closed_loop import Conditions
+    from msd_bench.core.physics.kernels import Kernel
+    from msd_bench.core.physics.model import StepModel
     from msd_bench.designs.deeprl_stepwise import DeepStepwise
     from msd_bench.designs.deeprl_train import TrainResult
 
@@ -52,7 +52,7 @@ class DeepPolicy(PolicyBase):
     """Algorithm, hyper-parameters, budget, SB3 and torch versions (the artifact's provenance)."""
 
     def _forces(self) -> FloatArray:
-        from msd_bench.core.qconfig import QConfig
+        from msd_bench.core.learning.qconfig import QConfig
 
         return QConfig().actions()
 
@@ -73,7 +73,7 @@ class DeepPolicy(PolicyBase):
         return NetController(self.net, self._forces(), member, target)
 
     def save(self, directory: Path, provenance: dict[str, Any], root: Path, overwrite: bool) -> list[Path]:
-        from msd_bench.io.deeprl_artifact import paths, save_policy
+        from msd_bench.io.storage.deeprl_artifact import paths, save_policy
 
         meta_path, npz_path = paths(directory / STEM)
         if overwrite:  # a rerun into the same run directory replaces only our own two files
@@ -154,7 +154,7 @@ class DeepDesign:
         if not self.plant:
             return None
         from msd_bench.core.deeprl.hyper import CHOSEN
-        from msd_bench.core.plant import PlantParams
+        from msd_bench.core.physics.plant import PlantParams
         from msd_bench.designs.deeprl_stepwise import DeepLearner, DeepStepwise
 
         s = req.settings
@@ -166,8 +166,8 @@ class DeepDesign:
 
     def load(self, doc: dict[str, Any], directory: Path, model: StepModel | None) -> DeepPolicy:
         """The networks back from ``deeprl.json``/``.npz``; members and kind must agree with them."""
-        from msd_bench.io import artifacts
-        from msd_bench.io.deeprl_artifact import load_policy
+        from msd_bench.io.storage import artifacts
+        from msd_bench.io.storage.deeprl_artifact import load_policy
 
         name = artifacts.policy_file(doc, "weights", directory)
         if name != f"{STEM}.json":

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from msd_bench.core.deeprl.hyper import PAPER_STEPS, Hyper
 from msd_bench.core.deeprl.mlp import ACTIVATIONS, DY_SCALE, FORCE_SCALE, POS_SCALE, Net, from_arrays
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.model import StepModel
+from msd_bench.core.physics.model import StepModel
 
 EPISODE_STEPS = 3000
 """The paper's episode: 3,000 samples of 10 ms (``MsdBench-v0``'s default)."""

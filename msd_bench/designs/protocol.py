@@ -11,7 +11,7 @@ the policy it made, so a new controller is one module and one registry entry
   into a :class:`Policy`, in-process (:meth:`Design.make`) or, for designs that
   learn step by step, over a plant-like node's topics (:meth:`Design.stepwise`).
 * A :class:`Policy` has (a) a compiled batch rollout with the semantics of
-  :func:`msd_bench.core.closed_loop.greedy_under`, (b) a stepwise
+  :func:`msd_bench.core.evaluation.closed_loop.greedy_under`, (b) a stepwise
   :class:`Controller` per member for the agent node over ROS, (c) an artifact
   (:meth:`Policy.save`, loaded back by :meth:`Design.load`), (d) its figures and
   (e) its :class:`Facts`.
@@ -30,9 +30,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:  # numba-compiled modules load only when a policy is made or run
-    from msd_bench.core.closed_loop import Conditions
-    from msd_bench.core.kernels import Kernel
-    from msd_bench.core.model import StepModel
+    from msd_bench.core.evaluation.closed_loop import Conditions
+    from msd_bench.core.physics.kernels import Kernel
+    from msd_bench.core.physics.model import StepModel
 
 
 FloatArray = NDArray[np.float64]
@@ -162,7 +162,7 @@ class PolicyBase:
     def write_policy(self, directory: Path, provenance: dict[str, Any], root: Path, overwrite: bool,
                      files: dict[str, str], body: dict[str, Any]) -> Path:
         """``directory/policy.json`` naming the design's ``files`` beside it, with ``body``."""
-        from msd_bench.io import artifacts
+        from msd_bench.io.storage import artifacts
 
         doc = artifacts.policy_doc(self.kind, self.facts, self.members, provenance, files, body)
         return artifacts.save_policy(directory / "policy.json", doc, root=root, overwrite=overwrite)

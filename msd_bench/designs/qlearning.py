@@ -17,14 +17,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.qconfig import MAX_DELAY_SAMPLES, QConfig, improved_config
+from msd_bench.core.learning.qconfig import MAX_DELAY_SAMPLES, QConfig, improved_config
 from msd_bench.designs.protocol import Controller, Facts, KindSpec, Request, Settings
 from msd_bench.designs.registry import PLANT, plus_kinds
 
 if TYPE_CHECKING:  # numba-compiled modules load only when a policy is made or run
-    from msd_bench.core.closed_loop import Conditions
-    from msd_bench.core.kernels import Kernel
-    from msd_bench.core.model import StepModel
+    from msd_bench.core.evaluation.closed_loop import Conditions
+    from msd_bench.core.physics.kernels import Kernel
+    from msd_bench.core.physics.model import StepModel
 
 FloatArray = NDArray[np.float64]
 
@@ -117,7 +117,7 @@ class GreedyController:
         self.reset()
 
     def reset(self) -> None:
-        from msd_bench.core.learner import GreedyPolicy
+        from msd_bench.core.learning.learner import GreedyPolicy
 
         self._policy = GreedyPolicy(*self._args)
 
@@ -144,9 +144,9 @@ class QPolicy:
     """The model trained on (a ``model`` observer predicts with it); None: the learner never reads it."""
 
     def rollout(self, plant: Kernel, cond: Conditions, noise: FloatArray) -> tuple[FloatArray, FloatArray]:
-        from msd_bench.core.closed_loop import greedy_under, nominal
-        from msd_bench.core.qconfig import packed
-        from msd_bench.core.qlearning import greedy_batch
+        from msd_bench.core.evaluation.closed_loop import greedy_under, nominal
+        from msd_bench.core.learning.q_kernels import greedy_batch
+        from msd_bench.core.learning.qconfig import packed
 
         lr = packed(self.learner)
         if cond == nominal(cond.target) and not noise.any() and not lr.observed:
@@ -158,7 +158,7 @@ class QPolicy:
         return GreedyController(self.learner, self.q[member], target, self.observer)
 
     def save(self, directory: Path, provenance: dict[str, Any], root: Path, overwrite: bool) -> list[Path]:
-        from msd_bench.io import artifacts
+        from msd_bench.io.storage import artifacts
 
         meta = {"agent_kind": self.kind, "provenance": provenance, "seeds": list(self.members),
                 "learner": asdict(self.learner)}
@@ -169,7 +169,7 @@ class QPolicy:
         return [tables, artifacts.save_policy(directory / "policy.json", doc, root=root, overwrite=overwrite)]
 
     def figures(self, fig_dir: Path, root: Path) -> list[Path]:
-        from msd_bench.io import figures
+        from msd_bench.io.reports import figures
 
         title = f"Q-table, {self.kind} (first seed)"
         return [figures.qtable_figure(fig_dir / f"qtable_{self.kind}.png", title, self.first[0], self.last[0],
@@ -229,8 +229,8 @@ class QDesign:
         return QPolicy(req.spec.kind, tuple(int(s) for s in req.seeds), facts, qc, q, first, last, req.model)
 
     def make(self, req: Request) -> QPolicy:
-        from msd_bench.core.dyna import DynaConfig, train_dyna
-        from msd_bench.core.qtrain import train
+        from msd_bench.core.learning.dyna import DynaConfig, train_dyna
+        from msd_bench.core.learning.qtrain import train
 
         qc = self.config(req)
         if req.model is None:
@@ -243,8 +243,8 @@ class QDesign:
         return self._policy(req, qc, t.q, t.snapshots[:, 0], t.snapshots[:, -1], real)
 
     def stepwise(self, req: Request) -> QStepwise:
-        from msd_bench.core.learner import StepwiseLearner, stacked_snapshots
-        from msd_bench.core.selection import select_tables
+        from msd_bench.core.learning.learner import StepwiseLearner, stacked_snapshots
+        from msd_bench.core.learning.selection import select_tables
 
         qc = self.config(req)
         planning = req.settings.planning_steps if self.planning else 0
@@ -264,7 +264,7 @@ class QDesign:
         return QStepwise(on_plant, qc.episodes, qc.steps, learners, finish)
 
     def load(self, doc: dict[str, Any], directory: Path, model: StepModel | None) -> QPolicy:
-        from msd_bench.io import artifacts
+        from msd_bench.io.storage import artifacts
 
         qc, seeds, arrays = read_tables(directory / str(artifacts.policy_file(doc, "tables", directory)))
         facts = Facts(self.name, False, False, artifacts.policy_real(doc, directory))
@@ -274,9 +274,9 @@ class QDesign:
 
 def read_tables(path: Path) -> tuple[QConfig, tuple[int, ...], dict[str, FloatArray]]:
     """A ``qtables.npz``: its learner, seeds and arrays, their shapes checked against each other
-    (one :class:`~msd_bench.io.artifacts.ArtifactError` line otherwise)."""
-    from msd_bench.core.qconfig import encoding
-    from msd_bench.io.artifacts import ArtifactError, load_qtables
+    (one :class:`~msd_bench.io.storage.artifacts.ArtifactError` line otherwise)."""
+    from msd_bench.core.learning.qconfig import encoding
+    from msd_bench.io.storage.artifacts import ArtifactError, load_qtables
 
     arrays, meta = load_qtables(path)
     seeds = meta.get("seeds")

@@ -2,7 +2,7 @@
 
 Every kind of Table 1 is ``<surrogate>+<design>`` (bare ``plm`` stays the
 paper agent; ``dyna-q`` and ``plant`` stay): each design says which kinds it
-offers over the registered model kinds (:data:`msd_bench.core.registry.MODEL_KINDS`),
+offers over the registered model kinds (:data:`msd_bench.core.identification.model_kinds.MODEL_KINDS`),
 so a new model kind or a new design needs no edit elsewhere. An unknown kind or
 design is one :class:`ConfigError` line listing the known ones.
 
@@ -17,7 +17,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.registry import MODEL_KINDS
+from msd_bench.core.identification.model_kinds import MODEL_KINDS
 from msd_bench.designs.protocol import Design, KindSpec
 
 PLANT = "plant"

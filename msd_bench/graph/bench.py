@@ -39,15 +39,15 @@ from msd_bench.app.job import job_document
 from msd_bench.app.plant_ns import check_node_scenarios
 from msd_bench.app.serve_protocol import EventError
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.registry import needs_bias_records
+from msd_bench.core.identification.model_kinds import needs_bias_records
 from msd_bench.graph import live
 from msd_bench.graph.jobs import JOBS_DIR, Job, JobFiles, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, RecordServers, paper_plan, record_experiments
 from msd_bench.graph.supervise import Supervision, agent_remaps
 from msd_bench.graph.supervise import check as check_supervision
-from msd_bench.io.atomic import TEMP_PREFIX, write_text_atomic
-from msd_bench.io.paths import OutputError, writable_dir
+from msd_bench.io.storage.atomic import TEMP_PREFIX, write_text_atomic
+from msd_bench.io.storage.paths import OutputError, writable_dir
 from msd_msgs_py.contract import PLANT_NAMESPACE, surrogate_namespace
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 

@@ -17,24 +17,24 @@ from msd_bench import designs
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.pipeline import settings
 from msd_bench.app.scoring import PolicyRecord, Validation, assemble
-from msd_bench.core import robustness
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.identify import FitReport
-from msd_bench.core.model import StepModel
-from msd_bench.core.registry import needs_bias_records
-from msd_bench.core.results import AgentResult
-from msd_bench.core.risk import trace_risk
-from msd_bench.core.risk_table import well_formed
+from msd_bench.core.evaluation import robustness
+from msd_bench.core.evaluation.results import AgentResult
+from msd_bench.core.evaluation.risk import trace_risk
+from msd_bench.core.evaluation.risk_table import well_formed
+from msd_bench.core.identification.identify import FitReport
+from msd_bench.core.identification.model_kinds import needs_bias_records
+from msd_bench.core.physics.model import StepModel
 from msd_bench.designs import Policy
-from msd_bench.io import artifacts
-from msd_bench.io.atomic import write_text_atomic
-from msd_bench.io.bag_records import load_records as load_records_of
-from msd_bench.io.bag_records import roles_from_dir
-from msd_bench.io.bags import UNCHECKED, read_experiment
-from msd_bench.io.errors import BagError
-from msd_bench.io.html_report import write_index
-from msd_bench.io.report import write_report, write_robustness
-from msd_bench.io.run_output import FigureData, write_figures
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_records import load_records as load_records_of
+from msd_bench.io.bags.bag_records import roles_from_dir
+from msd_bench.io.bags.reader import UNCHECKED, read_experiment
+from msd_bench.io.reports.html_report import write_index
+from msd_bench.io.reports.report import write_report, write_robustness
+from msd_bench.io.storage import artifacts
+from msd_bench.io.storage.atomic import write_text_atomic
+from msd_bench.io.storage.run_output import FigureData, write_figures
 
 from .bench import BenchConfig
 from .run_files import AgentDoc, read_fits, read_result

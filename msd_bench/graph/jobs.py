@@ -20,7 +20,7 @@ from typing import Any
 
 from msd_bench.app.serve_protocol import READY_LINE, SERVE_FLAG, STOP_LINE, exit_pattern, parse_event
 from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet, stop
-from msd_bench.io.atomic import write_text_atomic
+from msd_bench.io.storage.atomic import write_text_atomic
 
 
 def last_line(lines: Sequence[str], contains: str = "") -> str:
@@ -41,7 +41,7 @@ class JobFiles:
     Why files in the run directory and not ``-p`` strings: they are the record of what each
     node was asked to do (docs/design.md §Jobs), and one loader reads them
     (:func:`msd_bench.nodes.params.use_job`). ``root`` bounds the write: no symlink under it is
-    followed (:mod:`msd_bench.io.atomic`).
+    followed (:mod:`msd_bench.io.storage.atomic`).
     """
 
     root: Path

@@ -3,7 +3,7 @@
 bench.py drives node processes and has no rclpy of its own, so the live view
 brings a small one: :class:`PlantWatch`, a private rclpy context whose node
 subscribes to the plant-like node's ``joint_states`` and ``reference`` and
-hands them to the Foxglove server of :mod:`msd_bench.io.live`. The stages'
+hands them to the Foxglove server of :mod:`msd_bench.io.reports.live_server`. The stages'
 progress comes from the bench itself: :func:`timed` stages report their start
 and end (:func:`stage`), the stage bars their items (:class:`LiveStageProgress`)
 and the ``[bench]`` lines go out as logs (:func:`log`).
@@ -26,7 +26,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
-from msd_bench.io.live import PERIOD_S, LiveServer
+from msd_bench.io.reports.live_server import PERIOD_S, LiveServer
 from msd_bench.progress import StageProgress
 from msd_msgs_py.contract import REFERENCE
 from msd_msgs_py.interface import PlantInterface
@@ -137,7 +137,7 @@ def live_view(port: int | None, namespace: str, iface: PlantInterface,
               say: Callable[[str], None] | None = None) -> Iterator[LiveServer | None]:
     """Serve the live view on ``port`` (None: no live view) for the ``with`` block: the run's lifetime.
 
-    A port in use is a one-line :class:`msd_bench.io.live.LiveError` before any stage starts.
+    A port in use is a one-line :class:`msd_bench.io.reports.live_server.LiveError` before any stage starts.
     """
     if port is None:
         yield None

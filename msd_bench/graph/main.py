@@ -43,8 +43,8 @@ from msd_bench.graph.launch import ProcessSet, caller_env, process_group, stop
 from msd_bench.graph.live import LiveStageProgress as StageProgress
 from msd_bench.graph.live import live_view
 from msd_bench.graph.live import log as live_log
-from msd_bench.io.bag_records import roles_from_dir
-from msd_bench.io.live import DEFAULT_PORT
+from msd_bench.io.bags.bag_records import roles_from_dir
+from msd_bench.io.reports.live_server import DEFAULT_PORT
 from msd_msgs_py.interface import add_cli_options, from_cli
 
 REPO = Path(__file__).resolve().parents[2]
@@ -170,8 +170,8 @@ def say(line: str) -> None:
 
 def write_plant_model(cfg: BenchConfig) -> None:
     """The emulator's own model, for the on-plant reference agent (not identified)."""
-    from msd_bench.core.model import plant_model
-    from msd_bench.io import artifacts
+    from msd_bench.core.physics.model import plant_model
+    from msd_bench.io.storage import artifacts
 
     path = cfg.run_dir / "models" / "plant.json"
     if not path.exists():

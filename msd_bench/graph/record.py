@@ -31,7 +31,7 @@ recorder's start to its stop, and the face's command topic beside
 ``joint_states`` (as a rosbag2 user records a rig), so the check is another:
 no gap in the stamps, and the played samples located from the recorded
 commands (the last N are the signal) and matching the signal over the cut
-(:mod:`msd_bench.io.played`).
+(:mod:`msd_bench.io.bags.played`).
 """
 
 from __future__ import annotations
@@ -52,13 +52,13 @@ from msd_bench.app import plan
 from msd_bench.app.config import RunConfig
 from msd_bench.app.job import job_document
 from msd_bench.app.serve_protocol import EventError
-from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.core.identification import excitation as exc
 from msd_bench.graph.jobs import Job, JobFiles, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, ProcessSet
-from msd_bench.io.bag_interface import read_interface_experiment
-from msd_bench.io.bags import bag_info, read_topic
-from msd_bench.io.played import confirm_by_effort, locate_from_bag
+from msd_bench.io.bags.bag_interface import read_interface_experiment
+from msd_bench.io.bags.played import confirm_by_effort, locate_from_bag
+from msd_bench.io.bags.reader import bag_info, read_topic
 from msd_msgs_py.contract import (
     JOINT_STATES,
     LOCKSTEP_COMMAND_DEPTH,
@@ -81,7 +81,7 @@ times it against one exchange per command). Half the plant's command history, fo
 REALTIME_TAIL_S = 0.3
 """Seconds a real-time recorder keeps recording after the excitation's last command: the row that
 holds it comes up to a sample (plus the node's publish jitter) later, and the played samples are
-located up to it (:mod:`msd_bench.io.played`); a recorder stopped at once had 2 rows to spare."""
+located up to it (:mod:`msd_bench.io.bags.played`); a recorder stopped at once had 2 rows to spare."""
 LOCKSTEP_COMMAND_BUDGET_S = 0.01
 """Wall seconds a lock-step experiment may take per command before the excitation is given up on
 (a budget of the launcher, not the sample time: lock-step runs as fast as the middleware allows)."""
@@ -100,7 +100,7 @@ def recorded_topics(truth: bool, iface: PlantInterface = MSD_INTERFACE,
 
     Why the commands: a measured effort's applied force is rebuilt from them, and in real time they
     are what locates the played samples in a recording that starts before them
-    (:mod:`msd_bench.io.played`). A lock-step bag is exactly the played samples, so it goes without.
+    (:mod:`msd_bench.io.bags.played`). A lock-step bag is exactly the played samples, so it goes without.
     """
     topics = _TRUTH_TOPICS if truth else _TOPICS
     if not (lockstep and iface.effort_is_commanded):

@@ -3,7 +3,7 @@
 Why: ``bench.py --stages report --out <run>`` rebuilds a report from files
 that may have been edited, truncated by a full disk, copied from another
 version or crafted. Each reader here bounds the document's size and depth
-(:mod:`msd_bench.io.safe_read`), checks every field the report uses for type
+(:mod:`msd_bench.io.storage.safe_read`), checks every field the report uses for type
 and range, and turns anything else into one :class:`RunFileError` line naming
 the file and the field — before the report's science sees a value.
 """
@@ -20,11 +20,11 @@ import numpy as np
 
 from msd_bench.app.agents import learner_from_meta
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.identify import FitReport
-from msd_bench.core.qconfig import QConfig, encoding
-from msd_bench.core.results import METRIC_KEYS
-from msd_bench.io import artifacts
-from msd_bench.io.safe_read import read_json_bounded
+from msd_bench.core.evaluation.results import METRIC_KEYS
+from msd_bench.core.identification.identify import FitReport
+from msd_bench.core.learning.qconfig import QConfig, encoding
+from msd_bench.io.storage import artifacts
+from msd_bench.io.storage.safe_read import read_json_bounded
 
 
 class RunFileError(MsdBenchError):

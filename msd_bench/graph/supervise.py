@@ -28,13 +28,13 @@ from typing import Any, Protocol
 from msd_bench.app.config import RunConfig
 from msd_bench.app.serve_protocol import parse_event
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.supervisor import Limits, SupervisorOptions
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.safety.supervisor import Limits, SupervisorOptions
 from msd_bench.graph.jobs import Job, JobServer
 from msd_bench.graph.launch import NodeProcess, ProcessSet, stop
 from msd_bench.graph.record import RecordServers
 from msd_bench.graph.run_files import read_result
-from msd_bench.io.supervisor_file import options_json, read_options, read_record, write_record
+from msd_bench.io.storage.supervisor_file import options_json, read_options, read_record, write_record
 from msd_msgs_py.contract import REFERENCE, TopicSpec
 from msd_msgs_py.interface import PlantInterface
 
@@ -196,7 +196,7 @@ def write_options(cfg: BenchConfig) -> Path:
     """The options in force, every derived limit spelled out, as ``jobs/supervisor.json`` (the node's
     ``options_file`` and the run's record of them)."""
     from msd_bench.graph.jobs import JOBS_DIR
-    from msd_bench.io.atomic import write_text_atomic
+    from msd_bench.io.storage.atomic import write_text_atomic
 
     text = options_json(cfg.supervision.resolved(cfg.run.plant), cfg.run.plant)
     return write_text_atomic(cfg.run_dir / JOBS_DIR / RECORD, text, root=cfg.run_dir)

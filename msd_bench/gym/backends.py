@@ -13,8 +13,8 @@ from pathlib import Path
 from typing import Protocol
 
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import preset
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import preset
 
 
 class Backend(Protocol):
@@ -70,6 +70,6 @@ def model_backend(model: str | os.PathLike[str] | StepModel | None, plant_preset
         raise InvalidInputError(f"model must be an artifact path or a StepModel, got {type(model).__name__}")
     # only a path needs the artifact reader, which checks the file's every field and the parameter
     # vector against its kind's layout: a crafted file is one ArtifactError line, not a crashed kernel
-    from msd_bench.io.artifacts import load_model
+    from msd_bench.io.storage.artifacts import load_model
 
     return ModelBackend(load_model(Path(model)))

@@ -22,7 +22,7 @@ Reward: the paper's eq. 19 exactly as the learners compute it,
 ``A · (g / (1 + E_{k+1}) − ζ (E_{k+1} − E_k) / E_max)`` with ``E = |x − target|``
 the *true* error (the learners score the truth too: sensor noise perturbs
 what the agent sees, not what it is paid), computed by the compiled
-:func:`msd_bench.core.qlearning.reward` of the config's packed learner.
+:func:`msd_bench.core.learning.q_kernels.reward` of the config's packed learner.
 The shaping penalty η φ(s, a) is not part of it: φ is defined on the
 Q-table's state bins, which an environment does not have.
 
@@ -53,9 +53,9 @@ from gymnasium import spaces
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError, InvalidInputError, MsdBenchError
-from msd_bench.core.model import StepModel
-from msd_bench.core.qconfig import QConfig, packed
-from msd_bench.core.sensor import SensorModel
+from msd_bench.core.learning.qconfig import QConfig, packed
+from msd_bench.core.physics.model import StepModel
+from msd_bench.core.physics.sensor import SensorModel
 from msd_bench.gym.backends import Backend, model_backend
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
@@ -130,7 +130,7 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
                  ros_interface: PlantInterface = MSD_INTERFACE) -> Backend:
         if ros_namespace is None:
             return model_backend(model, preset)
-        from msd_bench.core.plant import preset as plant_preset
+        from msd_bench.core.physics.plant import preset as plant_preset
         from msd_bench.gym.ros_backend import RosBackend  # rclpy only when asked for
 
         params = plant_preset(preset)
@@ -211,6 +211,6 @@ class MsdBenchEnv(gymnasium.Env[FloatArray, Any]):
 
 def _reward(learner: Any, err: float, err_prev: float) -> float:
     """Eq. 19 from the compiled learner's own definition (imported here: numba loads on first use)."""
-    from msd_bench.core.qlearning import reward
+    from msd_bench.core.learning.q_kernels import reward
 
     return float(reward(learner, err, err_prev))

@@ -13,7 +13,7 @@ previous force: a real rig's one-sample latency; the agent must be quicker
 than the node's watchdog between steps). An episode starts from rest: with
 ``reset`` the node is sent 0 N and reset; without one (real hardware cannot
 teleport) the backend holds 0 N until the mass is still, judged exactly as
-``bench.py --plant-ns`` judges it (:class:`msd_bench.core.rest.RestDetector`:
+``bench.py --plant-ns`` judges it (:class:`msd_bench.core.rigs.rest.RestDetector`:
 spread and drift over a window, so a noisy sensor at rest counts as still),
 and the episode starts wherever it came to rest: x_0 is the detector's mean of
 the last positions, read, never assumed 0.
@@ -47,8 +47,8 @@ from rclpy.publisher import Publisher
 from std_msgs.msg import Empty, Float64
 
 from msd_bench.core.errors import InterfaceError, MsdBenchError
-from msd_bench.core.plant import DT, PlantParams
-from msd_bench.core.rest import RestConfig, RestDetector
+from msd_bench.core.physics.plant import DT, PlantParams
+from msd_bench.core.rigs.rest import RestConfig, RestDetector
 from msd_bench.dds import start_confined
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 from msd_msgs_py.ros import command, msg_class, qos

@@ -19,7 +19,7 @@ files, e.g. ``qtables.npz``) and ``result.json`` under ``out_dir`` and exits.
 
 Against a node without ``reset`` (``reset:=false``, a rig) every episode
 starts by zero force until the position is still and from the rest position
-measured then (:mod:`msd_bench.core.rest`). ``scenarios`` (set-points and added
+measured then (:mod:`msd_bench.core.rigs.rest`). ``scenarios`` (set-points and added
 force disturbances only, the ones a rig can be given from outside) are then
 validated on the node too, each seed once per scenario; the disturbance is
 added to the command the agent sends (so the node's saturation clips the sum).
@@ -45,16 +45,16 @@ from msd_bench.app.job import shared
 from msd_bench.app.plant_ns import hardware_scenario
 from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.model import StepModel
-from msd_bench.core.rest import RestConfig
-from msd_bench.core.results import per_seed_row
-from msd_bench.core.robustness import cell
-from msd_bench.core.scenarios import Scenario
+from msd_bench.core.evaluation.results import per_seed_row
+from msd_bench.core.evaluation.robustness import cell
+from msd_bench.core.evaluation.scenarios import Scenario
+from msd_bench.core.physics.model import StepModel
+from msd_bench.core.rigs.rest import RestConfig
 from msd_bench.designs import Controller, Policy, Settings, Stepwise
 from msd_bench.designs.protocol import StepwiseLearner
-from msd_bench.io import artifacts
-from msd_bench.io.atomic import write_text_atomic
-from msd_bench.io.bag_writer import write_experiment
+from msd_bench.io.bags.bag_writer import write_experiment
+from msd_bench.io.storage import artifacts
+from msd_bench.io.storage.atomic import write_text_atomic
 from msd_bench.nodes.episode_client import Episode, EpisodeClient
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_config
@@ -103,7 +103,7 @@ class AgentNodeConfig:
     reset: bool = True
     """The node has ``reset``; false (a rig): zero force until still before every episode."""
     rest_threshold: float = field(default=0.005, metadata={"range": (1e-6, 1.0)})
-    """Largest position standard deviation at rest, m (:class:`msd_bench.core.rest.RestConfig`)."""
+    """Largest position standard deviation at rest, m (:class:`msd_bench.core.rigs.rest.RestConfig`)."""
     rest_timeout: float = field(default=30.0, metadata={"range": (0.1, 3600.0)})
     """Seconds of zero force after which an episode starts even if the mass never looked still."""
     scenarios: str = ""

@@ -14,7 +14,7 @@ and ``observe(x)``) with the namespace of a plant-like node and a length. The
   starts from the last position measured, not from an assumed 0.
 * real-time without ``reset`` (``reset=False``, a rig): answer every
   ``position`` with zero force until the position is still
-  (:class:`msd_bench.core.rest.RestDetector`, or its timeout), then start the
+  (:class:`msd_bench.core.rigs.rest.RestDetector`, or its timeout), then start the
   episode from the rest position it measured (the window's mean).
 
 Each namespace speaks a plant interface (``interfaces``; the msd face unless
@@ -41,7 +41,7 @@ from rclpy.subscription import Subscription
 from std_msgs.msg import Empty, Float64
 
 from msd_bench.core.errors import InterfaceError, MsdBenchError
-from msd_bench.core.rest import RestConfig, RestDetector
+from msd_bench.core.rigs.rest import RestConfig, RestDetector
 from msd_bench.nodes import endpoints
 from msd_msgs_py.contract import JOINT_STATES, POSITION
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface

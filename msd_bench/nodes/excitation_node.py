@@ -15,14 +15,14 @@ message and a smaller message here (a face without ``position`` answers in
 ``joint_states``). In
 real-time it publishes at 1/dt Hz on a steady-clock timer. A node without
 ``reset`` (``rest_first``, a rig) is first brought to rest by zero force until
-its position is still (:mod:`msd_bench.core.rest`); the signal then plays from
+its position is still (:mod:`msd_bench.core.rigs.rest`); the signal then plays from
 wherever the mass rests (``x0`` is logged, never assumed).
 
 What a recording relies on: in real time, after the rest's zero commands and the
 settle's silence, the node sends exactly the signal's N commands, each once, and nothing
 after them, so the last N commands a recorder stored are the signal and the
 first of them marks the first played sample of a real-time bag
-(:mod:`msd_bench.io.played`).
+(:mod:`msd_bench.io.bags.played`).
 
 Done signal: when the whole signal is played the node logs
 ``excitation done: N commands`` and its ``done`` future completes with 0,
@@ -48,9 +48,9 @@ from std_msgs.msg import Empty, Float64, String
 
 from msd_bench.app.job import shared
 from msd_bench.app.serve_protocol import event_line
-from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError, InterfaceError
-from msd_bench.core.rest import RestConfig, RestDetector
+from msd_bench.core.identification import excitation as exc
+from msd_bench.core.rigs.rest import RestConfig, RestDetector
 from msd_bench.nodes import endpoints
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import Section, check_job_used, declare_config, declare_from_dataclass
@@ -129,7 +129,7 @@ class ExcitationNodeConfig:
     rest_first: bool = False
     """A node without ``reset`` (a rig): command zero force until the position is still, then play."""
     rest_window: int = field(default=300, metadata={"range": (4, 100_000)})
-    """Samples the stillness is judged over (:class:`msd_bench.core.rest.RestConfig`)."""
+    """Samples the stillness is judged over (:class:`msd_bench.core.rigs.rest.RestConfig`)."""
     rest_threshold: float = field(default=0.005, metadata={"range": (1e-6, 1.0)})
     """Largest position standard deviation at rest, m (above the sensor's noise)."""
     rest_timeout: float = field(default=30.0, metadata={"range": (0.1, 3600.0)})

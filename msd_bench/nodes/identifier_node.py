@@ -24,16 +24,21 @@ from msd_bench.app.job import shared
 from msd_bench.app.pipeline import identify_surrogates
 from msd_bench.app.serve_protocol import event_line
 from msd_bench.core.errors import ConfigError, IdentificationError, InvalidInputError
-from msd_bench.core.identify import FitReport
-from msd_bench.core.model import StepModel
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.registry import MODEL_KINDS, check_models, model_kind, needs_bias_records
-from msd_bench.io import artifacts
-from msd_bench.io.atomic import write_text_atomic
-from msd_bench.io.bag_interface import FORCE_INPUTS, ForceSource
-from msd_bench.io.bag_records import BagRole, explicit_roles, load_records, record_name, roles_from_dir
-from msd_bench.io.paths import OutputError, writable_dir
-from msd_bench.io.run_output import write_models
+from msd_bench.core.identification.identify import FitReport
+from msd_bench.core.identification.model_kinds import (
+    MODEL_KINDS,
+    check_models,
+    model_kind,
+    needs_bias_records,
+)
+from msd_bench.core.physics.model import StepModel
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.io.bags.bag_interface import FORCE_INPUTS, ForceSource
+from msd_bench.io.bags.bag_records import BagRole, explicit_roles, load_records, record_name, roles_from_dir
+from msd_bench.io.storage import artifacts
+from msd_bench.io.storage.atomic import write_text_atomic
+from msd_bench.io.storage.paths import OutputError, writable_dir
+from msd_bench.io.storage.run_output import write_models
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_config
 from msd_msgs_py.contract import PLANT_NAMESPACE

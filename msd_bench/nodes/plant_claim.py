@@ -36,7 +36,7 @@ from dataclasses import asdict, dataclass
 from typing import NamedTuple
 
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.io.safe_read import loads_bounded
+from msd_bench.io.storage.safe_read import loads_bounded
 
 STALE_S = 3.0
 """A claim not re-sent for this long belongs to a node that is gone (re-sent every second)."""

@@ -71,13 +71,13 @@ from rclpy.publisher import Publisher
 from rclpy.task import Future
 from std_msgs.msg import Empty, Float64, String
 
-from msd_bench.core import kernels
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PRESETS, PlantParams, preset
-from msd_bench.core.sensor import SensorModel, VelocityEstimator, sensor_rng
-from msd_bench.core.supervisor import MAX_LATCH_TEXT, parse_latch
-from msd_bench.io.live import OFF, LiveServer, start_live
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PRESETS, PlantParams, preset
+from msd_bench.core.physics.sensor import SensorModel, VelocityEstimator, sensor_rng
+from msd_bench.core.safety.supervisor import MAX_LATCH_TEXT, parse_latch
+from msd_bench.io.reports.live_server import OFF, LiveServer, start_live
 from msd_bench.nodes import plant_claim
 from msd_bench.nodes.health import StallTracker, diagnostic_array
 from msd_bench.nodes.params import declare_from_dataclass, keep_own_clock, reject_unknown_parameters

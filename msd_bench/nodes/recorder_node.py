@@ -1,7 +1,7 @@
 """Recorder node: chosen contract topics into one rosbag2 (MCAP) bag per experiment.
 
 A thin adapter: subscriptions take the serialized CDR bytes (``raw=True``) and
-hand them to :class:`~msd_bench.io.bags.BagRecorder` unchanged, stamped with
+hand them to :class:`~msd_bench.io.bags.reader.BagRecorder` unchanged, stamped with
 the node clock (sim time in lock-step mode). The bag is closed when the node
 closes (Ctrl-C, SIGTERM through :mod:`.spin`) or when a limit is reached, which
 also completes ``done`` so the process exits. A timer flushes the open chunk
@@ -24,7 +24,7 @@ Each topic's ``offered_qos_profiles`` are the profiles its publishers offer in
 the graph when its first message is written, as ``ros2 bag record`` stores them.
 
 A write error (full or read-only storage) stops the recording: the bag is
-closed with what reached the disk whole (:class:`~msd_bench.io.bag_writer.BagWriteError`
+closed with what reached the disk whole (:class:`~msd_bench.io.bags.bag_writer.BagWriteError`
 says how much), one error line is logged, and the process exits with
 :data:`EXIT_WRITE_ERROR`.
 """
@@ -46,8 +46,8 @@ from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, Qo
 from std_msgs.msg import String
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.io.bag_writer import STAMPED_TYPES, BagRecorder, leading_stamp
-from msd_bench.io.errors import BagError
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_writer import STAMPED_TYPES, BagRecorder, leading_stamp
 from msd_bench.nodes import endpoints
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import check_job_used, declare_config

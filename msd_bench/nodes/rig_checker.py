@@ -1,7 +1,7 @@
 """The ROS side of ``msd-bench check-rig``: drive a plant-like node through a short script and record.
 
 Thin by design: this module only sends commands and keeps arrays; every
-verdict is a pure function of :mod:`msd_bench.core.conformance`
+verdict is a pure function of :mod:`msd_bench.core.rigs.conformance`
 (docs/check-rig.md describes the script and every clause).
 
 Real time: commands go out in reply to ``joint_states`` rows, as a 100 Hz
@@ -28,9 +28,9 @@ from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Empty, Float64
 
-from msd_bench.core import conformance as cf
-from msd_bench.core.conformance import Clause, Limits
 from msd_bench.core.errors import InterfaceError
+from msd_bench.core.rigs import conformance as cf
+from msd_bench.core.rigs.conformance import Clause, Limits
 from msd_msgs_py.contract import CLOCK, FORCE, JOINT_STATES, POSITION, RESET, TRUTH_JOINT_STATES
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 from msd_msgs_py.ros import command, msg_class, qos

@@ -1,4 +1,4 @@
-"""The rig emulator node: :class:`PlantNode` serving :class:`msd_bench.core.rig.Rig` (docs/rig.md).
+"""The rig emulator node: :class:`PlantNode` serving :class:`msd_bench.core.rigs.rig.Rig` (docs/rig.md).
 
 It speaks the plant's topic contract under ``/rig`` — ``force`` in,
 ``joint_states`` (joint ``msd_slider``, stamped), ``position`` and
@@ -24,7 +24,7 @@ drive's own watchdog does. ``truth/joint_states`` (true position and velocity)
 exists only with ``publish_truth`` (tests and scoring; a real rig has none).
 
 ``population_seed`` picks a member of the rig population
-(:mod:`msd_bench.core.population`): its plant and imperfections become the
+(:mod:`msd_bench.core.rigs.population`): its plant and imperfections become the
 parameters' defaults, so explicit parameters still win; the start-up line
 prints the served rig with every parameter.
 
@@ -48,12 +48,12 @@ from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.publisher import Publisher
 from std_msgs.msg import Float64
 
-from msd_bench.core import population
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.plant import PRESETS, PlantParams
-from msd_bench.core.population import EMULATOR_SEED, MAX_SEED, RigSpec
-from msd_bench.core.rig import Rig, RigImperfections
-from msd_bench.io.live import OFF
+from msd_bench.core.physics.plant import PRESETS, PlantParams
+from msd_bench.core.rigs import population
+from msd_bench.core.rigs.population import EMULATOR_SEED, MAX_SEED, RigSpec
+from msd_bench.core.rigs.rig import Rig, RigImperfections
+from msd_bench.io.reports.live_server import OFF
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
 from msd_bench.nodes.plant_node import (
@@ -72,7 +72,7 @@ from msd_msgs_py.ros import command_force, float64, joint_state, joint_states, m
 RIG_NAMESPACE = "/rig"
 """Default namespace of the rig emulator."""
 RIG_PRESET = "rig"
-"""Default plant preset of the rig emulator (core/plant.py PRESETS)."""
+"""Default plant preset of the rig emulator (core/physics/plant.py PRESETS)."""
 
 
 @dataclass(frozen=True)

@@ -54,7 +54,7 @@ from msd_bench.nodes.params import (
     reject_unknown_parameters,
     wildcard_parameter_names,
 )
-from msd_bench.nodes.spinning import (
+from msd_bench.nodes.spin_loop import (
     EXIT_USAGE,
     close_node,
     make_executor,
@@ -146,7 +146,7 @@ def run_job(build: Callable[..., Node], line: str, n: int, executor: Executor, s
         return EXIT_USAGE
     status = 0
     own = wants_events_executor(node)
-    if own:  # this job's own events executor (msd_bench.nodes.spinning.make_executor)
+    if own:  # this job's own events executor (msd_bench.nodes.spin_loop.make_executor)
         executor = make_executor(events=True)
     pool = endpoints.pool()
     finished = False

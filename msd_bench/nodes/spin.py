@@ -11,7 +11,7 @@ Nodes that finish on their own (the excitation) expose ``done``: an rclpy
 ``close()``, called once before it is destroyed (the plant logs its counters
 there).
 
-The executors, the spin loop and closing live in :mod:`.spinning`, which the
+The executors, the spin loop and closing live in :mod:`.spin_loop`, which the
 served process (:mod:`.serve`) shares; they are re-exported here.
 """
 
@@ -40,7 +40,7 @@ from msd_bench.nodes.params import (
     reject_unknown_parameters,
     wildcard_parameter_names,
 )
-from msd_bench.nodes.spinning import (
+from msd_bench.nodes.spin_loop import (
     EVENTS_SPIN_S,
     EXIT_USAGE,
     close_node,

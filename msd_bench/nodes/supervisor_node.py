@@ -1,4 +1,4 @@
-"""The supervisor node: :class:`msd_bench.core.supervisor.Supervisor` between a controller and a plant.
+"""The supervisor node: :class:`msd_bench.core.safety.supervisor.Supervisor` between a controller and a plant.
 
 It looks like a plant to the controller and like a controller to the plant.
 Under its own namespace (``/supervised`` by default) it takes the controller's
@@ -49,8 +49,8 @@ from std_msgs.msg import Empty, Float64, String
 
 from msd_bench.app.serve_protocol import event_line
 from msd_bench.core.errors import InterfaceError
-from msd_bench.core.plant import preset
-from msd_bench.core.supervisor import (
+from msd_bench.core.physics.plant import preset
+from msd_bench.core.safety.supervisor import (
     MAX_LATCH_TEXT,
     NONE,
     REASONS,
@@ -59,7 +59,7 @@ from msd_bench.core.supervisor import (
     SupervisorOptions,
     parse_latch,
 )
-from msd_bench.io.supervisor_file import read_options
+from msd_bench.io.storage.supervisor_file import read_options
 from msd_bench.nodes.health import diagnostic_array
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass
@@ -83,7 +83,7 @@ class SupervisorNodeConfig:
     plant_ns: str = "/msd"
     """Namespace of the plant the filtered commands go to."""
     preset: str = "default"
-    """Plant preset the supervisor's model states (core/plant.py PRESETS); never the rig's truth."""
+    """Plant preset the supervisor's model states (core/physics/plant.py PRESETS); never the rig's truth."""
     options_file: str = ""
     """JSON object of SupervisorOptions fields; empty = the defaults derived from the stroke."""
     reference: float = field(default=1.0, metadata={"range": (-2.5, 2.5)})

@@ -1,7 +1,7 @@
 """The surrogate node: an identified model artifact served as a plant-like node (docs/design.md §Nodes).
 
 It is :class:`PlantNode` with a different :class:`ModelSpec`: the model comes
-from ``model_path`` (:func:`msd_bench.io.artifacts.load_model`), so a surrogate
+from ``model_path`` (:func:`msd_bench.io.storage.artifacts.load_model`), so a surrogate
 speaks exactly the plant's contract and sample alignment, in both clock modes,
 and an agent or a recorder is pointed at it by a namespace remap alone.
 
@@ -30,10 +30,10 @@ from typing import Any
 from rclpy.node import Node
 
 from msd_bench.app.job import shared
-from msd_bench.core import kernels
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.model import StepModel
-from msd_bench.io.artifacts import load_model
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel
+from msd_bench.io.storage.artifacts import load_model
 from msd_bench.nodes.params import declare_config, use_job
 from msd_bench.nodes.plant_node import ModelSpec, PlantNode, PlantNodeConfig
 from msd_msgs_py.contract import surrogate_namespace as namespace_for

@@ -12,8 +12,8 @@ from pathlib import Path
 
 from msd_bench.app.executor import ExecutorOptions, Task
 from msd_bench.app.sweep import run_sweep
-from msd_bench.io.atomic import write_text_atomic
-from msd_bench.io.run_dir import RunDir
+from msd_bench.io.storage.atomic import write_text_atomic
+from msd_bench.io.storage.run_dir import RunDir
 from tests.app.executor_tasks import wait_for
 
 TASKS = [f"t{i}" for i in range(4)]

@@ -3,7 +3,7 @@
 Why a scan: ``app/pipeline._collect`` and ``graph/bench_report.load_results`` once built Table 1 each
 their own way (issue 22), and ``app/paper_tasks`` evaluated and merged robustness beside
 :func:`msd_bench.app.scoring.assemble`; the next copy would drift silently. So outside
-``app/scoring.py`` (and the science in ``core/robustness.py``) no module makes a Table-1 row
+``app/scoring.py`` (and the science in ``core/evaluation/robustness.py``) no module makes a Table-1 row
 (``agent_result``) or evaluates or merges robustness cells (``evaluate_policy``, ``merge``).
 """
 

@@ -16,9 +16,9 @@ from msd_bench.app.config import RunConfig as PaperConfig
 from msd_bench.app.pipeline import make_records, run_paper
 from msd_bench.app.plan import record_seeds
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.metrics import compute
-from msd_bench.core.plm import PLM_BIASES
-from msd_bench.core.results import METRIC_KEYS, by_kind
+from msd_bench.core.evaluation.metrics import compute
+from msd_bench.core.evaluation.results import METRIC_KEYS, by_kind
+from msd_bench.core.identification.plm import PLM_BIASES
 
 TINY = PaperConfig(
     seeds=2,

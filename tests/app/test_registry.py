@@ -17,17 +17,23 @@ import pytest
 
 from msd_bench.app.agents import AGENT_KINDS, agent_kind, learner_config, learner_from_meta
 from msd_bench.app.config import RunConfig
-from msd_bench.core import kernels
-from msd_bench.core.data import Experiment, IOData
 from msd_bench.core.errors import ConfigError, InvalidInputError
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams, simulate
-from msd_bench.core.qconfig import QConfig, improved_config
-from msd_bench.core.records import Records
-from msd_bench.core.registry import KERNELS, MODEL_KINDS, check_models, model_kind, needs_bias_records
-from msd_bench.io import artifacts
-from msd_bench.io.artifacts import ArtifactError
-from msd_bench.io.run_output import FigureData, qtable_meta, write_figures
+from msd_bench.core.identification.data import Experiment, IOData
+from msd_bench.core.identification.model_kinds import (
+    KERNELS,
+    MODEL_KINDS,
+    check_models,
+    model_kind,
+    needs_bias_records,
+)
+from msd_bench.core.identification.records import Records
+from msd_bench.core.learning.qconfig import QConfig, improved_config
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PlantParams, simulate
+from msd_bench.io.storage import artifacts
+from msd_bench.io.storage.artifacts import ArtifactError
+from msd_bench.io.storage.run_output import FigureData, qtable_meta, write_figures
 from msd_bench.nodes.agent_node import AgentNodeConfig
 from msd_bench.nodes.identifier_node import IdentifierConfig
 

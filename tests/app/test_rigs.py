@@ -9,8 +9,8 @@ from typing import Any
 import pytest
 
 from msd_bench.cli import main as cli_main
-from msd_bench.io.rigs_report import render
-from msd_bench.io.run_dir import is_complete
+from msd_bench.io.rigs.rigs_report import render
+from msd_bench.io.storage.run_dir import is_complete
 
 RIGS = ["rigs", "--rigs", "2", "--seeds", "1", "--agents", "glm,glm+robust", "--episodes", "3",
         "--steps", "200", "--samples", "500", "--val-samples", "400", "--validation-steps", "300",
@@ -55,7 +55,7 @@ def test_the_command_writes_rigs_json_md_and_figure(whole: Path) -> None:
     assert all(s != 0.0 for s in starts)  # every validation run starts where the rig came to rest
     assert (whole / "rigs.md").read_text() == render(doc)  # generated from rigs.json only
     assert (whole / "rigs.png").stat().st_size > 10_000
-    assert "<h2>Rigs</h2>" in (whole / "index.html").read_text()  # the run's page (io/html_report.py)
+    assert "<h2>Rigs</h2>" in (whole / "index.html").read_text()  # the run's page (io/reports/html_report.py)
     assert len(doc["worst"]) == 2 and {w["rig"] for w in doc["worst"]} == {1000, 1001}
     sweep = doc["sweep"]
     assert sweep["rigs_computed"] == 2 and sweep["executor"] == "local" and sweep["workers"] == 1
@@ -71,7 +71,7 @@ def test_ray_writes_the_rigs_json_of_the_local_pool(whole: Path, tmp_path: Path)
 def test_an_interrupted_sweep_resumes_without_recomputing_a_rig(whole: Path, tmp_path: Path,
                                                                  monkeypatch: pytest.MonkeyPatch,
                                                                  capsys: pytest.CaptureFixture[str]) -> None:
-    from msd_bench.io.run_dir import RunDir
+    from msd_bench.io.storage.run_dir import RunDir
 
     real_run = RunDir.run_task
     written: list[str] = []

@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 
 from msd_bench.cli import main as cli_main
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PRESETS
-from msd_bench.core.population import draw
-from msd_bench.core.qconfig import QConfig, packed
-from msd_bench.core.rig import Rig
-from msd_bench.core.rig_loop import run_on_rig
-from msd_bench.core.supervisor import SupervisorOptions
+from msd_bench.core.learning.qconfig import QConfig, packed
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PRESETS
+from msd_bench.core.rigs.population import draw
+from msd_bench.core.rigs.rig import Rig
+from msd_bench.core.rigs.rig_loop import run_on_rig
+from msd_bench.core.safety.supervisor import SupervisorOptions
 
 RIGS = ["rigs", "--rigs", "1", "--seeds", "1", "--agents", "glm", "--episodes", "3", "--steps", "200",
         "--samples", "500", "--val-samples", "400", "--validation-steps", "300", "--bootstrap", "100",

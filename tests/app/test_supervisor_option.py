@@ -11,11 +11,11 @@ import pytest
 from msd_bench.app.config import RunConfig
 from msd_bench.app.options import add_run_arguments, add_supervisor_argument, run_config_from_args
 from msd_bench.app.pipeline import train_and_validate
-from msd_bench.core import robustness
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.scenarios import parse
-from msd_bench.core.supervisor import SupervisorOptions
-from msd_bench.io.artifacts import load_model
+from msd_bench.core.evaluation import robustness
+from msd_bench.core.evaluation.scenarios import parse
+from msd_bench.core.safety.supervisor import SupervisorOptions
+from msd_bench.io.storage.artifacts import load_model
 
 PINNED = Path(__file__).resolve().parents[1] / "data" / "pinned"
 

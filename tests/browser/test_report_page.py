@@ -17,7 +17,7 @@ from typing import Any
 
 import pytest
 
-from msd_bench.io.html_report import write_index
+from msd_bench.io.reports.html_report import write_index
 from tests.browser.cdp import CHROMIUM, Browser, console_errors, network_requests, open_page
 
 pytestmark = pytest.mark.browser

@@ -26,12 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
-from msd_bench.core.metrics import compute
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import preset
-from msd_bench.core.qconfig import QConfig, improved_config
-from msd_bench.core.qtrain import greedy_rollouts, train
-from msd_bench.core.results import SUCCESS_SSE
+from msd_bench.core.evaluation.metrics import compute
+from msd_bench.core.evaluation.results import SUCCESS_SSE
+from msd_bench.core.learning.qconfig import QConfig, improved_config
+from msd_bench.core.learning.qtrain import greedy_rollouts, train
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import preset
 
 AGENTS: dict[str, Callable[[], QConfig]] = {"improved": improved_config, "paper": QConfig}
 """Learner config per agent kind, at the paper's budget (300 episodes x 3000 steps)."""

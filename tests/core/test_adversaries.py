@@ -8,12 +8,19 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from msd_bench.core.adversaries import ADVERSARIES, Runs, adversary, resonance, run_on_plant, run_on_rig
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.plant import PRESETS, PlantParams
-from msd_bench.core.rig import RigImperfections
-from msd_bench.core.risk import RunRisk, run_risk
-from msd_bench.core.supervisor import Limits, Supervisor, SupervisorOptions
+from msd_bench.core.evaluation.risk import RunRisk, run_risk
+from msd_bench.core.physics.plant import PRESETS, PlantParams
+from msd_bench.core.rigs.rig import RigImperfections
+from msd_bench.core.safety.adversaries import (
+    ADVERSARIES,
+    Runs,
+    adversary,
+    resonance,
+    run_on_plant,
+    run_on_rig,
+)
+from msd_bench.core.safety.supervisor import Limits, Supervisor, SupervisorOptions
 
 PLANT = PRESETS["default"]
 STEPS = 3000  # one validation episode, 30 s

@@ -7,18 +7,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels
 from msd_bench.core.baselines import base, designs, lqr, mpc, pid
-from msd_bench.core.closed_loop import Conditions, nominal, quantise
 from msd_bench.core.errors import ConfigError, InvalidInputError
-from msd_bench.core.metrics import compute
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import QConfig
-from msd_bench.core.results import SUCCESS_SSE
-from msd_bench.core.robustness import conditions
-from msd_bench.core.scenarios import parse
-from msd_bench.io.artifacts import load_model
+from msd_bench.core.evaluation.closed_loop import Conditions, nominal, quantise
+from msd_bench.core.evaluation.metrics import compute
+from msd_bench.core.evaluation.results import SUCCESS_SSE
+from msd_bench.core.evaluation.robustness import conditions
+from msd_bench.core.evaluation.scenarios import parse
+from msd_bench.core.learning.qconfig import QConfig
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.io.storage.artifacts import load_model
 
 PINNED = Path(__file__).resolve().parents[1] / "data" / "pinned"
 P = PlantParams()

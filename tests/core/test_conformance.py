@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from msd_bench.core import conformance as cf
-from msd_bench.core.conformance import Limits
+from msd_bench.core.rigs import conformance as cf
+from msd_bench.core.rigs.conformance import Limits
 
 LIM = Limits()
 DT = LIM.dt
@@ -221,7 +221,7 @@ def test_reset_realtime_and_lockstep() -> None:
 
 
 def test_joint_clause_names_the_joint_and_its_entry() -> None:
-    from msd_bench.core.conformance import joint_clause
+    from msd_bench.core.rigs.conformance import joint_clause
 
     ok = joint_clause(300, 0, "slider_to_cart", ["pole_joint", "slider_to_cart"])
     assert ok.passed and "entry 2 of 2" in ok.figure

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from msd_bench.core.data import Experiment, IOData
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.fit import fit_percent
-from msd_bench.core.results import AgentResult, per_seed_row
-from msd_bench.core.stats import summarize
+from msd_bench.core.evaluation.results import AgentResult, per_seed_row
+from msd_bench.core.evaluation.stats import summarize
+from msd_bench.core.identification.data import Experiment, IOData
+from msd_bench.core.identification.fit import fit_percent
 
 
 def test_fit_percent_by_hand() -> None:
@@ -70,7 +70,7 @@ def test_agent_result_success_rate() -> None:
 
 
 def test_wilson_interval_matches_hand_computed_values():
-    from msd_bench.core.stats import rate_text, wilson
+    from msd_bench.core.evaluation.stats import rate_text, wilson
 
     lo, hi = wilson(55, 60)  # the reviewer quoted 82-96 % for 55/60
     assert (round(100 * lo), round(100 * hi)) == (82, 96)
@@ -81,7 +81,7 @@ def test_wilson_interval_matches_hand_computed_values():
 
 
 def test_prediction_interval_covers_the_stored_count_and_widens_with_less_data():
-    from msd_bench.core.stats import prediction_interval
+    from msd_bench.core.evaluation.stats import prediction_interval
 
     lo, hi = prediction_interval(55, 60, 60)
     assert lo <= 55 <= hi and hi <= 60 and lo >= 40

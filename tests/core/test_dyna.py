@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels
-from msd_bench.core.dyna import DynaConfig, train_dyna
 from msd_bench.core.errors import ConfigError, InvalidInputError
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import QConfig
-from msd_bench.core.qtrain import train
+from msd_bench.core.learning.dyna import DynaConfig, train_dyna
+from msd_bench.core.learning.qconfig import QConfig
+from msd_bench.core.learning.qtrain import train
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PlantParams
 
 SHORT = QConfig(episodes=2, steps=200)
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core import excitation as ex
-from msd_bench.core import kernels
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.model import StepModel
+from msd_bench.core.identification import excitation as ex
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel
 
 
 def test_prbs_is_seeded_binary_around_the_bias() -> None:

@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels, plant
-from msd_bench.core.data import IOData
 from msd_bench.core.errors import ConfigError, IdentificationError
-from msd_bench.core.excitation import MultilevelConfig
-from msd_bench.core.greybox import PARAM_NAMES, GreyboxConfig, equation_error_start, one_step
-from msd_bench.core.identify import broad_record, evaluate, free_run, identify_greybox
-from msd_bench.core.model import plant_model
-from msd_bench.core.sensor import SensorModel
+from msd_bench.core.identification.data import IOData
+from msd_bench.core.identification.excitation import MultilevelConfig
+from msd_bench.core.identification.greybox import PARAM_NAMES, GreyboxConfig, equation_error_start, one_step
+from msd_bench.core.identification.identify import broad_record, evaluate, free_run, identify_greybox
+from msd_bench.core.physics import kernels, plant
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.sensor import SensorModel
 
 
 @pytest.mark.parametrize("name", ["default", "mild"])

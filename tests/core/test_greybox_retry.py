@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 from msd_bench.app.plan import paper_plan
-from msd_bench.core import greybox, population
-from msd_bench.core.greybox import BOUND_SPAN, GreyboxConfig, fit_greybox
-from msd_bench.core.layouts import COEF_MAX
-from msd_bench.core.rig import Rig
-from msd_bench.core.rig_play import play_plan, records_of
+from msd_bench.core.identification import greybox
+from msd_bench.core.identification.greybox import BOUND_SPAN, GreyboxConfig, fit_greybox
+from msd_bench.core.physics.layouts import COEF_MAX
+from msd_bench.core.rigs import population
+from msd_bench.core.rigs.rig import Rig
+from msd_bench.core.rigs.rig_play import play_plan, records_of
 
 RIG = 1002
 

@@ -1,6 +1,6 @@
 """The greybox-rig model kind: its kernel is the rig emulator, its fit finds a rig's truth.
 
-Records are made through :class:`msd_bench.core.rig.Rig` with known friction,
+Records are made through :class:`msd_bench.core.rigs.rig.Rig` with known friction,
 delay and lag, as a rig's bags would hold them (the commanded force, the
 measured position).
 """
@@ -12,17 +12,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core import greybox_rig as gr
-from msd_bench.core import identify, kernels, registry
-from msd_bench.core.data import IOData
 from msd_bench.core.errors import ConfigError, InvalidInputError
-from msd_bench.core.excitation import MultilevelConfig, multilevel
-from msd_bench.core.fit import fit_percent
-from msd_bench.core.model import StepModel
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.rig import Rig, RigImperfections
-from msd_bench.io import artifacts
-from msd_bench.io.artifacts import ArtifactError
+from msd_bench.core.identification import greybox_rig as gr
+from msd_bench.core.identification import identify
+from msd_bench.core.identification import model_kinds as registry
+from msd_bench.core.identification.data import IOData
+from msd_bench.core.identification.excitation import MultilevelConfig, multilevel
+from msd_bench.core.identification.fit import fit_percent
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.rigs.rig import Rig, RigImperfections
+from msd_bench.io.storage import artifacts
+from msd_bench.io.storage.artifacts import ArtifactError
 
 PLANT = PlantParams(m=1.1, c=0.9, k=2.6, h=1.1)
 TRUTH = RigImperfections(sensor_noise=0.002, sensor_quant=0.0001, delay_samples=2, actuator_tau=0.026,

@@ -5,12 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels, plant
-from msd_bench.core.data import Experiment, IOData
 from msd_bench.core.errors import ConfigError, InvalidInputError, MsdBenchError
-from msd_bench.core.excitation import MultilevelConfig, PrbsConfig
-from msd_bench.core.fit import fit_percent
-from msd_bench.core.identify import (
+from msd_bench.core.identification.data import Experiment, IOData
+from msd_bench.core.identification.excitation import MultilevelConfig, PrbsConfig
+from msd_bench.core.identification.fit import fit_percent
+from msd_bench.core.identification.identify import (
     INIT_HORIZON,
     GlmConfig,
     PlmConfig,
@@ -22,9 +21,10 @@ from msd_bench.core.identify import (
     identify_plm,
     naive_one_step_fits,
 )
-from msd_bench.core.linear import LinearFit
-from msd_bench.core.model import StepModel
-from msd_bench.core.plm import PLM_BIASES
+from msd_bench.core.identification.linear import LinearFit
+from msd_bench.core.identification.plm import PLM_BIASES
+from msd_bench.core.physics import kernels, plant
+from msd_bench.core.physics.model import StepModel
 
 DEFAULT = plant.preset("default")
 

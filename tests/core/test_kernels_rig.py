@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels
+from msd_bench.core.physics import kernels
 
 
 def _model(delay: int, tau: float, friction: float) -> kernels.Kernel:

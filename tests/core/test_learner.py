@@ -7,14 +7,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels
-from msd_bench.core.dyna import DynaConfig, train_dyna
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.learner import GreedyPolicy, StepwiseLearner
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import QConfig, improved_config
-from msd_bench.core.qtrain import greedy_rollouts, train
+from msd_bench.core.learning.dyna import DynaConfig, train_dyna
+from msd_bench.core.learning.learner import GreedyPolicy, StepwiseLearner
+from msd_bench.core.learning.qconfig import QConfig, improved_config
+from msd_bench.core.learning.qtrain import greedy_rollouts, train
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PlantParams
 
 PLANT = plant_model(PlantParams())
 # An ARX-type model (damped double integrator, deviation form): the observer's other state layout.

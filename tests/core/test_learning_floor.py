@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from msd_bench.core.qconfig import improved_config
+from msd_bench.core.learning.qconfig import improved_config
 from tests.core.learning_floor import successes, trained_sse, validation_sse
 
 SEEDS = tuple(range(20_000, 20_020))

@@ -1,4 +1,4 @@
-"""Known-truth tests of the second-order output-error fit (msd_bench.core.linear)."""
+"""Known-truth tests of the second-order output-error fit (msd_bench.core.identification.linear)."""
 
 from __future__ import annotations
 
@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter, lfiltic
 
-from msd_bench.core import kernels
-from msd_bench.core.data import Experiment
 from msd_bench.core.errors import IdentificationError, InvalidInputError
-from msd_bench.core.excitation import PrbsConfig, prbs
-from msd_bench.core.linear import LinearFit, arx_fit, oe_fit, simulate_deviation
-from msd_bench.core.model import StepModel
+from msd_bench.core.identification.data import Experiment
+from msd_bench.core.identification.excitation import PrbsConfig, prbs
+from msd_bench.core.identification.linear import LinearFit, arx_fit, oe_fit, simulate_deviation
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel
 
 DT = 0.01
 # Poles 0.985 ± 0.06j (|z| = 0.987): lightly damped, close to 1 like the plant's.

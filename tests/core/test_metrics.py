@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.metrics import MetricsInputError, compute, settling_time
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import DT, PlantParams
-from msd_bench.core.qconfig import QConfig
-from msd_bench.core.qtrain import greedy_rollouts
+from msd_bench.core.evaluation.metrics import MetricsInputError, compute, settling_time
+from msd_bench.core.learning.qconfig import QConfig
+from msd_bench.core.learning.qtrain import greedy_rollouts
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import DT, PlantParams
 
 
 def test_mae_and_std_by_hand() -> None:

@@ -30,13 +30,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import preset
-from msd_bench.core.qconfig import QConfig, improved_config
-from msd_bench.core.qtrain import greedy_rollout, greedy_rollouts, train
-from msd_bench.io.artifacts import load_model
+from msd_bench.core.learning.qconfig import QConfig, improved_config
+from msd_bench.core.learning.qtrain import greedy_rollout, greedy_rollouts, train
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import preset
+from msd_bench.io.storage.artifacts import load_model
 
 PINNED = Path(__file__).resolve().parents[1] / "data" / "pinned"
 PLANT = preset("default")
@@ -201,6 +201,6 @@ def test_learner_batch_equals_single(model: StepModel, cfg: QConfig) -> None:
 
 
 def test_every_registered_model_kind_is_under_contract() -> None:
-    from msd_bench.core.registry import MODEL_KINDS
+    from msd_bench.core.identification.model_kinds import MODEL_KINDS
 
     assert set(MODEL_KINDS) <= set(CONTRACT_MODELS), "store an artifact of the new kind in tests/data/pinned"

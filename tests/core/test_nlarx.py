@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 import torch
 
-from msd_bench.core import kernels, plant
-from msd_bench.core.data import IOData
 from msd_bench.core.errors import ConfigError, IdentificationError
-from msd_bench.core.excitation import MultilevelConfig, multilevel
-from msd_bench.core.identify import broad_record, evaluate, identify_nlarx, naive_one_step_fits
-from msd_bench.core.model import StepModel
-from msd_bench.core.nlarx import NlarxConfig, NlarxNet, fit_nlarx
-from msd_bench.core.sensor import SensorModel
+from msd_bench.core.identification.data import IOData
+from msd_bench.core.identification.excitation import MultilevelConfig, multilevel
+from msd_bench.core.identification.identify import broad_record, evaluate, identify_nlarx, naive_one_step_fits
+from msd_bench.core.identification.nlarx import NlarxConfig, NlarxNet, fit_nlarx
+from msd_bench.core.physics import kernels, plant
+from msd_bench.core.physics.model import StepModel
+from msd_bench.core.physics.sensor import SensorModel
 
 DEFAULT = plant.preset("default")
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from msd_bench.core.nlarx import NlarxNet, _compiled_backward, _rollout
+from msd_bench.core.identification.nlarx import NlarxNet, _compiled_backward, _rollout
 
 
 def _setup(lim: float) -> tuple[NlarxNet, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -56,7 +56,7 @@ def test_compiled_gradient_is_torchs_where_the_rollout_hits_the_stops() -> None:
 
 
 def test_compiled_one_step_loss_and_gradient_are_torchs() -> None:
-    from msd_bench.core.nlarx import one_step_compiled, one_step_torch
+    from msd_bench.core.identification.nlarx import one_step_compiled, one_step_torch
 
     for improved in (True, False):
         gen = torch.Generator().manual_seed(3)

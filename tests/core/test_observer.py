@@ -6,11 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels, qlearning
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import improved_config, packed
+from msd_bench.core.learning import q_kernels as qlearning
+from msd_bench.core.learning.qconfig import improved_config, packed
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PlantParams
 
 PLANT = plant_model(PlantParams())
 # A damped ARX double integrator in deviation form [L, n1, n2, d1, d2, u0, y0].

@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.model import StepModel
-from msd_bench.core.plant import preset
-from msd_bench.core.registry import KERNEL_LAYOUTS, KERNELS, NLARX_MAX_UNITS
+from msd_bench.core.identification.model_kinds import KERNEL_LAYOUTS, KERNELS, NLARX_MAX_UNITS
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel
+from msd_bench.core.physics.plant import preset
 
 PINNED = Path(__file__).resolve().parents[1] / "data" / "pinned"
 KINDS = {name: kind for kind, name in kernels.KIND_NAMES.items()}

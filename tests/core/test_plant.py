@@ -9,9 +9,9 @@ from dataclasses import fields
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels, plant
 from msd_bench.core.errors import ConfigError, InvalidInputError
-from msd_bench.core.model import plant_model
+from msd_bench.core.physics import kernels, plant
+from msd_bench.core.physics.model import plant_model
 
 P = plant.PlantParams()
 

@@ -1,4 +1,4 @@
-"""The PLM blend (msd_bench.core.plm): exact where a membership is 1, known-truth recovery,
+"""The PLM blend (msd_bench.core.identification.plm): exact where a membership is 1, known-truth recovery,
 scheduling on the local operating points and the global refinement on the real plant."""
 
 from __future__ import annotations
@@ -9,16 +9,23 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from msd_bench.core import kernels, plant
-from msd_bench.core.data import IOData
 from msd_bench.core.errors import ConfigError, InvalidInputError
-from msd_bench.core.excitation import MultilevelConfig, PrbsConfig, prbs
-from msd_bench.core.fit import fit_percent
-from msd_bench.core.identify import PlmConfig, bias_record, broad_record, evaluate, free_run, identify_plm
-from msd_bench.core.linear import LinearFit
-from msd_bench.core.model import StepModel
-from msd_bench.core.plm import PLM_BIASES, blend, local_from_params
-from msd_bench.core.sensor import SensorModel
+from msd_bench.core.identification.data import IOData
+from msd_bench.core.identification.excitation import MultilevelConfig, PrbsConfig, prbs
+from msd_bench.core.identification.fit import fit_percent
+from msd_bench.core.identification.identify import (
+    PlmConfig,
+    bias_record,
+    broad_record,
+    evaluate,
+    free_run,
+    identify_plm,
+)
+from msd_bench.core.identification.linear import LinearFit
+from msd_bench.core.identification.plm import PLM_BIASES, blend, local_from_params
+from msd_bench.core.physics import kernels, plant
+from msd_bench.core.physics.model import StepModel
+from msd_bench.core.physics.sensor import SensorModel
 
 DT = 0.01
 # Five distinct stable systems; operating points inside each membership's plateau/peak

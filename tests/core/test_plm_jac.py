@@ -11,11 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels, plm_jac
-from msd_bench.core.data import Experiment, IOData
-from msd_bench.core.linear import LinearFit
-from msd_bench.core.model import StepModel
-from msd_bench.core.plm import _free_run, blend, refine_global
+from msd_bench.core.identification import plm_jac
+from msd_bench.core.identification.data import Experiment, IOData
+from msd_bench.core.identification.linear import LinearFit
+from msd_bench.core.identification.plm import _free_run, blend, refine_global
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel
 
 DT = 0.01
 

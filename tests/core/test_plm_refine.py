@@ -1,4 +1,5 @@
-"""The PLM's global refinement on its exact Jacobian by Levenberg–Marquardt (core/lm.py): the README's
+"""The PLM's global refinement on its exact Jacobian by Levenberg–Marquardt (core/identification/lm.py):
+the README's
 identification seeds fit as with least_squares' trf before, and the shared optimiser on its own."""
 
 from __future__ import annotations
@@ -8,12 +9,14 @@ import pytest
 
 from msd_bench.app.pipeline import records_from_plan
 from msd_bench.app.plan import paper_plan
-from msd_bench.core import lm, plant
-from msd_bench.core.identify import PlmConfig, evaluate, identify_plm
-from msd_bench.core.plm import EXACT_MAX_ITER
+from msd_bench.core.identification import lm
+from msd_bench.core.identification.identify import PlmConfig, evaluate, identify_plm
+from msd_bench.core.identification.plm import EXACT_MAX_ITER
+from msd_bench.core.physics import plant
 
 TRF_BROAD_FIT = {0: 97.181701, 1: 96.524977}
-"""Broad validation fits of the exact refinement by trf (the code before core/lm.py), seeds 0 and 1."""
+"""Broad validation fits of the exact refinement by trf (the code before core/identification/lm.py),
+seeds 0 and 1."""
 
 
 @pytest.mark.parametrize("seed", sorted(TRF_BROAD_FIT))

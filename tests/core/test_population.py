@@ -7,15 +7,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from msd_bench.core import population
-from msd_bench.core.closed_loop import greedy_under, nominal
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PRESETS
-from msd_bench.core.population import DESIGN_RIGS, DISTRIBUTION, EMULATOR_SEED, HELD_OUT_RIGS, draw
-from msd_bench.core.qconfig import improved_config, packed
-from msd_bench.core.qtrain import train
-from msd_bench.core.rig import Rig, RigImperfections
+from msd_bench.core.evaluation.closed_loop import greedy_under, nominal
+from msd_bench.core.learning.qconfig import improved_config, packed
+from msd_bench.core.learning.qtrain import train
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PRESETS
+from msd_bench.core.rigs import population
+from msd_bench.core.rigs.population import DESIGN_RIGS, DISTRIBUTION, EMULATOR_SEED, HELD_OUT_RIGS, draw
+from msd_bench.core.rigs.rig import Rig, RigImperfections
 
 SPECS = [draw(s) for s in range(1, 401)]
 CFG = improved_config(episodes=20, steps=3000)
@@ -116,7 +116,7 @@ def test_a_rig_without_imperfections_validates_as_the_nominal_loop():
 
 def test_the_baselines_plant_half_is_the_rig_transition_too():
     from msd_bench.core.baselines.base import plant_side
-    from msd_bench.core.closed_loop import actuator_state
+    from msd_bench.core.evaluation.closed_loop import actuator_state
 
     spec = draw(1002)
     imp = replace(spec.imperfections, delay_samples=2, actuator_tau=0.03, friction=0.25,

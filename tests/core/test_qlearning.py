@@ -7,12 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels, qlearning, rng
 from msd_bench.core.errors import ConfigError, InvalidInputError, MsdBenchError
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import QConfig, encoding, improved_config, packed
-from msd_bench.core.qtrain import budget, greedy_rollout, greedy_rollouts, run_batch, train
+from msd_bench.core.learning import q_kernels as qlearning
+from msd_bench.core.learning import rng
+from msd_bench.core.learning.qconfig import QConfig, encoding, improved_config, packed
+from msd_bench.core.learning.qtrain import budget, greedy_rollout, greedy_rollouts, run_batch, train
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PlantParams
 
 GAIN = 0.01  # x_{k+1} = GAIN * u_k: a model whose next state is known by hand
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.plant import PlantParams, simulate
-from msd_bench.core.rest import X0_SAMPLES, RestConfig, RestDetector, is_still
+from msd_bench.core.physics.plant import PlantParams, simulate
+from msd_bench.core.rigs.rest import X0_SAMPLES, RestConfig, RestDetector, is_still
 
 
 def _measured(x: np.ndarray, noise: float = 0.002, quant: float = 0.0001, seed: int = 0) -> np.ndarray:

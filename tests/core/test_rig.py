@@ -1,4 +1,4 @@
-"""The rig emulator's physics (core/rig.py): each imperfection alone, and none at all = the plant."""
+"""The rig emulator's physics (core/rigs/rig.py): each imperfection alone, and none at all = the plant."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from msd_bench.core.errors import ConfigError, InvalidInputError
-from msd_bench.core.plant import PRESETS, PlantParams, preset, simulate, step
-from msd_bench.core.rig import Actuator, Rig, RigImperfections
+from msd_bench.core.physics.plant import PRESETS, PlantParams, preset, simulate, step
+from msd_bench.core.rigs.rig import Actuator, Rig, RigImperfections
 
 NONE = RigImperfections.none()
 DT = PlantParams().dt

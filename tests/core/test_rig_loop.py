@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from msd_bench.app.config import RunConfig
-from msd_bench.core.model import plant_model
-from msd_bench.core.qconfig import QConfig
-from msd_bench.core.qtrain import greedy_rollouts, train
-from msd_bench.core.rig import Rig, RigImperfections
-from msd_bench.core.rig_loop import drain_samples, run_on_rig
+from msd_bench.core.learning.qconfig import QConfig
+from msd_bench.core.learning.qtrain import greedy_rollouts, train
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.rigs.rig import Rig, RigImperfections
+from msd_bench.core.rigs.rig_loop import drain_samples, run_on_rig
 from msd_bench.designs.qlearning import learner_config
 
 RUN = RunConfig(episodes=4, steps=300)

@@ -7,12 +7,12 @@ import pytest
 
 from msd_bench.app.pipeline import records_from_plan
 from msd_bench.app.plan import paper_plan
-from msd_bench.core import identify
-from msd_bench.core.excitation import PrbsConfig
-from msd_bench.core.plant import preset
-from msd_bench.core.rest import RestConfig
-from msd_bench.core.rig import Rig, RigImperfections
-from msd_bench.core.rig_play import PlayedExperiment, play_experiment, play_plan, records_of, rest
+from msd_bench.core.identification import identify
+from msd_bench.core.identification.excitation import PrbsConfig
+from msd_bench.core.physics.plant import preset
+from msd_bench.core.rigs.rest import RestConfig
+from msd_bench.core.rigs.rig import Rig, RigImperfections
+from msd_bench.core.rigs.rig_play import PlayedExperiment, play_experiment, play_plan, records_of, rest
 
 Played = list[PlayedExperiment]
 P = preset("default")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.rig_stats import bootstrap_over_rigs, rate_summary
+from msd_bench.core.rigs.rig_stats import bootstrap_over_rigs, rate_summary
 
 
 def test_one_rig_or_equal_rigs_give_a_point() -> None:

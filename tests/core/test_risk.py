@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.risk import run_risk
-from msd_bench.core.supervisor import DIVERGENCE, ENVELOPE, VELOCITY
+from msd_bench.core.evaluation.risk import run_risk
+from msd_bench.core.safety.supervisor import DIVERGENCE, ENVELOPE, VELOCITY
 
 
 def test_contacts_time_at_stop_peaks_and_exits() -> None:

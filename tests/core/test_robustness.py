@@ -5,15 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels, robustness
-from msd_bench.core.closed_loop import Conditions, greedy_under
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.metrics import compute
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import QConfig, improved_config, packed
-from msd_bench.core.qtrain import greedy_rollouts, train
-from msd_bench.core.scenarios import parse
+from msd_bench.core.evaluation import robustness
+from msd_bench.core.evaluation.closed_loop import Conditions, greedy_under
+from msd_bench.core.evaluation.metrics import compute
+from msd_bench.core.evaluation.scenarios import parse
+from msd_bench.core.learning.qconfig import QConfig, improved_config, packed
+from msd_bench.core.learning.qtrain import greedy_rollouts, train
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PlantParams
 
 P = PlantParams()
 CFG = improved_config(episodes=20, steps=3000)
@@ -99,7 +100,7 @@ def test_a_load_enters_an_arx_models_input_after_saturation():
 
 
 def test_quantisation_is_applied_to_what_the_agent_sees():
-    from msd_bench.core.closed_loop import quantise
+    from msd_bench.core.evaluation.closed_loop import quantise
 
     assert quantise(0.00049, 0.001) == 0.0 and quantise(0.0006, 0.001) == 0.001
     assert quantise(-0.0006, 0.001) == -0.001 and quantise(0.123, 0.0) == 0.123
@@ -111,8 +112,8 @@ def test_one_seed_per_table_is_required(tables):
 
 
 def test_a_lag_slows_the_applied_force_and_lag_zero_changes_nothing(tables):
-    from msd_bench.core.actuation import actuator_force
-    from msd_bench.core.rig import Actuator
+    from msd_bench.core.rigs.actuation import actuator_force
+    from msd_bench.core.rigs.rig import Actuator
 
     x0, u0 = robustness.rollouts(tables, CFG, P, parse("nominal"), SEEDS, 800)
     xz, uz = robustness.rollouts(tables, CFG, P, parse("lag=0"), SEEDS, 800)

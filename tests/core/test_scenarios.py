@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.scenarios import STANDARD, Scenario, noise_seed, parse, suite
+from msd_bench.core.evaluation.scenarios import STANDARD, Scenario, noise_seed, parse, suite
+from msd_bench.core.physics.plant import PlantParams
 
 
 def test_nominal_is_the_papers_condition():

@@ -10,12 +10,12 @@ import pytest
 from msd_bench.app import agents
 from msd_bench.app.agents import learner_config, robust_config
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.learner import StepwiseLearner, stacked_snapshots
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import improved_config
-from msd_bench.core.qtrain import train
-from msd_bench.core.selection import REHEARSAL_TARGETS, rehearsal_successes, select_tables
+from msd_bench.core.learning.learner import StepwiseLearner, stacked_snapshots
+from msd_bench.core.learning.qconfig import improved_config
+from msd_bench.core.learning.qtrain import train
+from msd_bench.core.learning.selection import REHEARSAL_TARGETS, rehearsal_successes, select_tables
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PlantParams
 
 PLANT = plant_model(PlantParams())
 SMALL = improved_config(episodes=12, steps=600, observer="model", obs_gain=0.1, obs_velocity_share=0.3,

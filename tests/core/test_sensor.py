@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core import plant
 from msd_bench.core.errors import ConfigError, InvalidInputError
-from msd_bench.core.excitation import MultilevelConfig
-from msd_bench.core.identify import bias_record, broad_record
-from msd_bench.core.sensor import (
+from msd_bench.core.identification.excitation import MultilevelConfig
+from msd_bench.core.identification.identify import bias_record, broad_record
+from msd_bench.core.physics import plant
+from msd_bench.core.physics.sensor import (
     SensorModel,
     VelocityEstimator,
     clear_of_stops,

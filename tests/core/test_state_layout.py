@@ -19,15 +19,16 @@ import pytest
 from msd_bench import designs
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import settings
-from msd_bench.core import kernels, qlearning
 from msd_bench.core.baselines import designs as baselines
-from msd_bench.core.metrics import compute
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import improved_config, packed
-from msd_bench.core.results import SUCCESS_SSE
-from msd_bench.core.robustness import conditions
-from msd_bench.core.scenarios import parse
+from msd_bench.core.evaluation.metrics import compute
+from msd_bench.core.evaluation.results import SUCCESS_SSE
+from msd_bench.core.evaluation.robustness import conditions
+from msd_bench.core.evaluation.scenarios import parse
+from msd_bench.core.learning import q_kernels as qlearning
+from msd_bench.core.learning.qconfig import improved_config, packed
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PlantParams
 
 ROOT = Path(__file__).resolve().parents[2]
 P = PlantParams()
@@ -120,7 +121,7 @@ def test_a_baselines_linearisation_of_a_rig_model_sees_its_delay_line() -> None:
 
 STATE_NAMES = {"state", "ost", "s", "s0", "s_eq", "plant", "queue_state", "ms"}
 """Names under which the scanned code holds a model state (or an observer state around one)."""
-SCANNED = ("msd_bench/designs", "msd_bench/core/baselines", "msd_bench/core/qlearning.py")
+SCANNED = ("msd_bench/designs", "msd_bench/core/baselines", "msd_bench/core/learning/q_kernels.py")
 
 
 def _literal_slots(path: Path) -> list[str]:

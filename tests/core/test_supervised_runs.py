@@ -13,18 +13,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core.adversaries import Adversary, adversary, command, run_on_rig
 from msd_bench.core.baselines import designs
-from msd_bench.core.closed_loop import Conditions, supervised_runs
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.rig import RigImperfections, lag_samples
-from msd_bench.core.robustness import conditions
-from msd_bench.core.scenarios import parse
-from msd_bench.core.sensor import sensor_rng
-from msd_bench.core.supervisor import ENVELOPE, NONE, Supervisor, SupervisorOptions
-from msd_bench.io.artifacts import load_model
+from msd_bench.core.evaluation.closed_loop import Conditions, supervised_runs
+from msd_bench.core.evaluation.robustness import conditions
+from msd_bench.core.evaluation.scenarios import parse
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.physics.sensor import sensor_rng
+from msd_bench.core.rigs.rig import RigImperfections, lag_samples
+from msd_bench.core.safety.adversaries import Adversary, adversary, command, run_on_rig
+from msd_bench.core.safety.supervisor import ENVELOPE, NONE, Supervisor, SupervisorOptions
+from msd_bench.io.storage.artifacts import load_model
 
 P = PlantParams()
 PLANT = plant_model(P).kernel
@@ -48,7 +48,7 @@ def test_with_nothing_overridden_the_run_is_the_designs_own_rollout(name: str, s
 
 
 class _Adversary:
-    """An adversary of ``core/adversaries.py`` as a stepwise controller (what an agent node runs)."""
+    """An adversary of ``core/safety/adversaries.py`` as a stepwise controller (what an agent node runs)."""
 
     def __init__(self, adv: Adversary, reference: float) -> None:
         self.adv, self.reference = adv, reference

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core.adversaries import adversary, run_on_plant
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.plant import PRESETS
-from msd_bench.core.supervisor import (
+from msd_bench.core.physics.plant import PRESETS
+from msd_bench.core.safety.adversaries import adversary, run_on_plant
+from msd_bench.core.safety.supervisor import (
     DIVERGENCE,
     ENVELOPE,
     ESTOP,

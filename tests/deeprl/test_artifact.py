@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from msd_bench.core.deeprl import mlp
-from msd_bench.io.artifacts import ArtifactError
-from msd_bench.io.deeprl_artifact import load_policy, paths, save_policy
+from msd_bench.io.storage.artifacts import ArtifactError
+from msd_bench.io.storage.deeprl_artifact import load_policy, paths, save_policy
 from tests.deeprl.conftest import random_net
 
 META = {"kind": "plant+dqn", "algo": "dqn", "seeds": [0, 1], "steps": 900_000,

@@ -8,8 +8,8 @@ import pytest
 from msd_bench.core.deeprl import mlp
 from msd_bench.core.deeprl.hyper import DEFAULTS, DESIGN_SEEDS, Hyper, from_dict, grid
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import preset
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import preset
 from msd_bench.designs.deeprl_train import train
 
 

@@ -16,10 +16,10 @@ import pytest
 
 from msd_bench import designs
 from msd_bench.core.deeprl.hyper import CHOSEN
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PlantParams
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PlantParams
 from msd_bench.designs.deeprl_train import train
-from msd_bench.io.bags import read_experiment
+from msd_bench.io.bags.reader import read_experiment
 from msd_bench.nodes.agent_node import AgentNode, AgentNodeConfig
 from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
 from tests.nodes.conftest import ctx, executor, spin_until  # noqa: F401 (fixtures)

@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from msd_bench.core.closed_loop import quantise
 from msd_bench.core.deeprl import mlp
 from msd_bench.core.deeprl.rollout import Controller, measure, y_bound
 from msd_bench.core.deeprl.validate import evaluate, rollouts
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.plant import preset
-from msd_bench.core.qconfig import QConfig
-from msd_bench.core.robustness import sensor_noise
-from msd_bench.core.scenarios import parse
+from msd_bench.core.evaluation.closed_loop import quantise
+from msd_bench.core.evaluation.robustness import sensor_noise
+from msd_bench.core.evaluation.scenarios import parse
+from msd_bench.core.learning.qconfig import QConfig
+from msd_bench.core.physics.plant import preset
 from msd_bench.gym.env import MsdBenchEnv
 from tests.deeprl.conftest import random_net
 

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from msd_bench.core.scenarios import suite
-from msd_bench.io.deeprl_artifact import load_policy
+from msd_bench.core.evaluation.scenarios import suite
+from msd_bench.io.storage.deeprl_artifact import load_policy
 
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "scripts" / "deeprl_runs.py"

@@ -16,8 +16,8 @@ import torch
 
 from msd_bench.core.deeprl import mlp
 from msd_bench.core.deeprl.hyper import Hyper
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import preset
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import preset
 from msd_bench.designs.deeprl_train import build, extract
 
 HYPERS = {

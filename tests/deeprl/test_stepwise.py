@@ -15,8 +15,8 @@ import pytest
 
 from msd_bench import designs
 from msd_bench.core.deeprl.hyper import CHOSEN
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PlantParams
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PlantParams
 from msd_bench.designs import Settings
 from msd_bench.designs.deeprl_stepwise import DeepLearner, DeepStepwiseError
 from msd_bench.designs.deeprl_train import train

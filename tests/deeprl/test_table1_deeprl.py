@@ -9,8 +9,8 @@ from pathlib import Path
 
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import train_and_validate, validate_policy
-from msd_bench.core.model import plant_model
-from msd_bench.core.scenarios import suite
+from msd_bench.core.evaluation.scenarios import suite
+from msd_bench.core.physics.model import plant_model
 
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "scripts" / "deeprl_table1.py"

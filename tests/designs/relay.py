@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 
 from msd_bench.core.baselines import base
-from msd_bench.core.closed_loop import Conditions, quantise
+from msd_bench.core.evaluation.closed_loop import Conditions, quantise
 from msd_bench.designs.protocol import Facts, KindSpec, Request, Settings
 from msd_bench.designs.registry import plus_kinds
-from msd_bench.io import artifacts
+from msd_bench.io.storage import artifacts
 
 GAIN = 12.0
 """N per m of error."""

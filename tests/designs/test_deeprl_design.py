@@ -16,11 +16,11 @@ import pytest
 from msd_bench import designs
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import run_paper, settings
-from msd_bench.core.closed_loop import nominal
 from msd_bench.core.deeprl.hyper import CHOSEN, from_dict
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.io.artifacts import ArtifactError
+from msd_bench.core.evaluation.closed_loop import nominal
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.io.storage.artifacts import ArtifactError
 
 REPO = Path(__file__).resolve().parents[2]
 TINY = RunConfig(seeds=2, id_seeds=1, episodes=1, dyna_episodes=1, steps=200, samples=600, val_samples=400,

@@ -8,11 +8,11 @@ import pytest
 
 from msd_bench.app.config import RunConfig
 from msd_bench.app.plan import paper_plan
-from msd_bench.core import population
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.qconfig import MAX_DELAY_SAMPLES
-from msd_bench.core.rig import Rig, RigImperfections
-from msd_bench.core.rig_play import measured_actuator, play_plan
+from msd_bench.core.learning.qconfig import MAX_DELAY_SAMPLES
+from msd_bench.core.rigs import population
+from msd_bench.core.rigs.rig import Rig, RigImperfections
+from msd_bench.core.rigs.rig_play import measured_actuator, play_plan
 from msd_bench.designs.qlearning import for_actuator, learner_config, robust_config
 
 RUN = RunConfig(samples=600, val_samples=400)

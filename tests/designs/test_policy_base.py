@@ -11,7 +11,7 @@ import pytest
 from msd_bench.designs.baselines import BaselinePolicy
 from msd_bench.designs.deeprl import DeepPolicy
 from msd_bench.designs.protocol import Facts, PolicyBase
-from msd_bench.io.artifacts import ArtifactError
+from msd_bench.io.storage.artifacts import ArtifactError
 
 
 @dataclass(frozen=True)

@@ -12,9 +12,9 @@ from msd_bench import designs
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import run_paper, settings
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.io.artifacts import ArtifactError
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.io.storage.artifacts import ArtifactError
 from tests.designs.relay import RelayDesign
 
 TINY = RunConfig(seeds=2, id_seeds=2, samples=600, val_samples=400, validation_steps=400, window=100,

@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 from msd_bench.app.agents import learner_from_meta
-from msd_bench.core.metrics import compute
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import encoding, improved_config
-from msd_bench.core.qtrain import greedy_rollouts
-from msd_bench.io import artifacts
-from msd_bench.io.bags import bag_info, read_experiment
+from msd_bench.core.evaluation.metrics import compute
+from msd_bench.core.learning.qconfig import encoding, improved_config
+from msd_bench.core.learning.qtrain import greedy_rollouts
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.io.bags.reader import bag_info, read_experiment
+from msd_bench.io.storage import artifacts
 
 pytestmark = pytest.mark.e2e
 REPO = Path(__file__).resolve().parents[2]

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core.plant import preset, simulate
-from msd_bench.io.bags import bag_info, read_experiment
+from msd_bench.core.physics.plant import preset, simulate
+from msd_bench.io.bags.reader import bag_info, read_experiment
 from msd_msgs_py.contract import JOINT_STATES, TRUTH_JOINT_STATES
 
 pytestmark = pytest.mark.e2e

@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core import excitation as exc
+from msd_bench.core.identification import excitation as exc
 from msd_bench.graph import launch
-from msd_bench.io.bag_interface import MIN_AGREEMENT, read_interface_experiment
-from msd_bench.io.bags import bag_info, read_experiment
-from msd_bench.io.played import confirm_by_effort, locate_from_bag, played_signal
+from msd_bench.io.bags.bag_interface import MIN_AGREEMENT, read_interface_experiment
+from msd_bench.io.bags.played import confirm_by_effort, locate_from_bag, played_signal
+from msd_bench.io.bags.reader import bag_info, read_experiment
 from msd_msgs_py.interface import MSD_INTERFACE
 from tests.e2e.realtime_runs import PLANT_NS, PLM_LOOK, PLM_NS, R2C_FACE, REPO, Run
 

@@ -8,8 +8,8 @@ import os
 import numpy as np
 import pytest
 
-from msd_bench.core import excitation as exc
-from msd_bench.core.plant import preset, simulate
+from msd_bench.core.identification import excitation as exc
+from msd_bench.core.physics.plant import preset, simulate
 from msd_bench.graph import launch
 from msd_bench.graph.jobs import JobFiles
 from msd_bench.graph.record import (
@@ -19,7 +19,7 @@ from msd_bench.graph.record import (
     paper_plan,
     record_experiments,
 )
-from msd_bench.io.bags import bag_info, read_experiment, read_topic
+from msd_bench.io.bags.reader import bag_info, read_experiment, read_topic
 
 pytestmark = pytest.mark.e2e
 

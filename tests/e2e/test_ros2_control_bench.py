@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from msd_bench.io.bag_interface import MIN_AGREEMENT, read_interface_experiment
-from msd_bench.io.bags import bag_info
+from msd_bench.io.bags.bag_interface import MIN_AGREEMENT, read_interface_experiment
+from msd_bench.io.bags.reader import bag_info
 from msd_msgs_py.interface import make
 from tests.e2e.realtime_runs import R2C_NS, Run
 

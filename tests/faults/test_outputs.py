@@ -25,9 +25,9 @@ from msd_bench.commands.bag import main as bag_main
 from msd_bench.graph.bench import BenchConfig
 from msd_bench.graph.bench_report import load_results
 from msd_bench.graph.main import main as bench_main
-from msd_bench.io.bags import BagRecorder, write_experiment
-from msd_bench.io.report import table_markdown
-from msd_bench.io.run_dir import MANIFEST, is_complete
+from msd_bench.io.bags.reader import BagRecorder, write_experiment
+from msd_bench.io.reports.report import table_markdown
+from msd_bench.io.storage.run_dir import MANIFEST, is_complete
 
 REPO = Path(__file__).resolve().parents[2]
 BUDGET = ["--seeds", "1", "--id-seeds", "1", "--episodes", "2", "--steps", "100", "--val-samples", "300",
@@ -205,7 +205,7 @@ def test_efficiency_on_a_read_only_out_is_one_line(read_only_dir: Path,
 
 def _stop_after_first_task(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     """Ctrl-C in the driver as it is about to write its second task; returns the tasks written."""
-    from msd_bench.io.run_dir import RunDir
+    from msd_bench.io.storage.run_dir import RunDir
 
     real = RunDir.run_task
     written: list[str] = []
@@ -299,7 +299,7 @@ def _received_policy(root: Path) -> None:
     report loads both): the pinned GLM and a paper agent trained on it for a few steps."""
     from msd_bench import designs
     from msd_bench.designs import Settings
-    from msd_bench.io.artifacts import load_model
+    from msd_bench.io.storage.artifacts import load_model
 
     (root / "models").mkdir(parents=True, exist_ok=True)
     pinned = Path(__file__).resolve().parents[1] / "data" / "pinned" / "glm.json"

@@ -18,12 +18,12 @@ import numpy as np
 import pytest
 
 from msd_bench.graph import launch
-from msd_bench.io import bag_writer
-from msd_bench.io.bag_check import check_bag
-from msd_bench.io.bag_writer import BagRecorder, BagWriteError
-from msd_bench.io.bags import read_experiment, write_experiment
-from msd_bench.io.errors import BagError
-from msd_bench.io.paths import OutputError, writable_dir
+from msd_bench.io.bags import bag_writer
+from msd_bench.io.bags.bag_check import check_bag
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_writer import BagRecorder, BagWriteError
+from msd_bench.io.bags.reader import read_experiment, write_experiment
+from msd_bench.io.storage.paths import OutputError, writable_dir
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from msd_bench.graph import launch
-from msd_bench.io.bags import write_experiment
-from msd_bench.io.errors import BagError
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.reader import write_experiment
 from msd_bench.nodes.identifier_node import IdentifierConfig, identify_from_bags
 
 REPO = Path(__file__).resolve().parents[2]

@@ -3,7 +3,7 @@
 Properties (each case in a forked child under the memory bound and the alarm of
 :func:`tests.fuzz.test_fuzz_bags.in_child`):
 
-* in process, :func:`~msd_bench.core.excitation.config_from_params` on any parameters either
+* in process, :func:`~msd_bench.core.identification.excitation.config_from_params` on any parameters either
   refuses them with one ``ConfigError`` line or returns a config whose signal is at most
   ``MAX_SIGNAL_SAMPLES`` long, with finite forces — and rebuilding it gives exactly that length;
 * through the readers, a bag written with such parameters is either taken (its role, bias and
@@ -25,10 +25,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError
-from msd_bench.io.bag_records import load_records, roles_from_dir
-from msd_bench.io.bags import write_experiment
+from msd_bench.core.identification import excitation as exc
+from msd_bench.io.bags.bag_records import load_records, roles_from_dir
+from msd_bench.io.bags.reader import write_experiment
 from tests.fuzz.test_fuzz_bags import assert_clean, run_readers
 
 MAX = exc.MAX_SIGNAL_SAMPLES

@@ -40,10 +40,17 @@ from hypothesis import strategies as st
 
 from msd_bench.commands.bag import main as bag_main
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.io.bag_check import check_bag
-from msd_bench.io.bag_records import load_records, roles_from_dir
-from msd_bench.io.bag_recover import recover
-from msd_bench.io.bags import UNCHECKED, BagRecorder, bag_info, read_experiment, read_topic, write_experiment
+from msd_bench.io.bags.bag_check import check_bag
+from msd_bench.io.bags.bag_records import load_records, roles_from_dir
+from msd_bench.io.bags.bag_recover import recover
+from msd_bench.io.bags.reader import (
+    UNCHECKED,
+    BagRecorder,
+    bag_info,
+    read_experiment,
+    read_topic,
+    write_experiment,
+)
 
 CLEAN = 0
 """Child exit status: every reader returned."""

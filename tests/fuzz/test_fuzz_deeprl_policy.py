@@ -20,8 +20,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from msd_bench.core.deeprl import mlp
-from msd_bench.io.artifacts import ArtifactError
-from msd_bench.io.deeprl_artifact import load_policy, paths, save_policy
+from msd_bench.io.storage.artifacts import ArtifactError
+from msd_bench.io.storage.deeprl_artifact import load_policy, paths, save_policy
 from tests.deeprl.conftest import random_net
 from tests.fuzz.json_values import JSON
 

@@ -1,4 +1,4 @@
-"""Fuzz the run report's page (io/html_report.py) over arbitrary report files.
+"""Fuzz the run report's page (io/reports/html_report.py) over arbitrary report files.
 
 Property: whatever a received run's ``table1.json``, ``robustness.json``,
 ``efficiency.json``, ``rigs.json`` or ``run.json`` holds, building the page
@@ -18,7 +18,7 @@ from typing import Any
 from hypothesis import given
 from hypothesis import strategies as st
 
-from msd_bench.io.html_report import ReportError, render
+from msd_bench.io.reports.html_report import ReportError, render
 from tests.fuzz.json_values import JSON
 
 MARKUP = st.sampled_from(["<script>x</script>", "<img src=x onerror=y>", "\"'><b>", "&amp;", "</table>"])

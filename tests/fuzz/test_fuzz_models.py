@@ -34,8 +34,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.registry import KERNEL_LAYOUTS
-from msd_bench.io.artifacts import load_model
+from msd_bench.core.identification.model_kinds import KERNEL_LAYOUTS
+from msd_bench.io.storage.artifacts import load_model
 from tests.fuzz.json_values import JSON, nested
 
 PINNED = Path(__file__).resolve().parents[1] / "data" / "pinned"

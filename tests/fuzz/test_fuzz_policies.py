@@ -20,10 +20,10 @@ from hypothesis import strategies as st
 
 from msd_bench import designs
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PlantParams
 from msd_bench.designs import Settings
-from msd_bench.io.artifacts import ArtifactError
+from msd_bench.io.storage.artifacts import ArtifactError
 from tests.fuzz.json_values import JSON
 
 MODEL: StepModel = plant_model(PlantParams())

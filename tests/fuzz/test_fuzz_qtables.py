@@ -31,9 +31,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.qconfig import QConfig
+from msd_bench.core.learning.qconfig import QConfig
 from msd_bench.graph.run_files import read_qtables
-from msd_bench.io.artifacts import load_qtables
+from msd_bench.io.storage.artifacts import load_qtables
 from tests.fuzz.json_values import JSON, nested
 
 PEAK = 16 << 20

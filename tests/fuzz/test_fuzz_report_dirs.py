@@ -27,7 +27,7 @@ from msd_bench.core.errors import MsdBenchError
 from msd_bench.graph.bench import BenchConfig, write_run_facts
 from msd_bench.graph.bench_report import load_results, on_node_robustness
 from msd_bench.graph.main import config, parse
-from msd_bench.io.report import write_report, write_robustness
+from msd_bench.io.reports.report import write_report, write_robustness
 from tests.fuzz.json_values import JSON
 
 AGENTS = ("glm", "plm+improved")
@@ -50,9 +50,9 @@ def run_dir() -> Iterator[Path]:
     """A run directory holding what the fuzzed files sit beside: each kind's model and trained-policy
     artifact (``policy.json``, ``qtables.npz``), which the report loads its rows' policies from."""
     from msd_bench import designs
-    from msd_bench.core.model import plant_model
-    from msd_bench.core.plant import PlantParams
-    from msd_bench.io import artifacts
+    from msd_bench.core.physics.model import plant_model
+    from msd_bench.core.physics.plant import PlantParams
+    from msd_bench.io.storage import artifacts
 
     path = Path(tempfile.mkdtemp(prefix="fuzz_report_"))
     model = plant_model(PlantParams())

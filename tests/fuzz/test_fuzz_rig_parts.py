@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 
 from msd_bench.app.rigs import document
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.io.rig_parts import read_part
-from msd_bench.io.rigs_report import render
+from msd_bench.io.rigs.rig_parts import read_part
+from msd_bench.io.rigs.rigs_report import render
 from tests.fuzz.json_values import JSON
 from tests.io.rig_part_sample import CFG, KINDS, SCENARIOS, part
 

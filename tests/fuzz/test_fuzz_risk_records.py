@@ -12,7 +12,7 @@ from typing import Any
 from hypothesis import given
 from hypothesis import strategies as st
 
-from msd_bench.core.risk_table import NUMBERS, compact, risk_cell, summarise, summary_of
+from msd_bench.core.evaluation.risk_table import NUMBERS, compact, risk_cell, summarise, summary_of
 from tests.fuzz.json_values import JSON, JSON_LEAF
 
 GOOD = {"contacts": 1, "time_at_stop": 0.1, "peak_x": 2.5, "peak_v": 3.0, "time_outside": 0.5,

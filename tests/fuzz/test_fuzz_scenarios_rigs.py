@@ -12,9 +12,9 @@ import math
 from hypothesis import given
 from hypothesis import strategies as st
 
-from msd_bench.core import population
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.scenarios import parse
+from msd_bench.core.evaluation.scenarios import parse
+from msd_bench.core.rigs import population
 
 KEYS = ("setpoint", "noise", "quant", "delay", "lag", "disturbance", "friction", "mass", "damping",
         "spring", "hardening", "bogus", "")

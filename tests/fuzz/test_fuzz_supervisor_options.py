@@ -18,9 +18,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.plant import PRESETS
-from msd_bench.core.supervisor import SupervisorOptions
-from msd_bench.io.supervisor_file import read_options
+from msd_bench.core.physics.plant import PRESETS
+from msd_bench.core.safety.supervisor import SupervisorOptions
+from msd_bench.io.storage.supervisor_file import read_options
 from tests.fuzz.json_values import JSON
 
 NAMES = [f.name for f in fields(SupervisorOptions)]

@@ -20,9 +20,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.supervisor import SupervisorOptions
+from msd_bench.core.safety.supervisor import SupervisorOptions
 from msd_bench.graph.supervise import parse_option, report_line
-from msd_bench.io.supervisor_file import read_record
+from msd_bench.io.storage.supervisor_file import read_record
 from tests.fuzz.json_values import JSON, JSON_LEAF
 
 REASONS = st.sampled_from(["envelope", "velocity", "stale", "estop", "x"])

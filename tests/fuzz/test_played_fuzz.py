@@ -13,8 +13,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from msd_bench.io.errors import BagError
-from msd_bench.io.played import PlayedCut, locate_from_commands, locate_from_effort
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.played import PlayedCut, locate_from_commands, locate_from_effort
 
 BAG = Path("/fuzz/bag")
 _forces = st.floats(-20.0, 20.0, allow_nan=False) | st.sampled_from([0.0, 5.0, -10.0, 10.0])

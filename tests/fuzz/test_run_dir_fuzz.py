@@ -16,8 +16,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.io.report import md_cell, md_text
-from msd_bench.io.run_dir import COMPLETE, MANIFEST, RunDir, config_hash, is_complete
+from msd_bench.io.reports.report import md_cell, md_text
+from msd_bench.io.storage.run_dir import COMPLETE, MANIFEST, RunDir, config_hash, is_complete
 
 TASKS = ["a", "b"]
 CONFIG = {"seeds": 1}

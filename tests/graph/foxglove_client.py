@@ -20,7 +20,7 @@ from typing import Any
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from websockets.sync.client import ClientConnection, connect
 
-from msd_bench.io.live import SUBPROTOCOL
+from msd_bench.io.reports.live_server import SUBPROTOCOL
 
 MESSAGE_DATA = 0x01
 

@@ -8,12 +8,12 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from msd_bench.core.adversaries import adversary, run_on_plant
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.risk import trace_risk
-from msd_bench.core.supervisor import SupervisorOptions
+from msd_bench.core.evaluation.risk import trace_risk
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.safety.adversaries import adversary, run_on_plant
+from msd_bench.core.safety.supervisor import SupervisorOptions
 from msd_bench.graph.bench_report import _with_risk
-from msd_bench.io.bag_writer import write_experiment
+from msd_bench.io.bags.bag_writer import write_experiment
 from msd_msgs_py.contract import PLANT_NAMESPACE
 
 P = PlantParams()

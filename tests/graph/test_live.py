@@ -24,11 +24,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core.plant import PlantParams, simulate
+from msd_bench.core.physics.plant import PlantParams, simulate
 from msd_bench.graph import launch
 from msd_bench.graph.bench import BenchConfig, timed
 from msd_bench.graph.live import LiveStageProgress, live_view
-from msd_bench.io.live import (
+from msd_bench.io.reports.live_server import (
     LOG_TOPIC,
     PLANT_TOPIC,
     PROGRESS_TOPIC,

@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 
 from msd_bench.app import plan
-from msd_bench.core import excitation as exc
-from msd_bench.core.plant import PRESETS, simulate
-from msd_bench.core.results import METRIC_KEYS
-from msd_bench.core.supervisor import Supervisor, SupervisorOptions
+from msd_bench.core.evaluation.results import METRIC_KEYS
+from msd_bench.core.identification import excitation as exc
+from msd_bench.core.physics.plant import PRESETS, simulate
+from msd_bench.core.safety.supervisor import Supervisor, SupervisorOptions
 from msd_bench.graph import supervise
 from msd_bench.graph.bench import agent_args, agent_placement
 from msd_bench.graph.main import config, main, parse
-from msd_bench.io.supervisor_file import read_options
+from msd_bench.io.storage.supervisor_file import read_options
 from msd_msgs_py.contract import REFERENCE
 from msd_msgs_py.interface import make
 

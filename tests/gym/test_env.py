@@ -13,10 +13,10 @@ from gymnasium.utils.env_checker import check_env
 
 import msd_bench.gym  # noqa: F401  (registers MsdBench-v0)
 from msd_bench.core.errors import ConfigError, InvalidInputError, MsdBenchError
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import preset
-from msd_bench.core.qconfig import QConfig
-from msd_bench.io.artifacts import load_model
+from msd_bench.core.learning.qconfig import QConfig
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import preset
+from msd_bench.io.storage.artifacts import load_model
 
 PINNED = Path(__file__).resolve().parents[1] / "data" / "pinned"
 

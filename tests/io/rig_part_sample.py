@@ -6,7 +6,7 @@ from typing import Any
 
 from msd_bench.app.config import RunConfig
 from msd_bench.app.rigs import RigsConfig
-from msd_bench.io.rigs_report import PARAMETERS
+from msd_bench.io.rigs.rigs_report import PARAMETERS
 
 KINDS = ("glm", "glm+robust")
 SCENARIOS = ("setpoint=-0.5",)

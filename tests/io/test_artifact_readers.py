@@ -23,7 +23,7 @@ import pytest
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.graph import run_files
 from msd_bench.gym.backends import model_backend
-from msd_bench.io import artifacts
+from msd_bench.io.storage import artifacts
 
 REPO = Path(__file__).resolve().parents[2]
 PINNED = REPO / "tests" / "data" / "pinned"
@@ -182,7 +182,7 @@ def test_a_big_endian_table_is_read_as_native_float64(tmp_path: Path) -> None:
 def _learner_meta(**learner: Any) -> dict[str, Any]:
     from dataclasses import asdict
 
-    from msd_bench.core.qconfig import QConfig
+    from msd_bench.core.learning.qconfig import QConfig
 
     return {**META, "learner": {**asdict(QConfig()), **learner}}
 

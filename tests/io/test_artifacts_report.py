@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core import kernels
-from msd_bench.core.model import StepModel
-from msd_bench.core.results import AgentResult, per_seed_row
-from msd_bench.io import artifacts
-from msd_bench.io.report import write_report
+from msd_bench.core.evaluation.results import AgentResult, per_seed_row
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel
+from msd_bench.io.reports.report import write_report
+from msd_bench.io.storage import artifacts
 
 
 def _model() -> StepModel:

@@ -15,9 +15,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from msd_bench.io import atomic
-from msd_bench.io.artifacts import ArtifactError
-from msd_bench.io.paths import OutputError
+from msd_bench.io.storage import atomic
+from msd_bench.io.storage.artifacts import ArtifactError
+from msd_bench.io.storage.paths import OutputError
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -77,7 +77,7 @@ def test_failed_write_keeps_the_old_file(tmp_path: Path) -> None:
 KILLED = """
 import os, sys
 from pathlib import Path
-from msd_bench.io import atomic
+from msd_bench.io.storage import atomic
 os.replace = lambda *a, **k: os._exit(9)   # the process dies between the write and the rename
 atomic.write_text_atomic(Path(sys.argv[1]), "new content\\n")
 """

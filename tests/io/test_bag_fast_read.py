@@ -1,7 +1,7 @@
 """The whole-topic JointState reader gives what the per-message reader gives, and a bag is read once.
 
 Every bag here is written by the project's own writer. The oracle is the
-per-message path (:func:`msd_bench.io.cdr.joint_state` row by row, rosbags for
+per-message path (:func:`msd_bench.io.bags.cdr.joint_state` row by row, rosbags for
 what it declines), forced by making the whole-topic reader decline: the two
 reads must agree bit for bit, or fail with the same line.
 """
@@ -18,11 +18,12 @@ import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
 
-from msd_bench.io import bag_open, bags, cdr
-from msd_bench.io.bag_interface import read_interface_experiment
-from msd_bench.io.bag_records import load_records, roles_from_dir
-from msd_bench.io.bag_writer import BagRecorder, typestore, write_experiment, write_interface_experiment
-from msd_bench.io.errors import BagError
+from msd_bench.io.bags import bag_open, cdr
+from msd_bench.io.bags import reader as bags
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_interface import read_interface_experiment
+from msd_bench.io.bags.bag_records import load_records, roles_from_dir
+from msd_bench.io.bags.bag_writer import BagRecorder, typestore, write_experiment, write_interface_experiment
 from msd_msgs_py.interface import MSD_INTERFACE
 
 STORE = typestore()

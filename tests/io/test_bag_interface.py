@@ -16,14 +16,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core import excitation as exc
-from msd_bench.core.actuation import held_commands
-from msd_bench.core.plant import PlantParams, simulate
-from msd_bench.core.plm import PLM_BIASES
-from msd_bench.core.registry import MODEL_KINDS
-from msd_bench.io.bag_interface import read_interface_experiment
-from msd_bench.io.bag_writer import write_experiment, write_interface_experiment
-from msd_bench.io.errors import BagError
+from msd_bench.core.identification import excitation as exc
+from msd_bench.core.identification.model_kinds import MODEL_KINDS
+from msd_bench.core.identification.plm import PLM_BIASES
+from msd_bench.core.physics.plant import PlantParams, simulate
+from msd_bench.core.rigs.actuation import held_commands
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_interface import read_interface_experiment
+from msd_bench.io.bags.bag_writer import write_experiment, write_interface_experiment
 from msd_bench.nodes.identifier_node import IdentifierConfig, identify_from_bags
 from msd_msgs_py.interface import make
 
@@ -43,7 +43,7 @@ def _actuator(u: np.ndarray) -> np.ndarray:
     """The force a drive applies: u one sample late, through a lag of TAU_S, averaged over each sample.
 
     Written out sample by sample (the exact solution of the lag for a held input),
-    independently of ``core.actuation.actuator_force``, which must find it.
+    independently of ``core.rigs.actuation.actuator_force``, which must find it.
     """
     decay = np.exp(-0.01 / TAU_S)
     gain = (TAU_S / 0.01) * (1.0 - decay)

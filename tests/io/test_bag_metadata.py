@@ -13,8 +13,8 @@ import yaml
 from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader
 
-from msd_bench.io.bag_recover import recover
-from msd_bench.io.bag_writer import contract_qos, leading_stamp, ros_distro, typestore, write_experiment
+from msd_bench.io.bags.bag_recover import recover
+from msd_bench.io.bags.bag_writer import contract_qos, leading_stamp, ros_distro, typestore, write_experiment
 from msd_msgs_py.contract import FORCE, JOINT_STATES, POSITION, RECORDER_READY
 
 STORE = typestore()

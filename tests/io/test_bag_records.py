@@ -7,10 +7,10 @@ from dataclasses import asdict
 import numpy as np
 import pytest
 
-from msd_bench.core import excitation as exc
-from msd_bench.core.data import Experiment
 from msd_bench.core.errors import ConfigError
-from msd_bench.io.bag_records import align_to_played
+from msd_bench.core.identification import excitation as exc
+from msd_bench.core.identification.data import Experiment
+from msd_bench.io.bags.bag_records import align_to_played
 
 
 def _params(cfg: exc.PrbsConfig, seed: int) -> dict:

@@ -15,9 +15,9 @@ import pytest
 from mcap.reader import make_reader
 
 from msd_bench.commands.bag import main as bag_main
-from msd_bench.io.bag_recover import recover
-from msd_bench.io.bags import BagRecorder, read_experiment, read_topic, typestore
-from msd_bench.io.errors import BagError
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_recover import recover
+from msd_bench.io.bags.reader import BagRecorder, read_experiment, read_topic, typestore
 
 REPO = Path(__file__).resolve().parents[2]
 STORE = typestore()
@@ -130,7 +130,7 @@ def test_recover_refuses_to_overwrite_and_needs_data(chunked: Path) -> None:
 CHILD = """
 import signal, sys, time
 import numpy as np
-from msd_bench.io.bags import BagRecorder, typestore
+from msd_bench.io.bags.reader import BagRecorder, typestore
 
 def on_term(signum, frame):
     raise KeyboardInterrupt

@@ -11,11 +11,11 @@ import pytest
 from mcap.reader import make_reader
 
 from msd_bench.commands.bag import main as bag_main
-from msd_bench.io.bag_check import check_bag
-from msd_bench.io.bag_records import BagRole, bag_dirs, load_records, roles_from_dir
-from msd_bench.io.bag_timing import IDENTIFY, TimingPolicy, check_timing
-from msd_bench.io.bags import read_experiment, write_experiment
-from msd_bench.io.errors import BagError
+from msd_bench.io.bags.bag_check import check_bag
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_records import BagRole, bag_dirs, load_records, roles_from_dir
+from msd_bench.io.bags.bag_timing import IDENTIFY, TimingPolicy, check_timing
+from msd_bench.io.bags.reader import read_experiment, write_experiment
 
 DT_NS = 10_000_000
 N = 300
@@ -96,7 +96,7 @@ def test_short_bag_refused_for_identification_only(tmp_path: Path) -> None:
 
 def test_bag_stored_out_of_log_order_is_refused(tmp_path: Path) -> None:
     """Header stamps out of order relative to log time: the classic rig-clock fault."""
-    from msd_bench.io.bags import BagRecorder, typestore
+    from msd_bench.io.bags.reader import BagRecorder, typestore
 
     store = typestore()
     types = store.types

@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core.sensor import SensorModel, sensor_rng
-from msd_bench.io.bag_records import BagRole, load_records
-from msd_bench.io.bags import BagRecorder, read_experiment, typestore
-from msd_bench.io.errors import BagError
+from msd_bench.core.physics.sensor import SensorModel, sensor_rng
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_records import BagRole, load_records
+from msd_bench.io.bags.reader import BagRecorder, read_experiment, typestore
 from msd_msgs_py.contract import JOINT_NAME, JOINT_STATES, TRUTH_JOINT_STATES
 
 N = 300

@@ -24,14 +24,14 @@ from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as RosbagsWriter
 
 from msd_bench.commands.bag import main as bag_main
-from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError
-from msd_bench.io.bag_check import check_bag
-from msd_bench.io.bag_records import roles_from_dir
-from msd_bench.io.bag_recover import recover
-from msd_bench.io.bags import bag_info, read_experiment, read_topic, typestore, write_experiment
-from msd_bench.io.errors import BagError
-from msd_bench.io.mcap_guard import MAX_CHUNK_BYTES
+from msd_bench.core.identification import excitation as exc
+from msd_bench.io.bags.bag_check import check_bag
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_records import roles_from_dir
+from msd_bench.io.bags.bag_recover import recover
+from msd_bench.io.bags.mcap_guard import MAX_CHUNK_BYTES
+from msd_bench.io.bags.reader import bag_info, read_experiment, read_topic, typestore, write_experiment
 
 N = 120
 T = np.arange(N, dtype=np.int64) * 10_000_000

@@ -12,7 +12,8 @@ from mcap.stream_reader import CRCValidationError
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin, Writer
 
-from msd_bench.io.bags import (
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.reader import (
     BagRecorder,
     bag_info,
     read_experiment,
@@ -20,7 +21,6 @@ from msd_bench.io.bags import (
     typestore,
     write_experiment,
 )
-from msd_bench.io.errors import BagError
 
 N = 400
 T0 = 1_700_000_000_123_456_789

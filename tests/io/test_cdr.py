@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from msd_bench.io.bag_writer import typestore
-from msd_bench.io.cdr import joint_state
+from msd_bench.io.bags.bag_writer import typestore
+from msd_bench.io.bags.cdr import joint_state
 
 STORE = typestore()
 JS = "sensor_msgs/msg/JointState"

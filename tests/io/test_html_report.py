@@ -1,4 +1,5 @@
-"""The run report's page (io/html_report.py): escaped, self-contained, generic over Table 1's columns."""
+"""The run report's page (io/reports/html_report.py): escaped, self-contained, generic over Table 1's
+columns."""
 
 from __future__ import annotations
 
@@ -9,8 +10,8 @@ from typing import Any
 
 import pytest
 
-from msd_bench.io.html_report import INDEX, ReportError, render, write_index
-from msd_bench.io.paths import OutputError
+from msd_bench.io.reports.html_report import INDEX, ReportError, render, write_index
+from msd_bench.io.storage.paths import OutputError
 
 EVIL = "<script>alert(1)</script>"
 PNG = b"\x89PNG\r\n\x1a\n" + b"\0" * 32

@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core import excitation as exc
 from msd_bench.core.errors import IdentificationError
-from msd_bench.core.plant import PlantParams, simulate
-from msd_bench.io.bag_writer import write_experiment
-from msd_bench.io.errors import BagError
+from msd_bench.core.identification import excitation as exc
+from msd_bench.core.physics.plant import PlantParams, simulate
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_writer import write_experiment
 from msd_bench.nodes.identifier_node import IdentifierConfig, identify_from_bags
 
 DT_NS = 10_000_000

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import msd_bench
-from msd_bench.core import kernels
 from msd_bench.core.errors import IdentificationError, InvalidInputError
-from msd_bench.core.model import StepModel
-from msd_bench.io import artifacts
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel
+from msd_bench.io.storage import artifacts
 
 PINNED = Path(__file__).resolve().parents[1] / "data" / "pinned"
 

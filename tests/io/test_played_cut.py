@@ -17,15 +17,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core import excitation as exc
-from msd_bench.core.actuation import held_commands
-from msd_bench.core.plant import PlantParams, simulate
+from msd_bench.core.identification import excitation as exc
+from msd_bench.core.physics.plant import PlantParams, simulate
+from msd_bench.core.rigs.actuation import held_commands
 from msd_bench.graph.record import recorded_topics
-from msd_bench.io.bag_interface import read_interface_experiment
-from msd_bench.io.bag_records import BagRole, load_records
-from msd_bench.io.bag_writer import write_interface_experiment
-from msd_bench.io.errors import BagError
-from msd_bench.io.played import confirm_by_effort, locate_from_bag, locate_from_effort
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_interface import read_interface_experiment
+from msd_bench.io.bags.bag_records import BagRole, load_records
+from msd_bench.io.bags.bag_writer import write_interface_experiment
+from msd_bench.io.bags.played import confirm_by_effort, locate_from_bag, locate_from_effort
 from msd_msgs_py.interface import MSD_INTERFACE, make
 
 DT_NS = 10_000_000

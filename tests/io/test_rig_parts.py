@@ -10,9 +10,9 @@ from typing import Any
 import pytest
 
 from msd_bench.app.rigs import document
-from msd_bench.io.rig_parts import read_part
-from msd_bench.io.rigs_report import render
-from msd_bench.io.run_dir import RunDirError
+from msd_bench.io.rigs.rig_parts import read_part
+from msd_bench.io.rigs.rigs_report import render
+from msd_bench.io.storage.run_dir import RunDirError
 from tests.io.rig_part_sample import CFG, KINDS, SCENARIOS, part
 
 

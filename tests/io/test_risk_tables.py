@@ -8,15 +8,15 @@ from pathlib import Path
 
 import numpy as np
 
-from msd_bench.core import robustness
-from msd_bench.core.adversaries import adversary, run_on_plant
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.results import AgentResult, per_seed_row
-from msd_bench.core.risk import trace_risk
-from msd_bench.core.risk_table import compact, summarise
-from msd_bench.core.supervisor import SupervisorOptions
-from msd_bench.io.report import robustness_markdown, write_report
-from msd_bench.io.rigs_report import kinds_table
+from msd_bench.core.evaluation import robustness
+from msd_bench.core.evaluation.results import AgentResult, per_seed_row
+from msd_bench.core.evaluation.risk import trace_risk
+from msd_bench.core.evaluation.risk_table import compact, summarise
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.safety.adversaries import adversary, run_on_plant
+from msd_bench.core.safety.supervisor import SupervisorOptions
+from msd_bench.io.reports.report import robustness_markdown, write_report
+from msd_bench.io.rigs.rigs_report import kinds_table
 
 P = PlantParams()
 METRICS = {"mae": 0.1, "std": 0.01, "po": 5.0, "ts": 2.0, "ts5": 1.5, "sse": 1.0}

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from msd_bench.io import atomic
-from msd_bench.io.run_dir import COMPLETE, MANIFEST, RunDir, RunDirError, is_complete
+from msd_bench.io.storage import atomic
+from msd_bench.io.storage.run_dir import COMPLETE, MANIFEST, RunDir, RunDirError, is_complete
 
 TASKS = ["a", "b", "c"]
 CONFIG = {"seeds": 3, "preset": "default"}

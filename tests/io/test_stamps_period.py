@@ -8,16 +8,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from msd_bench.core.data import Experiment, IOData
-from msd_bench.core.excitation import MultilevelConfig, multilevel
-from msd_bench.core.identify import evaluate, free_run
-from msd_bench.core.plant import PlantParams, simulate
-from msd_bench.core.records import Records
-from msd_bench.core.registry import FitRequest, fit_model
-from msd_bench.io.bag_records import BagRole, load_records
-from msd_bench.io.bag_timing import TimingPolicy, check_timing
-from msd_bench.io.bags import write_experiment
-from msd_bench.io.errors import BagError
+from msd_bench.core.identification.data import Experiment, IOData
+from msd_bench.core.identification.excitation import MultilevelConfig, multilevel
+from msd_bench.core.identification.identify import evaluate, free_run
+from msd_bench.core.identification.model_kinds import FitRequest, fit_model
+from msd_bench.core.identification.records import Records
+from msd_bench.core.physics.plant import PlantParams, simulate
+from msd_bench.io.bags.bag_error import BagError
+from msd_bench.io.bags.bag_records import BagRole, load_records
+from msd_bench.io.bags.bag_timing import TimingPolicy, check_timing
+from msd_bench.io.bags.reader import write_experiment
 
 N = 400
 

@@ -15,15 +15,15 @@ from msd_bench.app import agents
 from msd_bench.app.agents import robust_config
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import identify_surrogates, make_records
-from msd_bench.core.dyna import DynaConfig, train_dyna
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.metrics import compute
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.qtrain import greedy_rollouts, train
-from msd_bench.io import artifacts
-from msd_bench.io.artifacts import ArtifactError
-from msd_bench.io.bags import read_experiment, read_topic
+from msd_bench.core.evaluation.metrics import compute
+from msd_bench.core.learning.dyna import DynaConfig, train_dyna
+from msd_bench.core.learning.qtrain import greedy_rollouts, train
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.io.bags.reader import read_experiment, read_topic
+from msd_bench.io.storage import artifacts
+from msd_bench.io.storage.artifacts import ArtifactError
 from msd_bench.nodes.agent_node import AgentNode, AgentNodeConfig
 from msd_bench.nodes.episode_client import EpisodeError
 from msd_bench.nodes.plant_node import ModelSpec, PlantNode, PlantNodeConfig, true_plant_spec

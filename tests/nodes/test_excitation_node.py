@@ -10,8 +10,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from msd_bench.core import excitation as exc
 from msd_bench.core.errors import ConfigError
+from msd_bench.core.identification import excitation as exc
 from msd_bench.nodes.excitation_node import ExcitationNode, ExcitationNodeConfig
 from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
 from msd_msgs_py.contract import FORCE, JOINT_STATES, LOCKSTEP_COMMAND_DEPTH

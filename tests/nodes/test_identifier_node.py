@@ -11,12 +11,12 @@ import pytest
 
 from msd_bench.app.pipeline import identify_surrogates
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.excitation import MultilevelConfig, PrbsConfig, multilevel, prbs
-from msd_bench.core.plant import PlantParams, simulate
-from msd_bench.core.plm import PLM_BIASES
-from msd_bench.core.records import Records
-from msd_bench.io import artifacts
-from msd_bench.io.bags import BagError, write_experiment
+from msd_bench.core.identification.excitation import MultilevelConfig, PrbsConfig, multilevel, prbs
+from msd_bench.core.identification.plm import PLM_BIASES
+from msd_bench.core.identification.records import Records
+from msd_bench.core.physics.plant import PlantParams, simulate
+from msd_bench.io.bags.reader import BagError, write_experiment
+from msd_bench.io.storage import artifacts
 from msd_bench.nodes.identifier_node import IdentifierConfig, IdentifierNode, identify_from_bags
 from tests.nodes.conftest import spin_until
 
@@ -45,8 +45,8 @@ def bag_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _in_process_reference(bag_dir: Path) -> Records:
-    from msd_bench.core.data import IOData
-    from msd_bench.io.bags import read_experiment
+    from msd_bench.core.identification.data import IOData
+    from msd_bench.io.bags.reader import read_experiment
 
     def load(name: str, settle: int = 0) -> IOData:
         e, _ = read_experiment(bag_dir / name)

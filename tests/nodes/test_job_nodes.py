@@ -17,9 +17,9 @@ from rclpy.parameter import Parameter
 
 from msd_bench.app.config import RunConfig
 from msd_bench.app.job import JobError, job_document
-from msd_bench.core import excitation as exc
-from msd_bench.core.kernels import KIND_LINEAR
-from msd_bench.core.model import StepModel
+from msd_bench.core.identification import excitation as exc
+from msd_bench.core.physics.kernels import KIND_LINEAR
+from msd_bench.core.physics.model import StepModel
 from msd_bench.graph.bench import BenchConfig, surrogate_job
 from msd_bench.graph.jobs import JobFiles
 from msd_bench.graph.record import (
@@ -29,7 +29,7 @@ from msd_bench.graph.record import (
     recorded_topics,
     recorder_placement,
 )
-from msd_bench.io.artifacts import Provenance, save_model
+from msd_bench.io.storage.artifacts import Provenance, save_model
 from msd_bench.nodes.excitation_node import ExcitationNode
 from msd_bench.nodes.identifier_node import IdentifierNode
 from msd_bench.nodes.params import reject_unknown_parameters

@@ -17,11 +17,11 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from msd_bench.core import kernels
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.model import StepModel
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel
 from msd_bench.graph import launch
-from msd_bench.io.artifacts import Provenance, save_model
+from msd_bench.io.storage.artifacts import Provenance, save_model
 from msd_bench.nodes.plant_node import PlantNode, declare_true_plant
 from msd_bench.nodes.recorder_node import RecorderNode
 from msd_bench.nodes.rig_node import RigNode

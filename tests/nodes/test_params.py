@@ -9,8 +9,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.excitation import StepsConfig
-from msd_bench.core.plant import PlantParams, preset
+from msd_bench.core.identification.excitation import StepsConfig
+from msd_bench.core.physics.plant import PlantParams, preset
 from msd_bench.nodes.params import declare_from_dataclass, field_docs
 from msd_bench.nodes.plant_node import PlantNodeConfig
 from msd_bench.nodes.spin import DeadlinePacer

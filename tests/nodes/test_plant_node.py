@@ -15,9 +15,9 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, Float64
 
-from msd_bench.core import kernels
-from msd_bench.core.model import StepModel
-from msd_bench.core.plant import preset, simulate
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel
+from msd_bench.core.physics.plant import preset, simulate
 from msd_bench.nodes.plant_node import (
     EXIT_TICK_FAILED,
     GraphConflictError,

@@ -16,8 +16,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, Float64
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.plant import preset, simulate
-from msd_bench.core.sensor import SensorModel, sensor_rng, velocity_estimate
+from msd_bench.core.physics.plant import preset, simulate
+from msd_bench.core.physics.sensor import SensorModel, sensor_rng, velocity_estimate
 from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, declare_true_plant, true_plant_spec
 from msd_msgs_py.contract import FORCE, JOINT_STATES, POSITION, RESET, TRUTH_JOINT_STATES
 from msd_msgs_py.ros import float64, qos

@@ -19,9 +19,9 @@ import pytest
 from msd_bench import designs
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import identify_surrogates, make_records
-from msd_bench.core.plant import PlantParams
-from msd_bench.io import artifacts
-from msd_bench.io.bags import read_experiment
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.io.bags.reader import read_experiment
+from msd_bench.io.storage import artifacts
 from msd_bench.nodes.agent_node import AgentNode, AgentNodeConfig
 from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
 from tests.designs.relay import RelayDesign

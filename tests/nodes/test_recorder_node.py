@@ -21,7 +21,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.io.bags import bag_info, read_experiment, read_topic
+from msd_bench.io.bags.reader import bag_info, read_experiment, read_topic
 from msd_bench.nodes.recorder_node import RecorderNode
 from msd_msgs_py.contract import FORCE, JOINT_STATES, PLANT_NAMESPACE, POSITION, RECORDER_READY
 from msd_msgs_py.ros import float64, joint_state, msg_class, qos
@@ -262,7 +262,7 @@ def test_lockstep_bag_is_timed_in_sim_time_with_rosbag2_metadata(
     import yaml
     from mcap.reader import make_reader
 
-    from msd_bench.io.bag_writer import ros_distro
+    from msd_bench.io.bags.bag_writer import ros_distro
 
     bag = tmp_path / "lockstep"
     type_hash = _lockstep_recording(ctx, bag, topics, N)
@@ -367,7 +367,7 @@ def test_messages_waiting_for_a_stamp_are_kept_on_close(ctx: Context, tmp_path: 
 
 def test_records_a_ros2_control_face_that_identification_reads(ctx: Context, tmp_path: Path) -> None:
     """joint_states with another joint first and Float64MultiArray commands: the bag rebuilds the force."""
-    from msd_bench.io.bag_interface import read_interface_experiment
+    from msd_bench.io.bags.bag_interface import read_interface_experiment
     from msd_msgs_py.interface import make
     from msd_msgs_py.ros import command, joint_states
 

@@ -16,7 +16,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from msd_bench.core.plant import PlantParams
+from msd_bench.core.physics.plant import PlantParams
 from msd_bench.nodes.plant_node import GraphConflictError
 from msd_bench.nodes.rig_node import RigNode
 from msd_msgs_py.contract import FORCE, JOINT_NAME, JOINT_STATES, POSITION, TRUTH_JOINT_STATES
@@ -164,7 +164,7 @@ def test_bad_parameters_are_one_line_errors_in_a_real_process(args, needle):
 def test_a_population_seed_serves_that_member_and_explicit_parameters_win(ctx, executor):
     from dataclasses import replace
 
-    from msd_bench.core.population import draw
+    from msd_bench.core.rigs.population import draw
     member = draw(1001)
     rig = make_rig(ctx, executor, "/pop_a", population_seed=1001)
     assert rig.served() == member and rig.rig.params == member.params
@@ -184,8 +184,8 @@ def test_a_population_seed_serves_that_member_and_explicit_parameters_win(ctx, e
 
 
 def test_the_default_rig_is_the_reserved_member(ctx, executor):
-    from msd_bench.core.plant import PRESETS
-    from msd_bench.core.rig import RigImperfections
+    from msd_bench.core.physics.plant import PRESETS
+    from msd_bench.core.rigs.rig import RigImperfections
     rig = make_rig(ctx, executor)
     assert rig.served().params == PRESETS["rig"] and rig.imperfections == RigImperfections()
     assert rig._sensor_text().startswith("rig 0: ")

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.qtrain import train
+from msd_bench.core.learning.qtrain import train
 from msd_bench.graph.jobs import JobServer
 from msd_bench.graph.launch import process_group, stop
-from msd_bench.io import artifacts
-from msd_bench.io.bags import bag_info
+from msd_bench.io.bags.reader import bag_info
+from msd_bench.io.storage import artifacts
 from msd_bench.nodes.agent_node import AgentNodeConfig
 from msd_bench.nodes.serve import job_args, wants_serving
 

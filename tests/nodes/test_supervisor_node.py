@@ -13,9 +13,9 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, Float64, String
 
 from msd_bench.app.serve_protocol import parse_event
-from msd_bench.core.adversaries import adversary, run_on_plant
-from msd_bench.core.plant import PRESETS
-from msd_bench.core.supervisor import SupervisorOptions
+from msd_bench.core.physics.plant import PRESETS
+from msd_bench.core.safety.adversaries import adversary, run_on_plant
+from msd_bench.core.safety.supervisor import SupervisorOptions
 from msd_bench.nodes.plant_node import PlantNode, PlantNodeConfig, true_plant_spec
 from msd_bench.nodes.rig_node import RigNode
 from msd_bench.nodes.supervisor_node import NODE_NAME, SupervisorNode

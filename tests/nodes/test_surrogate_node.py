@@ -11,12 +11,12 @@ from std_msgs.msg import Float64
 
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
-from msd_bench.core import kernels
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.model import StepModel
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.model import StepModel
 from msd_bench.graph import launch
 from msd_bench.graph.bench import BenchConfig, agent_job, surrogate_args
-from msd_bench.io.artifacts import ArtifactError, Provenance, load_model, save_model
+from msd_bench.io.storage.artifacts import ArtifactError, Provenance, load_model, save_model
 from msd_bench.nodes.surrogate_node import build_surrogate, surrogate_namespace
 from msd_msgs_py.contract import CLOCK, FORCE, JOINT_STATES, POSITION
 from msd_msgs_py.contract import surrogate_namespace as surrogate_namespace_for

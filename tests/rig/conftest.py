@@ -14,7 +14,7 @@ from rclpy.node import Node
 
 from msd_bench.cli import build_parser
 from msd_bench.commands import check_rig
-from msd_bench.core.conformance import Clause
+from msd_bench.core.rigs.conformance import Clause
 from tests.nodes.conftest import shutdown_context
 
 LENIENT = ["--timing-tolerance", "10", "--seconds", "0", "--discovery-timeout", "10"]

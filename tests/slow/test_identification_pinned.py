@@ -14,8 +14,14 @@ import pytest
 
 from msd_bench.app.pipeline import records_from_plan
 from msd_bench.app.plan import paper_plan
-from msd_bench.core import plant
-from msd_bench.core.identify import GreyboxConfig, PlmConfig, evaluate, identify_greybox, identify_plm
+from msd_bench.core.identification.identify import (
+    GreyboxConfig,
+    PlmConfig,
+    evaluate,
+    identify_greybox,
+    identify_plm,
+)
+from msd_bench.core.physics import plant
 
 pytestmark = pytest.mark.slow
 

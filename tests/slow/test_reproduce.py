@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from msd_bench.core.stats import prediction_interval
+from msd_bench.core.evaluation.stats import prediction_interval
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "scripts"))

@@ -16,7 +16,7 @@ its own rule.
   with a constant input force, so an unknown load or a wrong equilibrium force
   leaves no bias in the estimate.
 * :func:`plant_side` is the compiled loop's plant half, with exactly the
-  semantics of :func:`msd_bench.core.closed_loop.greedy_under` (delay queue,
+  semantics of :func:`msd_bench.core.evaluation.closed_loop.greedy_under` (delay queue,
   load from ``load_step``, friction on the plant kind).
 """
 
@@ -31,12 +31,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
-from msd_bench.core import kernels
-from msd_bench.core.closed_loop import Conditions, _advance, actuate
 from msd_bench.core.errors import ConfigError, InvalidInputError
-from msd_bench.core.kernels import KIND_GREYBOX_RIG, MOTION, POS, Kernel
-from msd_bench.core.model import StepModel
-from msd_bench.core.qconfig import QConfig
+from msd_bench.core.evaluation.closed_loop import Conditions, _advance, actuate
+from msd_bench.core.learning.qconfig import QConfig
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.kernels import KIND_GREYBOX_RIG, MOTION, POS, Kernel
+from msd_bench.core.physics.model import StepModel
 
 FloatArray = NDArray[np.float64]
 

@@ -19,14 +19,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.baselines import lqr, mpc, pid
-from msd_bench.core.closed_loop import Conditions
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.kernels import Kernel
-from msd_bench.core.metrics import compute
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.robustness import cell, conditions, sensor_noise
-from msd_bench.core.scenarios import Scenario, suite
+from msd_bench.core.evaluation.closed_loop import Conditions
+from msd_bench.core.evaluation.metrics import compute
+from msd_bench.core.evaluation.robustness import cell, conditions, sensor_noise
+from msd_bench.core.evaluation.scenarios import Scenario, suite
+from msd_bench.core.physics.kernels import Kernel
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import PlantParams
 
 FloatArray = NDArray[np.float64]
 Design = pid.PidDesign | lqr.LqrDesign | mpc.MpcDesign

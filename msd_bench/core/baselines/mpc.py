@@ -44,13 +44,13 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core import kernels
 from msd_bench.core.baselines import base
 from msd_bench.core.baselines.base import Observer, ObserverNoise
-from msd_bench.core.closed_loop import Conditions, quantise
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.kernels import POS, Kernel
-from msd_bench.core.model import StepModel
+from msd_bench.core.evaluation.closed_loop import Conditions, quantise
+from msd_bench.core.physics import kernels
+from msd_bench.core.physics.kernels import POS, Kernel
+from msd_bench.core.physics.model import StepModel
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]

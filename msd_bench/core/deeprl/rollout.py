@@ -3,12 +3,12 @@
 Both run one compiled decision, :func:`decide`, so a deterministic policy gives
 the same force bit for bit in-process (:func:`greedy_under`) and over ROS
 (:class:`Controller`, fed one measurement at a time by the agent node).
-The rollout has :func:`msd_bench.core.closed_loop.greedy_under`'s semantics:
+The rollout has :func:`msd_bench.core.evaluation.closed_loop.greedy_under`'s semantics:
 the agent measures through the sensor (noise drawn by the caller, then
 quantisation, then the ADC clip the environment applies), its command acts
 ``delay`` samples late through the actuator's first-order ``lag``, a load may
 push from ``load_step`` on, and Coulomb friction acts on the plant kind: one
-step is :func:`msd_bench.core.rig.transition`, the rig's own. Metrics are the caller's, on the true
+step is :func:`msd_bench.core.rigs.rig.transition`, the rig's own. Metrics are the caller's, on the true
 positions returned.
 """
 
@@ -20,11 +20,11 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core.closed_loop import Conditions, quantise
 from msd_bench.core.deeprl.mlp import Net, check_net, greedy
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.kernels import Kernel
-from msd_bench.core.rig import transition
+from msd_bench.core.evaluation.closed_loop import Conditions, quantise
+from msd_bench.core.physics.kernels import Kernel
+from msd_bench.core.rigs.rig import transition
 
 FloatArray = NDArray[np.float64]
 

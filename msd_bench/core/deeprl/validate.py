@@ -1,7 +1,7 @@
 """Score trained networks on the plant: nominal rows and the scenario suite, as the Q-learners are.
 
-The same scenarios, noise streams (:func:`msd_bench.core.robustness.sensor_noise`)
-and cells (:func:`msd_bench.core.robustness.cell`) as the tabular agents, so a
+The same scenarios, noise streams (:func:`msd_bench.core.evaluation.robustness.sensor_noise`)
+and cells (:func:`msd_bench.core.evaluation.robustness.cell`) as the tabular agents, so a
 deep-RL row sits beside them in Table 1 and the robustness table.
 """
 
@@ -16,12 +16,12 @@ from numpy.typing import NDArray
 from msd_bench.core.deeprl.mlp import Net
 from msd_bench.core.deeprl.rollout import greedy_under, y_bound
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.metrics import compute
-from msd_bench.core.model import plant_model
-from msd_bench.core.plant import PlantParams
-from msd_bench.core.qconfig import QConfig
-from msd_bench.core.robustness import cell, conditions, sensor_noise
-from msd_bench.core.scenarios import Scenario, suite
+from msd_bench.core.evaluation.metrics import compute
+from msd_bench.core.evaluation.robustness import cell, conditions, sensor_noise
+from msd_bench.core.evaluation.scenarios import Scenario, suite
+from msd_bench.core.learning.qconfig import QConfig
+from msd_bench.core.physics.model import plant_model
+from msd_bench.core.physics.plant import PlantParams
 
 FloatArray = NDArray[np.float64]
 

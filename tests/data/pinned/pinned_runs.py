@@ -13,12 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from msd_bench.core.dyna import DynaConfig, train_dyna
-from msd_bench.core.model import StepModel, plant_model
-from msd_bench.core.plant import preset
-from msd_bench.core.qconfig import QConfig, improved_config
-from msd_bench.core.qtrain import greedy_rollouts, train
-from msd_bench.io.artifacts import load_model
+from msd_bench.core.learning.dyna import DynaConfig, train_dyna
+from msd_bench.core.learning.qconfig import QConfig, improved_config
+from msd_bench.core.learning.qtrain import greedy_rollouts, train
+from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.plant import preset
+from msd_bench.io.storage.artifacts import load_model
 
 HERE = Path(__file__).resolve().parent
 SEEDS = (3, 11)

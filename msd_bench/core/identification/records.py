@@ -1,0 +1,26 @@
+"""The identification and validation records of one identification seed.
+
+A plain container shared by every producer (in-process simulation, the
+identifier node reading bags) and every consumer (the registry's fitters, the
+fit figures), so none of them depends on the application layer.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from msd_bench.core.identification.data import IOData
+
+
+@dataclass(frozen=True)
+class Records:
+    """Identification and validation data of one identification seed."""
+
+    bias_train: dict[float, IOData]
+    """PRBS record per bias (settling dropped)."""
+    bias_val: dict[float, IOData]
+    """Validation PRBS record per bias (other seeds; may be empty: only figures use it)."""
+    broad_train: IOData
+    """Multilevel record for GLM, NLARX and the grey-box model."""
+    broad_val: IOData
+    """Validation multilevel record: every surrogate is scored on it."""

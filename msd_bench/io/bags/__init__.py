@@ -1,0 +1,3 @@
+"""rosbag2 (MCAP) bags: reading, writing, checking, recovering, and the records identification takes
+from them.
+"""

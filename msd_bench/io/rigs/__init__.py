@@ -1,0 +1,2 @@
+"""The rig population's files: per-rig task results, rigs.md and rigs.png.
+"""
