@@ -18,8 +18,8 @@ ROOT = Path(__file__).resolve().parents[1] / "msd_bench"
 
 READERS = [
     *sorted((ROOT / "io").rglob("*.py")),
-    ROOT / "core" / "model.py",
-    ROOT / "core" / "registry.py",
+    ROOT / "core" / "physics" / "model.py",
+    ROOT / "core" / "identification" / "model_kinds.py",
     ROOT / "graph" / "bench_report.py",
     ROOT / "graph" / "run_files.py",
     ROOT / "gym" / "backends.py",

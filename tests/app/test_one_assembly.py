@@ -13,7 +13,8 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-OWNERS = {ROOT / "msd_bench" / "app" / "scoring.py", ROOT / "msd_bench" / "core" / "robustness.py"}
+OWNERS = {ROOT / "msd_bench" / "app" / "scoring.py",
+          ROOT / "msd_bench" / "core" / "evaluation" / "robustness.py"}
 
 
 def assemblies(tree: ast.AST) -> list[tuple[int, str]]:
