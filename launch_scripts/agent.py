@@ -15,8 +15,10 @@ ConfigError line naming the kinds. The kind chooses the design: there is no ``ag
 parameter, and an unknown parameter is refused. Every parameter is a field of
 msd_bench.nodes.agent_node.AgentNodeConfig.
 
-Defaults of the run's quantities (episodes, steps, validation_steps, window, target, dt, force,
-shaping, planning_steps) are the run configuration's (msd_bench.app.job.SHARED_DEFAULTS).
+Defaults of the run's quantities (episodes, plant_episodes, steps, validation_steps, window, target,
+dt, force, shaping, planning_steps) are the run configuration's (msd_bench.app.job.SHARED_DEFAULTS).
+Which budget a kind spends is its design's rule: ``episodes`` on a model, ``plant_episodes`` for a
+kind that learns on the plant node itself (``dyna-q``, ``plant+dqn``).
 """
 
 # ruff: noqa: E402  (the stop handlers must be in place before the slow imports)

@@ -50,6 +50,7 @@ from msd_bench.core.errors import ConfigError, MsdBenchError  # noqa: E402
 from msd_bench.core.evaluation.scenarios import parse, suite  # noqa: E402
 from msd_bench.core.physics.model import StepModel, plant_model  # noqa: E402
 from msd_bench.designs import AgentKind, agent_kind  # noqa: E402
+from msd_bench.designs.kinds import made_on_plant  # noqa: E402
 
 
 def parse_kind(kind: str) -> AgentKind:
@@ -85,7 +86,7 @@ def identified(k: AgentKind | None, id_seed: int) -> tuple[StepModel, dict[str, 
     from msd_bench.app.pipeline import identify_surrogates, make_records
 
     cfg = RunConfig()
-    if k is None or k.on_plant:
+    if k is None or made_on_plant(k.kind):
         return plant_model(cfg.plant), {"identification_samples": 0, "fit_sim_percent": None,
                                          "fit_one_step_percent": None}
     models, fits = identify_surrogates(make_records(cfg, id_seed), [k.surrogate], id_seed, cfg.plant)
@@ -166,9 +167,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         model, ident = identified(k, args.id_seed)
         net, timing = train_seeds(model, hyper, args.seeds, args.steps)
         cells = evaluate(net, plant_params(), args.seeds, suite())
-        real = args.steps * len(args.seeds) if k.on_plant else 0
+        real = args.steps * len(args.seeds) if made_on_plant(kind) else 0
         kinds[kind] = {"surrogate": k.surrogate, "algo": algo, "hyper": hyper.as_dict(),
-                       "id_seed": None if k.on_plant else args.id_seed,
+                       "id_seed": None if made_on_plant(kind) else args.id_seed,
                        **ident, "real_interactions": real, "setpoints_held": setpoints_held(cells),
                        "nominal": cells["nominal"], "cells": {k: _short(c) for k, c in cells.items()},
                        **timing}
@@ -209,7 +210,7 @@ def _ident(kind: str, row: dict[str, Any], cache: dict[tuple[str, int], dict[str
     k = parse_kind(kind)
     if "identification_samples" in row:
         return {f: row.get(f) for f in ("identification_samples", "fit_sim_percent")} | {"fit_from": "run"}
-    if k.on_plant:
+    if made_on_plant(kind):
         return {"identification_samples": 0, "fit_sim_percent": None, "fit_from": "run"}
     key = (k.surrogate, int(row.get("id_seed") or 0))
     if key not in cache:

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.identification.model_kinds import MODEL_KINDS
-from msd_bench.designs import AGENT_KINDS, PLANT, AgentKind, agent_kind
+from msd_bench.designs import AGENT_KINDS, PLANT, AgentKind, agent_kind, kinds
 from msd_bench.designs.qlearning import (
     LEARNERS,
     PAPER_BUDGET_EPISODES,
@@ -30,20 +30,11 @@ __all__ = ["AGENT_KINDS", "BENCH_AGENTS", "DEFAULT_AGENTS", "LEARNERS", "MATRIX"
            "learner_from_meta",
            "parse_agents", "robust_config", "surrogates_of"]
 
-DEFAULT_AGENTS: tuple[str, ...] = tuple(
-    k for k in AGENT_KINDS if "@" not in k and k not in ("plant+improved", "plant+robust")
-    and not AGENT_KINDS[k].design.baseline)
-"""What a run does unless ``--agents`` says otherwise: every surrogate under every learner, and the
-paper's on-plant references; the ``@`` readings, our agents on the true plant and the classical
-baselines (``glm+pid``, ``greybox+lqr``, ...) are opt-in."""
+DEFAULT_AGENTS: tuple[str, ...] = kinds.matrix()
+"""What a run does unless ``--agents`` says otherwise (:func:`msd_bench.designs.kinds.matrix`)."""
 
-BENCH_AGENTS: tuple[str, ...] = ("glm", "plm", "nlarx-paper", "plm+improved", "plm+robust")
-"""bench.py's default kinds: the paper's surrogate agents of Table 1 (GLM, PLM, NLARX) and our two agents
-on its best surrogate. Every kind validates over DDS in lock-step, so each costs the graph what it costs
-in-process many times over. Dyna-Q is one ``--agents`` away: its real steps at bench.py's token budget
-(5 of the paper's 300 episodes) cost as many lock-step round trips as the five kinds' validations together,
-for a row that is not the paper's Dyna-Q; the README's generated Table 1 has it at full budget. The full
-matrix is ``msd-bench paper``'s default and ``--agents matrix`` here (docs/decisions.md §Main job)."""
+BENCH_AGENTS: tuple[str, ...] = kinds.BENCH
+"""bench.py's default kinds (:data:`msd_bench.designs.kinds.BENCH`)."""
 
 
 def check_agents(agents: Sequence[str]) -> None:

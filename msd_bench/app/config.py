@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from msd_bench.app.agents import DEFAULT_AGENTS, SHAPINGS, agent_kind, check_agents, surrogates_of
+from msd_bench.app.agents import DEFAULT_AGENTS, SHAPINGS, check_agents, surrogates_of
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics.plant import PlantParams, preset
 
@@ -18,6 +18,7 @@ if TYPE_CHECKING:  # the supervisor is compiled: loaded only when a run is valid
     from msd_bench.core.safety.supervisor import Limits
 from msd_bench.core.evaluation.scenarios import Scenario, suite
 from msd_bench.core.physics.sensor import SensorModel
+from msd_bench.designs.kinds import split_by_model
 
 _POSITIVE = ("seeds", "id_seeds", "episodes", "steps", "dyna_episodes", "samples", "val_samples",
              "validation_steps", "window")
@@ -129,8 +130,8 @@ class RunConfig:
 
     def surrogate_agents(self) -> list[str]:
         """Requested kinds that train on an identified model (one batch per identification seed)."""
-        return [a for a in self.agents if not agent_kind(a).on_plant]
+        return split_by_model(self.agents)[0]
 
     def plant_agents(self) -> list[str]:
         """Requested kinds that learn on the true plant (once, not per identification seed)."""
-        return [a for a in self.agents if agent_kind(a).on_plant]
+        return split_by_model(self.agents)[1]

@@ -33,6 +33,7 @@ from msd_bench.core.evaluation.results import SUCCESS_SSE
 from msd_bench.core.evaluation.stats import wilson
 from msd_bench.core.identification.model_kinds import model_kind
 from msd_bench.core.physics.model import plant_model
+from msd_bench.designs import kinds
 
 Progress = Callable[[str, int, int], None]
 
@@ -40,8 +41,8 @@ RECORD_SAMPLES = (300, 1_000, 2_500, 6_000, 12_000)
 """Samples per identification record; with settle and validation, 1k–60k plant samples in total."""
 EPISODES = (10, 30, 100, 300)
 """On-plant training budgets in episodes of 3,000 steps: 30,000 to 900,000 real steps."""
-SURROGATE_AGENTS = ("plm+improved", "nlarx-improved+improved", "greybox+improved", "glm+improved")
-PLANT_AGENTS = ("plant+improved", "plant", "dyna-q")
+SURROGATE_AGENTS = kinds.EFFICIENCY_SURROGATE
+PLANT_AGENTS = kinds.EFFICIENCY_PLANT
 
 
 @dataclass(frozen=True)
@@ -62,9 +63,10 @@ class EfficiencyConfig:
     def __post_init__(self) -> None:
         for kind in (*self.surrogate_agents, *self.plant_agents):
             agent_kind(kind)
-        if any(agent_kind(k).on_plant for k in self.surrogate_agents):
+        on_model, on_plant = kinds.split_by_model([*self.surrogate_agents, *self.plant_agents])
+        if set(on_plant) & set(self.surrogate_agents):
             raise ConfigError("surrogate_agents must train on an identified model")
-        if any(not agent_kind(k).on_plant for k in self.plant_agents):
+        if set(on_model) & set(self.plant_agents):
             raise ConfigError("plant_agents must learn on the plant (plant, dyna-q)")
         if min(self.record_samples, default=1) < 100 or min(self.episodes, default=1) < 1:
             raise ConfigError("record samples must be >= 100 and episodes >= 1")
@@ -204,9 +206,8 @@ def crossings(methods: Sequence[dict[str, Any]]) -> list[str]:
     """Where each method first reaches the final success rate of each on-plant Q-learner (a deep-RL
     or other baseline on the plant is a method like the others, never the reference)."""
     lines = []
-    kinds = {m["name"]: agent_kind(m["name"]) for m in methods}
-    refs = [m for m in methods if kinds[m["name"]].on_plant and not kinds[m["name"]].design.model_free
-            and not kinds[m["name"]].design.baseline]
+    references = set(kinds.plant_references([m["name"] for m in methods]))
+    refs = [m for m in methods if m["name"] in references]
     for ref in refs:
         final = max(ref["points"], key=lambda p: p["real_samples"])
         rate = final["n_success"] / final["n"]

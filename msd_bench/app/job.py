@@ -55,6 +55,7 @@ SHARED_DEFAULTS: Mapping[str, Any] = {
     **{name: _run_default(name) for name in (
         "episodes", "steps", "planning_steps", "validation_steps", "window", "target", "shaping",
         "nlarx_scale")},
+    "plant_episodes": _run_default("dyna_episodes"),
     "dt": DEFAULT_PLANT.dt,
     "force": DEFAULT_PLANT.F,
     "stroke": DEFAULT_PLANT.L,
@@ -73,16 +74,16 @@ def shared(name: str) -> Any:
     return SHARED_DEFAULTS[SHARED_ALIASES.get(name, name)]
 
 
-def _agent_params(run: RunConfig, dyna: bool) -> dict[str, Any]:
+def agent_params(run: RunConfig) -> dict[str, Any]:
+    """An agent's run quantities: what :func:`msd_bench.designs.protocol.settings_from` makes the
+    design's :class:`~msd_bench.designs.protocol.Settings` of, in-process and in the agent node alike.
+    Both budgets travel; which one a kind spends is its design's rule, stated there once."""
     p = run.plant
-    params: dict[str, Any] = {
+    return {
         "steps": run.steps, "validation_steps": run.validation_steps, "window": run.window,
         "target": float(run.target), "dt": p.dt, "force": p.F, "shaping": run.shaping,
-        "episodes": run.dyna_episodes if dyna else run.episodes,
+        "episodes": run.episodes, "plant_episodes": run.dyna_episodes, "planning_steps": run.planning_steps,
     }
-    if dyna:
-        params["planning_steps"] = run.planning_steps
-    return params
 
 
 def _identifier_params(run: RunConfig, seed: int) -> dict[str, Any]:
@@ -113,17 +114,15 @@ ROLES = ("agent", "identifier", *_RUN_PARAMS)
 parameter name: ``prbs.bias`` for a section declared under ``prbs.``)."""
 
 
-def job_document(role: str, run: RunConfig, placement: Mapping[str, Any], *, dyna: bool = False,
-                 seed: int = 0) -> dict[str, Any]:
+def job_document(role: str, run: RunConfig, placement: Mapping[str, Any], *, seed: int = 0) -> dict[str, Any]:
     """The job of one node of ``role`` in ``run``: the run's quantities plus where it runs.
 
     ``placement`` is what only the graph knows (paths, namespaces, the kind and its seeds,
     lock-step); it may not restate a quantity the run configuration decides, so the two
-    engines cannot disagree on one. ``dyna`` (agent): the kind learns on the plant with
-    Dyna-Q; ``seed`` (identifier): the identification seed.
+    engines cannot disagree on one. ``seed`` (identifier): the identification seed.
     """
     if role == "agent":
-        params = _agent_params(run, dyna)
+        params = agent_params(run)
     elif role == "identifier":
         params = _identifier_params(run, seed)
     elif role in _RUN_PARAMS:

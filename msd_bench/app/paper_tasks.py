@@ -42,6 +42,7 @@ from msd_bench.app.pipeline import (
 from msd_bench.app.scoring import PolicyRecord, Validation, assemble, record_cells
 from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.designs.kinds import made_on_plant
 from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.atomic import savez_atomic, write_text_atomic
 from msd_bench.io.storage.run_dir import RunDir, RunDirError
@@ -132,7 +133,7 @@ def load_run(rd: RunDir, cfg: RunConfig, scenarios: bool = True) -> PaperRun:
             raise RunDirError(f"{rd.root / 'parts' / task}.json is not a paper part of this msd-bench")
         for kind, entry in doc["kinds"].items():
             surrogate = agent_kind(kind).surrogate
-            model = plant_model(cfg.plant) if agent_kind(kind).on_plant else run.models[id_seed][surrogate]
+            model = plant_model(cfg.plant) if made_on_plant(kind) else run.models[id_seed][surrogate]
             policy = designs.load(rd.root / "policies" / kind / f"id{id_seed}", model)
             fit = run.fits.get(id_seed, {}).get(surrogate)
             record = PolicyRecord(policy, id_seed, entry["seeds"], entry["per_seed"], fit)

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from msd_bench import designs
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
-from msd_bench.app.job import shared
+from msd_bench.app.job import agent_params, shared
 from msd_bench.app.plan import TRAIN, PlannedExperiment, paper_plan
 from msd_bench.app.scoring import PolicyRecord, Validation, assemble, metric_row
 from msd_bench.core.evaluation import robustness
@@ -40,6 +40,7 @@ from msd_bench.core.physics.model import StepModel, plant_model
 from msd_bench.core.physics.plant import PlantParams
 from msd_bench.core.physics.sensor import SensorModel
 from msd_bench.designs import Policy, Settings
+from msd_bench.designs.protocol import settings_from
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[str, int, int], None]
@@ -138,10 +139,8 @@ class Trained:
 
 
 def settings(cfg: RunConfig) -> Settings:
-    """What every design takes from the run."""
-    return Settings(episodes=cfg.episodes, steps=cfg.steps, plant_episodes=cfg.dyna_episodes,
-                    planning_steps=cfg.planning_steps, force=cfg.plant.F, dt=cfg.plant.dt,
-                    target=cfg.target, shaping=cfg.shaping)
+    """What every design takes from the run (built as the agent node builds its own)."""
+    return settings_from(agent_params(cfg))
 
 
 def train_and_validate(kind: str, surrogate: StepModel, cfg: RunConfig, seeds: Sequence[int],

@@ -26,22 +26,19 @@ from dataclasses import dataclass
 from typing import Any
 
 from msd_bench.app import plan
-from msd_bench.app.agents import agent_kind
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.scenarios import Scenario, parse
 from msd_bench.core.identification.excitation import PrbsConfig
 from msd_bench.core.identification.model_kinds import needs_bias_records
+from msd_bench.designs import kinds
 
-DEFAULT_AGENTS: tuple[str, ...] = (
-    "glm+improved", "plm", "plm+improved", "plm+robust", "nlarx-improved+improved",
-    "nlarx-improved+robust", "greybox+robust", "dyna-q")
-"""Agent kinds of a ``--plant-ns`` run: the surrogate kinds that matter (the paper's PLM agent, our
-improved and robust agents on the better surrogates) and Dyna-Q on the node; about an hour at full size."""
+DEFAULT_AGENTS: tuple[str, ...] = kinds.PLANT_NS
+"""Agent kinds of a ``--plant-ns`` run (:data:`msd_bench.designs.kinds.PLANT_NS`)."""
 
 DEFAULT_SCENARIOS: tuple[str, ...] = ("setpoint=0.5", "disturbance=2@15")
 """Robustness scenarios validated on the node (one set-point, one added load)."""
 
-DEFAULT_SCENARIO_KINDS: tuple[str, ...] = ("plm+robust", "nlarx-improved+robust")
+DEFAULT_SCENARIO_KINDS: tuple[str, ...] = kinds.PLANT_NS_SCENARIO_KINDS
 """Kinds whose tables are also validated under :data:`DEFAULT_SCENARIOS` (each costs real time)."""
 
 DEFAULTS: dict[str, Any] = {"seeds": 3, "dyna_episodes": 2, "val_samples": 4_000,
@@ -60,16 +57,15 @@ STARTUP_ESTIMATE_S = 5.0
 QUICK_LOOK: tuple[str, ...] = (
     "--samples", "600", "--val-samples", "400", "--seeds", "2", "--episodes", "20",
     "--dyna-episodes", "1", "--steps", "300", "--validation-steps", "600", "--nlarx-scale", "0.05",
-    "--agents", "glm+improved,greybox+robust,dyna-q", "--node-scenarios", "setpoint=0.5",
-    "--scenario-kinds", "greybox+robust")
+    "--agents", ",".join(kinds.QUICK_LOOK), "--node-scenarios", "setpoint=0.5",
+    "--scenario-kinds", ",".join(kinds.QUICK_LOOK_SCENARIO_KINDS))
 """The short configuration of the README ("a quick look", a few minutes); the e2e test runs it. Its
 kinds need no PLM, so only the two broad records are recorded."""
 
 
 def is_emulator_kind(kind: str) -> bool:
     """Whether ``kind`` learns on the emulator's own model (Q-learning on the true plant, not Dyna-Q)."""
-    k = agent_kind(kind)
-    return k.on_plant and not k.design.model_free
+    return kinds.on_emulator(kind)
 
 
 def split_kinds(agents: Sequence[str]) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -78,7 +74,8 @@ def split_kinds(agents: Sequence[str]) -> tuple[tuple[str, ...], tuple[str, ...]
     dropped = tuple(a for a in agents if is_emulator_kind(a))
     if not kept:
         raise ConfigError(f"every agent kind given ({', '.join(agents)}) needs the emulator's own model; "
-                          f"against --plant-ns choose surrogate kinds or dyna-q")
+                          f"against --plant-ns choose surrogate kinds or one that learns on the node "
+                          f"({', '.join(kinds.on_node(kinds.matrix()))})")
     return kept, dropped
 
 
@@ -167,5 +164,5 @@ def expected_seconds(*, samples: int, val_samples: int, agents: Sequence[str], s
     val = len(agents) * seeds * episode
     scen = len([k for k in scenario_kinds if k in agents]) * len(scenarios) * seeds * episode
     dyna = (seeds * dyna_episodes * (steps * dt + REST_ESTIMATE_S)
-            if any(agent_kind(a).design.model_free for a in agents) else 0.0)
+            if kinds.on_node(agents) else 0.0)
     return Duration(rec, val, scen, dyna)

@@ -49,13 +49,15 @@ from msd_bench.core.rigs.rig import Rig
 from msd_bench.core.rigs.rig_loop import RigRun, run_on_rig
 from msd_bench.core.rigs.rig_play import measured_actuator, play_plan, records_of
 from msd_bench.core.rigs.rig_stats import DEFAULT_RESAMPLES, rate_summary
+from msd_bench.designs import kinds
+from msd_bench.designs.kinds import split_by_model
 
 RIG_SCENARIOS = ("setpoint=-1.5", "setpoint=-0.5", "setpoint=0.5", "setpoint=1.5",
                  "disturbance=2@15", "disturbance=-2@15")
 """What a rig can be given besides the nominal set-point: the standard suite's set-points and loads (its
 noise, delay and parameter drifts are the rig's own here)."""
 RIG_KEYS = ("setpoint", "disturbance")
-DEFAULT_AGENTS = ("plm", "nlarx-improved", "greybox", "plm+robust", "nlarx-improved+robust", "greybox+robust")
+DEFAULT_AGENTS = kinds.RIGS
 WORST = 10
 ACTUATOR_CHOICES = ("measured", "none")
 """What the robust agent is told of a rig's drive: the delay its records show, or nothing (the agent as
@@ -97,7 +99,7 @@ class RigsConfig:
         if self.run.record_noise or self.run.record_quant or self.run.scenarios:
             raise ConfigError("--record-noise, --record-quant and --scenario do not apply: a rig measures "
                               "through its own sensor (use --rig-scenario for set-points and loads)")
-        plant_kinds = [a for a in self.run.agents if agent_kind(a).on_plant]
+        plant_kinds = split_by_model(self.run.agents)[1]
         if plant_kinds:
             raise ConfigError(f"rigs trains on identified surrogates only, not {', '.join(plant_kinds)}")
         for kind in self.run.agents:  # the rig's own loop validates Q-tables: other designs say so now

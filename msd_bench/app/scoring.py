@@ -26,6 +26,7 @@ from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.physics.plant import PlantParams
 from msd_bench.core.safety.supervisor import Limits
 from msd_bench.designs import Policy, Settings
+from msd_bench.designs.kinds import made_on_plant
 
 FloatArray = NDArray[np.float64]
 
@@ -49,7 +50,7 @@ def agent_result(kind: str, per_seed: Sequence[Mapping[str, Any]], fits: Mapping
     fit_sim = fit_one = None
     n_id = 0
     by_id: list[dict[str, Any]] = []
-    if not k.on_plant and fits:
+    if not made_on_plant(kind) and fits:
         by_id = [fit_entry(i, fits[i]) for i in sorted(fits)]
         fit_sim = float(np.mean([e["fit_sim_percent"] for e in by_id]))
         fit_one = float(np.mean([e["fit_one_step_percent"] for e in by_id]))
@@ -126,9 +127,7 @@ def assemble(kind: str, records: Sequence[PolicyRecord], settings: Settings, val
     fits = {r.id_seed: r.fit for r in records if r.fit is not None}
     facts = [r.policy.facts for r in records]
     said = [designs.budget_note(kind, settings), *notes]
-    if facts and facts[0].deterministic:
-        said.append("deterministic baseline: one nominal run per identified model" if facts[0].baseline
-                    else "deterministic: one nominal run per identified model")
+    said += [facts[0].table_note()] if facts else []
     result = agent_result(kind, rows, fits, sum(f.real_interactions for f in facts), said)
     if val.scenarios is None or not records:
         return result, {}

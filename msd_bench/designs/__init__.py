@@ -73,7 +73,7 @@ def nominal_runs(policy: Policy, plant: PlantParams, target: float,
     from msd_bench.core.evaluation.closed_loop import nominal
     from msd_bench.core.physics.model import plant_model
 
-    rows = 1 if policy.facts.deterministic else len(policy.members)
+    rows = policy.facts.nominal_rows(policy.members)
     return policy.rollout(plant_model(plant).kernel, nominal(target), np.zeros((rows, int(steps))))
 
 

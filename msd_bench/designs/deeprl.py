@@ -68,9 +68,9 @@ class DeepPolicy(PolicyBase):
         return xs, us
 
     def controller(self, member: int, target: float) -> Controller:
-        from msd_bench.core.deeprl.rollout import Controller as NetController
+        from msd_bench.core.deeprl.rollout import NetworkController
 
-        return NetController(self.net, self._forces(), member, target)
+        return NetworkController(self.net, self._forces(), member, target)
 
     def save(self, directory: Path, provenance: dict[str, Any], root: Path, overwrite: bool) -> list[Path]:
         from msd_bench.io.storage.deeprl_artifact import paths, save_policy

@@ -21,8 +21,8 @@ No rclpy and no torch here: a design's heavy imports happen inside it.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
@@ -58,6 +58,16 @@ class Settings:
     """Nominal validation set-point, m."""
     shaping: str = "toward"
     """The run's reading of the paper's shaping term (a kind may pin its own)."""
+
+
+_SETTINGS_FIELDS = tuple(f.name for f in fields(Settings))
+
+
+def settings_from(params: Mapping[str, Any]) -> Settings:
+    """The one way a run's budgets become :class:`Settings`: from the agent job's parameters (the
+    in-process run builds them with :func:`msd_bench.app.job.agent_params`, an agent node reads them
+    from its job), so the two engines cannot tell a design different budgets."""
+    return Settings(**{f: params[f] for f in _SETTINGS_FIELDS})
 
 
 class KindSpec(NamedTuple):
@@ -100,6 +110,29 @@ class Facts:
     """Same input, same policy: one nominal run per identified model; copies would not count as n."""
     real_interactions: int
     """Samples it really spent on the true plant while training (0 for a design on a surrogate)."""
+
+    def nominal_rows(self, members: Sequence[int]) -> int:
+        """Runs of a nominal validation: one per member; a deterministic policy's copies are not n."""
+        return 1 if self.deterministic else len(members)
+
+    def noise_draws(self, members: Sequence[int], seeds: Sequence[int], noisy: bool) -> list[int]:
+        """The noise streams it runs under a scenario: one per member; a deterministic policy one per
+        seed where the scenario draws sensor noise (``noisy``) and a single run otherwise."""
+        if not self.deterministic:
+            return list(members)
+        return list(seeds) if noisy else list(seeds)[:1]
+
+    def member_of_runs(self, runs: int) -> list[int]:
+        """The member (an index) that makes each of ``runs`` runs: row j's own, or the one member of a
+        deterministic policy on every row."""
+        return [0] * runs if self.deterministic else list(range(runs))
+
+    def table_note(self) -> str:
+        """What Table 1 says about how its rows were run ('' for learned, stochastic policies)."""
+        if not self.deterministic:
+            return ""
+        return ("deterministic baseline: one nominal run per identified model" if self.baseline
+                else "deterministic: one nominal run per identified model")
 
 
 class Controller(Protocol):

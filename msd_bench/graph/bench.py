@@ -40,6 +40,7 @@ from msd_bench.app.plant_ns import check_node_scenarios
 from msd_bench.app.serve_protocol import EventError
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.identification.model_kinds import needs_bias_records
+from msd_bench.designs import kinds
 from msd_bench.graph import live
 from msd_bench.graph.jobs import JOBS_DIR, Job, JobFiles, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet
@@ -231,7 +232,6 @@ def stage_identify(cfg: BenchConfig, procs: ProcessSet, on_saved: Callable[[str]
 def agent_placement(cfg: BenchConfig, kind: str) -> dict[str, Any]:
     """Where and how the agent node of ``kind`` runs: what only the graph knows (the run's budgets
     come from :func:`msd_bench.app.job.job_document`)."""
-    k = agent_kind(kind)
     place: dict[str, Any] = {
         "kind": kind, "seeds": list(cfg.seeds), "out_dir": str(cfg.run_dir / "agents" / kind),
         "lockstep": not cfg.realtime, "plant_ns": cfg.namespace,
@@ -240,18 +240,18 @@ def agent_placement(cfg: BenchConfig, kind: str) -> dict[str, Any]:
         place["reset"] = False
         if kind in cfg.scenario_kinds and cfg.node_scenarios:
             place["scenarios"] = ";".join(cfg.node_scenarios)
-    if k.design.model_free:
+    model = kinds.model_file(kind)  # on-plant Q-learning: "plant", the plant's own model
+    if model is None:
         return place
-    model = k.surrogate  # on-plant Q-learning: "plant", the plant's own model
     place["model_path"] = str(cfg.run_dir / "models" / (model + ".json"))
-    if cfg.via_ros and not k.on_plant:
-        place.update(via_ros=True, surrogate_ns=surrogate_namespace(k.surrogate))
+    if cfg.via_ros and kinds.trains_via_surrogate_node(kind):
+        place.update(via_ros=True, surrogate_ns=surrogate_namespace(model))
     return place
 
 
 def agent_job(cfg: BenchConfig, kind: str) -> dict[str, Any]:
     """The job document of the agent node of ``kind`` (the node derives its learner from ``kind``)."""
-    return job_document("agent", cfg.run, agent_placement(cfg, kind), dyna=agent_kind(kind).design.model_free)
+    return job_document("agent", cfg.run, agent_placement(cfg, kind))
 
 
 def identifier_job(cfg: BenchConfig) -> dict[str, Any]:
@@ -295,7 +295,7 @@ def surrogate_args(cfg: BenchConfig, name: str) -> list[str]:
 
 def model_free_kinds(cfg: BenchConfig) -> list[str]:
     """The run's kinds that need no identified model (Dyna-Q learns on the plant itself)."""
-    return [k for k in cfg.run.agents if agent_kind(k).design.model_free]
+    return kinds.on_node(cfg.run.agents)
 
 
 def start_model_free(cfg: BenchConfig, server: JobServer) -> dict[str, Job]:

@@ -26,6 +26,7 @@ from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.identification.model_kinds import needs_bias_records
 from msd_bench.core.physics.model import StepModel
 from msd_bench.designs import Policy
+from msd_bench.designs.kinds import made_on_plant
 from msd_bench.io.bags.bag_error import BagError
 from msd_bench.io.bags.bag_records import load_records as load_records_of
 from msd_bench.io.bags.bag_records import roles_from_dir
@@ -128,7 +129,7 @@ def _trained_on(cfg: BenchConfig, kind: str) -> StepModel | None:
     """The model a kind was made on (a ``model`` observer predicts with it; a baseline is redesigned
     on it); None for a kind that learned on the plant's topics when the run has no plant model."""
     path = cfg.run_dir / "models" / f"{agent_kind(kind).surrogate}.json"
-    return artifacts.load_model(path) if path.is_file() or not agent_kind(kind).on_plant else None
+    return artifacts.load_model(path) if path.is_file() or not made_on_plant(kind) else None
 
 
 def on_node_robustness(cfg: BenchConfig, results: list[AgentResult]) -> dict[str, dict[str, Any]]:

@@ -17,10 +17,13 @@ from pathlib import Path
 from typing import IO, Any
 
 from msd_bench.app import plant_ns
-from msd_bench.app.agents import BENCH_AGENTS, agent_kind
+from msd_bench.app.agents import BENCH_AGENTS
 from msd_bench.app.config import RunConfig
+from msd_bench.app.job import agent_params
 from msd_bench.app.options import add_run_arguments, run_config_from_args
 from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.designs.kinds import node_budget_note, on_node
+from msd_bench.designs.protocol import settings_from
 from msd_bench.graph import supervise
 from msd_bench.graph.bench import (
     STAGES,
@@ -268,12 +271,12 @@ def expected_duration(cfg: BenchConfig) -> plant_ns.Duration:
 def dyna_budget(cfg: BenchConfig) -> str:
     """The budget of the kinds that train on the node (Dyna-Q, on-plant deep RL), stated in the report
     ('' without one): each kind's seeds x episodes x steps real interactions."""
-    free = [a for a in cfg.run.agents if agent_kind(a).design.model_free]
+    free = on_node(cfg.run.agents)
     if not free:
         return ""
     r = cfg.run
     real = len(cfg.seeds) * r.dyna_episodes * r.steps
-    note = f", {r.planning_steps} planning updates per real step (Dyna-Q)" if "dyna-q" in free else ""
+    note = node_budget_note(free, settings_from(agent_params(r)))
     return (f"Trained on {cfg.plant_ns} in real time ({', '.join(free)}): {len(cfg.seeds)} seed(s) x "
             f"{r.dyna_episodes} episode(s) x {r.steps} steps = {real} real interactions per kind "
             f"({real * r.plant.dt / 60:.1f} min each; paper: 300 episodes){note}")

@@ -30,7 +30,7 @@ from __future__ import annotations
 import functools
 import json
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +51,8 @@ from msd_bench.core.evaluation.scenarios import Scenario
 from msd_bench.core.physics.model import StepModel
 from msd_bench.core.rigs.rest import RestConfig
 from msd_bench.designs import Controller, Policy, Settings, Stepwise
-from msd_bench.designs.protocol import StepwiseLearner
+from msd_bench.designs.kinds import facts_record, made_on_plant, stepwise_namespace, stepwise_training
+from msd_bench.designs.protocol import StepwiseLearner, settings_from
 from msd_bench.io.bags.bag_writer import write_experiment
 from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.atomic import write_text_atomic
@@ -73,7 +74,10 @@ class AgentNodeConfig:
     seeds: tuple[int, ...] = (0,)
     """Learning seeds; one agent per seed."""
     episodes: int = field(default=shared("episodes"), metadata={"range": (1, 100_000)})
-    """Training episodes per seed (paper: 300)."""
+    """Training episodes per seed on a model (paper: 300)."""
+    plant_episodes: int = field(default=shared("plant_episodes"), metadata={"range": (1, 100_000)})
+    """Training episodes per seed of a kind that learns on the plant node itself (Dyna-Q, on-plant
+    deep RL): every step a real sample (paper: 300)."""
     steps: int = field(default=shared("steps"), metadata={"range": (1, 1_000_000)})
     """Steps per training episode (paper: 3,000)."""
     via_ros: bool = False
@@ -121,7 +125,7 @@ class AgentNodeConfig:
             raise ConfigError("out_dir is required")
         if not self.seeds:
             raise ConfigError("seeds must not be empty")
-        if not self.model_path and not agent_kind(self.kind).on_plant:
+        if not self.model_path and not made_on_plant(self.kind):
             raise ConfigError(f"model_path is required: {self.kind} is made on an identified model")
         if self.window > self.validation_steps:
             raise ConfigError("window must not exceed validation_steps")
@@ -138,11 +142,8 @@ class AgentNodeConfig:
         return [t.strip() for t in self.scenarios.split(";") if t.strip()]
 
     def settings(self) -> Settings:
-        """What the kind's design takes from this node's budgets (one budget: bench.py passes
-        an on-plant learner's own as ``episodes``)."""
-        return Settings(episodes=self.episodes, steps=self.steps, plant_episodes=self.episodes,
-                        planning_steps=self.planning_steps, force=self.force, dt=self.dt,
-                        target=self.target, shaping=self.shaping)
+        """What the kind's design takes from this node's budgets (the fields its job set)."""
+        return settings_from({f.name: getattr(self, f.name) for f in fields(self)})
 
 
 class _Learn:
@@ -265,7 +266,7 @@ class AgentNode(Node):
         if over is None:
             self._trained(designs.make(cfg.kind, self.model, cfg.settings(), cfg.seeds))
             return
-        self._train_over(over, cfg.plant_ns if over.on_plant else cfg.surrogate_ns)
+        self._train_over(over, stepwise_namespace(over, cfg.plant_ns, cfg.surrogate_ns))
 
     def _train_over(self, over: Stepwise, ns: str) -> None:
         """Every learner's episodes over ``ns``'s topics, then the policy they made."""
@@ -275,7 +276,7 @@ class AgentNode(Node):
                 announce = functools.partial(self._first_step, ns) if first else None
                 self._client.submit(Episode(_Learn(learner, announce), ns, over.steps))
                 first = False
-        self._training = f"{agent_kind(self.config.kind).agent} over the plant" if over.on_plant else "ros"
+        self._training = stepwise_training(self.config.kind, over)
         self._client.on_idle = lambda: self._trained(over.finish())
         self.get_logger().info(f"training {len(over.learners)} seed(s) over {ns}")
 
@@ -344,9 +345,8 @@ class AgentNode(Node):
         cfg = self.config
         facts = self.policy.facts if self.policy is not None else None
         doc = {"kind": cfg.kind, "agent": agent_kind(cfg.kind).agent, "config": _jsonable_config(cfg),
-               "training": self._training, "baseline": bool(facts and facts.baseline),
-               "deterministic": bool(facts and facts.deterministic),
-               "real_interactions": facts.real_interactions if facts else 0, "per_seed": self.per_seed,
+               "training": self._training, **facts_record(facts),
+               "per_seed": self.per_seed,
                "on_node_scenarios": {sid: cell(c["sse"], c["mae"]) for sid, c in self.robust.items()},
                "x0": {sid: {str(k): v for k, v in d.items()} for sid, d in self.x0.items()}}
         write_text_atomic(self.out / "result.json", json.dumps(artifacts.jsonable(doc), indent=1) + "\n",

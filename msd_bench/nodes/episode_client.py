@@ -52,7 +52,7 @@ class EpisodeError(MsdBenchError):
     """A plant-like node did not answer as the contract requires."""
 
 
-class Controller(Protocol):
+class EpisodeAgent(Protocol):
     """What an episode drives: a learner or a fixed policy."""
 
     def start(self, x0: float) -> None:
@@ -69,7 +69,7 @@ class Controller(Protocol):
 class Episode:
     """One episode to play."""
 
-    controller: Controller
+    controller: EpisodeAgent
     namespace: str
     steps: int
     record: bool = False

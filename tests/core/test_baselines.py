@@ -41,7 +41,7 @@ def built() -> dict[str, designs.Design]:
     return out
 
 
-def _drive(ctrl: designs.Controller, cond: Conditions, noise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _drive(ctrl: designs.StepwiseLaw, cond: Conditions, noise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The stepwise controller on the plant, written from greedy_under's documented semantics."""
     n = noise.size
     xs, us = np.empty(n), np.empty(n)

@@ -29,7 +29,7 @@ pytestmark = pytest.mark.ros
 
 @pytest.mark.parametrize("algo", ["dqn", "ppo"])
 def test_the_plant_node_sees_exactly_the_steps_charged(ctx, executor, tmp_path, algo):  # noqa: F811
-    cfg = AgentNodeConfig(kind=f"plant+{algo}", seeds=(2,), episodes=2, steps=100, validation_steps=150,
+    cfg = AgentNodeConfig(kind=f"plant+{algo}", seeds=(2,), plant_episodes=2, steps=100, validation_steps=150,
                           window=50, out_dir=str(tmp_path))
     plant = PlantNode(true_plant_spec(), config=PlantNodeConfig(lockstep=True, duplicate_check=0.0),
                       context=ctx)

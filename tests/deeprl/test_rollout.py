@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from msd_bench.core.deeprl import mlp
-from msd_bench.core.deeprl.rollout import Controller, measure, y_bound
+from msd_bench.core.deeprl.rollout import NetworkController, measure, y_bound
 from msd_bench.core.deeprl.validate import evaluate, rollouts
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.evaluation.closed_loop import quantise
@@ -34,7 +34,7 @@ def test_compiled_rollout_equals_the_stepwise_controller_bit_for_bit(sid: str, a
     bound = y_bound(0.5 * PLANT.L, sc.noise, sc.quant)
     assert len({float(u) for u in us.ravel()}) > 1  # the policies do act, so a mismatch would show
     for j in range(3):
-        ctl = Controller(net, FORCES, j)
+        ctl = NetworkController(net, FORCES, j)
         ctl.reset(sc.setpoint)
         got = np.array([ctl.act(measure(xs[j, k], noise[j, k], sc.quant, bound)) for k in range(800)])
         assert np.array_equal(got, us[j])
@@ -69,10 +69,10 @@ def test_one_policy_stack_scores_like_the_suite_expects() -> None:
 def test_a_controller_refuses_what_it_cannot_run() -> None:
     net = random_net(0)
     with pytest.raises(InvalidInputError, match="policy index 1"):
-        Controller(net, FORCES, 1)
+        NetworkController(net, FORCES, 1)
     with pytest.raises(InvalidInputError, match="one force per network output"):
-        Controller(net, FORCES[:4])
-    ctl = Controller(net, FORCES)
+        NetworkController(net, FORCES[:4])
+    ctl = NetworkController(net, FORCES)
     with pytest.raises(InvalidInputError, match="target must be finite"):
         ctl.reset(float("nan"))
     ctl.reset(1.0)

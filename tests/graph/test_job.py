@@ -198,8 +198,8 @@ def test_a_placement_cannot_restate_a_run_quantity():
 
 def test_node_defaults_equal_the_run_defaults():
     run, node = RunConfig(), AgentNodeConfig(out_dir="x", kind="dyna-q")
-    assert (node.episodes, node.steps, node.window, node.shaping) == (
-        run.episodes, run.steps, run.window, run.shaping)
+    assert (node.episodes, node.plant_episodes, node.steps, node.window, node.shaping) == (
+        run.episodes, run.dyna_episodes, run.steps, run.window, run.shaping)
 
 
 # --- bad job files: one line naming the file and the field -------------------------------------

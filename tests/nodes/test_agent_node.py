@@ -34,10 +34,11 @@ from tests.nodes.conftest import spin_until
 
 
 def _qc(cfg):
-    """The learner the node's kind trains with at its budgets (the design's choice)."""
-    from msd_bench.app.agents import learner_config
+    """The learner the node's kind trains with at its budgets (the design's choice of which)."""
+    from msd_bench import designs
 
-    return learner_config(cfg.kind, cfg.episodes, cfg.steps, cfg.force, cfg.shaping)
+    design = designs.agent_kind(cfg.kind).design
+    return design.config(designs.request(cfg.kind, None, cfg.settings(), cfg.seeds))
 
 pytestmark = pytest.mark.ros
 LOCKSTEP = PlantNodeConfig(lockstep=True, duplicate_check=0.0)
@@ -100,7 +101,7 @@ def test_ros_training_keeps_the_tables_the_batch_selects(ctx, executor, glm_path
 
 
 def test_dyna_q_interacts_with_the_plant_node(ctx, executor, tmp_path):
-    cfg = AgentNodeConfig(kind="dyna-q", planning_steps=5, seeds=(1,), episodes=2,
+    cfg = AgentNodeConfig(kind="dyna-q", planning_steps=5, seeds=(1,), plant_episodes=2,
                           steps=100, validation_steps=200, window=50, out_dir=str(tmp_path))
     agent = _run(ctx, executor, cfg)
     ref = train_dyna(plant_model(PlantParams()), DynaConfig(replace(_qc(cfg)), 5), [1])
@@ -115,7 +116,7 @@ def test_validation_announces_the_set_point_and_bags_it(ctx, executor, tmp_path)
     listener.create_subscription(msg_class(REFERENCE), REFERENCE.resolve(PLANT_NAMESPACE),
                                  lambda m: heard.append(m.data), qos(REFERENCE))
     executor.add_node(listener)
-    cfg = AgentNodeConfig(kind="dyna-q", planning_steps=0, seeds=(5, 6), episodes=2,
+    cfg = AgentNodeConfig(kind="dyna-q", planning_steps=0, seeds=(5, 6), plant_episodes=2,
                           steps=100, target=0.8, validation_steps=120, window=50, out_dir=str(tmp_path))
     _run(ctx, executor, cfg)
     assert spin_until(executor, lambda: len(heard) >= 2, timeout=2.0)

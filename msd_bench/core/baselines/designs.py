@@ -32,7 +32,7 @@ FloatArray = NDArray[np.float64]
 Design = pid.PidDesign | lqr.LqrDesign | mpc.MpcDesign
 
 
-class Controller(Protocol):
+class StepwiseLaw(Protocol):
     """The stepwise face an agent node drives."""
 
     def reset(self) -> None:
@@ -47,7 +47,7 @@ class Entry(NamedTuple):
 
     design: Callable[..., Design]
     """``design(model, target, force, dt, **options)``."""
-    controller: Callable[[Any], Controller]
+    controller: Callable[[Any], StepwiseLaw]
     """The stepwise form of a design."""
     rollout: Callable[[Kernel, Any, Conditions, FloatArray], tuple[FloatArray, FloatArray]]
     """The compiled batch rollout of a design on a plant kernel."""
@@ -113,7 +113,8 @@ def parse_kind(kind: str) -> tuple[str, str]:
     """``"glm+pid"`` -> ``("glm", "pid")``; the design part must be a known design."""
     surrogate, sep, name = kind.rpartition("+")
     if not sep or not surrogate:
-        raise ConfigError(f"baseline kind {kind!r} must be <surrogate>+<design>, e.g. glm+pid")
+        raise ConfigError(f"baseline kind {kind!r} must be <surrogate>+<design>, "
+                          f"e.g. glm+{next(iter(DESIGNS))}")
     entry(name)
     return surrogate, name
 

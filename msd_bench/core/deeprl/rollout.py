@@ -2,7 +2,7 @@
 
 Both run one compiled decision, :func:`decide`, so a deterministic policy gives
 the same force bit for bit in-process (:func:`greedy_under`) and over ROS
-(:class:`Controller`, fed one measurement at a time by the agent node).
+(:class:`NetworkController`, fed one measurement at a time by the agent node).
 The rollout has :func:`msd_bench.core.evaluation.closed_loop.greedy_under`'s semantics:
 the agent measures through the sensor (noise drawn by the caller, then
 quantisation, then the ADC clip the environment applies), its command acts
@@ -83,7 +83,7 @@ def greedy_under(model: Kernel, net: Net, forces: FloatArray, cond: Conditions, 
     return xs, us
 
 
-class Controller:
+class NetworkController:
     """The stepwise form: one measured position in, one force out (the agent node's loop).
 
     ``reset()`` starts an episode (towards ``target``, or a new one if given:

@@ -86,11 +86,16 @@ def evaluate(q_tables: FloatArray, cfg: QConfig, nominal: PlantParams, seeds: Se
 
 
 class Facts(Protocol):
-    """What robustness reads of a policy's facts."""
+    """What robustness asks of a policy's facts (:class:`msd_bench.designs.protocol.Facts`)."""
 
-    @property
-    def deterministic(self) -> bool:
-        """One policy per identified model: only noise draws make more runs."""
+    def nominal_rows(self, members: Sequence[int]) -> int:
+        """Runs of a nominal validation."""
+
+    def noise_draws(self, members: Sequence[int], seeds: Sequence[int], noisy: bool) -> list[int]:
+        """The noise streams it runs under a scenario."""
+
+    def member_of_runs(self, runs: int) -> list[int]:
+        """The member that makes each run."""
 
 
 class RollsOut(Protocol):
@@ -114,9 +119,7 @@ class RollsOut(Protocol):
 def draws(policy: RollsOut, sc: Scenario, seeds: Sequence[int]) -> list[int]:
     """The noise streams a policy runs under ``sc``: one per member; a deterministic policy one per
     seed where the scenario draws sensor noise and a single run otherwise (copies are not n)."""
-    if not policy.facts.deterministic:
-        return list(policy.members)
-    return list(seeds) if sc.noise > 0.0 else list(seeds)[:1]
+    return policy.facts.noise_draws(policy.members, seeds, sc.noise > 0.0)
 
 
 def policy_rollouts(policy: RollsOut, nominal: PlantParams, sc: Scenario, seeds: Sequence[int],
@@ -134,8 +137,7 @@ def supervised_rollouts(policy: RollsOut, nominal: PlantParams, sc: Scenario, se
     plant = sc.plant(nominal)
     runs = draws(policy, sc, seeds)
     noise = sensor_noise(sc, runs, steps)
-    members = [0] * len(runs) if policy.facts.deterministic else list(range(len(runs)))
-    ctls = [policy.controller(m, float(sc.setpoint)) for m in members]
+    ctls = [policy.controller(m, float(sc.setpoint)) for m in policy.facts.member_of_runs(len(runs))]
     return supervised_runs(ctls, plant_model(plant).kernel, conditions(sc, plant.dt), noise, lim)
 
 
@@ -154,12 +156,12 @@ def nominal_validation(policy: RollsOut, plant: PlantParams, target: float, step
                        lim: Limits | None = None) -> tuple[FloatArray, list[RunRisk]]:
     """Table 1's validation: each member (a deterministic policy: its one) from rest at ``target``,
     with each run's risk; behind the supervisor when ``lim`` is given."""
-    rows = 1 if policy.facts.deterministic else len(policy.members)
+    rows = policy.facts.nominal_rows(policy.members)
     if lim is None:
         xs, _ = policy.rollout(plant_model(plant).kernel, nominal(target), np.zeros((rows, int(steps))))
         return xs, [trace_risk(x, plant) for x in xs]
-    members = [0] if policy.facts.deterministic else list(range(rows))
-    r = supervised_runs([policy.controller(m, float(target)) for m in members], plant_model(plant).kernel,
+    r = supervised_runs([policy.controller(m, float(target)) for m in policy.facts.member_of_runs(rows)],
+                        plant_model(plant).kernel,
                         nominal(target), np.zeros((rows, int(steps))), lim)
     return r.x, [trace_risk(r.x[j], plant, lim, r.reason[j], int(r.aborts[j])) for j in range(rows)]
 
