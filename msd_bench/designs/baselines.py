@@ -1,7 +1,8 @@
 """The classical baselines as designs: ``pid``, ``pid-continuous``, ``lqr``, ``mpc`` on identified models.
 
-Each wraps one entry of :data:`msd_bench.core.baselines.designs.DESIGNS`
-(the tuning rules, compiled rollouts and stepwise classes live in core). A
+Each wraps one line of :data:`msd_bench.core.baselines.catalogue.CATALOGUE`
+(the tuning rules, compiled rollouts and stepwise classes live in core), so a
+new baseline is its core module and one catalogue line, and no edit here. A
 baseline is deterministic: designed once per identified model and set-point,
 so its policy has one member and a run counts identification seeds (and noise
 draws), never copies. Why it redesigns at a scenario's set-point: the rule
@@ -19,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from msd_bench.core.baselines.catalogue import CATALOGUE
 from msd_bench.core.errors import ConfigError
 from msd_bench.designs.protocol import Controller, Facts, KindSpec, PolicyBase, Request, Settings
 from msd_bench.designs.registry import plus_kinds
@@ -124,14 +126,5 @@ class BaselineDesign:
         return policy
 
 
-DESIGNS = (
-    BaselineDesign("pid", "PID tuned at a phase margin and crossover on the linear model at the set-point, "
-                   "output the nearest of the 5 forces", "PID baseline"),
-    BaselineDesign("pid-continuous", "the same PID, any force in ±F (what the 5-force actuator costs)",
-                   "continuous-force PID baseline"),
-    BaselineDesign("lqr", "LQR with integral action at the set-point, Kalman observer with force bias, "
-                   "5 forces", "LQR baseline"),
-    BaselineDesign("mpc", "finite-alphabet MPC over 1 s, move-blocked tree, Kalman observer with force bias",
-                   "MPC baseline"),
-)
-"""The baseline entries of the registry."""
+DESIGNS = tuple(BaselineDesign(b.name, b.summary, b.label) for b in CATALOGUE)
+"""The baseline entries of the registry: one per line of the core catalogue."""

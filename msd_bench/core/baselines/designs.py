@@ -11,14 +11,15 @@ frozen design with ``as_dict()``; a compiled batch rollout with
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import importlib
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import fields, replace
-from typing import Any, NamedTuple, Protocol
+from typing import Any, NamedTuple, Protocol, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core.baselines import lqr, mpc, pid
+from msd_bench.core.baselines.catalogue import CATALOGUE, Listing
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.closed_loop import Conditions
 from msd_bench.core.evaluation.metrics import compute
@@ -29,7 +30,13 @@ from msd_bench.core.physics.model import StepModel, plant_model
 from msd_bench.core.physics.plant import PlantParams
 
 FloatArray = NDArray[np.float64]
-Design = pid.PidDesign | lqr.LqrDesign | mpc.MpcDesign
+
+
+class Design(Protocol):
+    """A baseline's frozen design (``PidDesign``, ``LqrDesign``, ...): what its artifact states."""
+
+    def as_dict(self) -> dict[str, Any]:
+        """Gains, margins, horizon, observer: everything ``policy.json`` records."""
 
 
 class StepwiseLaw(Protocol):
@@ -43,7 +50,7 @@ class StepwiseLaw(Protocol):
 
 
 class Entry(NamedTuple):
-    """One design in the table."""
+    """One baseline of :data:`~msd_bench.core.baselines.catalogue.CATALOGUE`, its module loaded."""
 
     design: Callable[..., Design]
     """``design(model, target, force, dt, **options)``."""
@@ -55,51 +62,24 @@ class Entry(NamedTuple):
     """One line for reports."""
     options: type
     """The design's options dataclass (its fields are the keyword options ``design`` accepts)."""
+    fixed: Mapping[str, Any]
+    """Options the listing pins (not the caller's to give)."""
 
 
-def _pid(quantised: bool) -> Callable[..., Design]:
+def _entry(listing: Listing) -> Entry:
+    """The listing's module behind one face (see :mod:`msd_bench.core.baselines.catalogue`)."""
+    name = listing.module if "." in listing.module else f"msd_bench.core.baselines.{listing.module}"
+    module = importlib.import_module(name)
+
     def make(model: StepModel, target: float, force: float, dt: float, **options: Any) -> Design:
-        opt = replace(pid.PidOptions(**options), quantised=quantised)
-        return pid.design(model, target, force, dt, opt)
-    return make
+        opt = replace(module.Options(**options), **listing.fixed)
+        return cast(Design, module.design(model, target, force, dt, opt))
+
+    return Entry(make, module.Stepwise, module.rollout, listing.summary, module.Options, listing.fixed)
 
 
-def _lqr(model: StepModel, target: float, force: float, dt: float, **options: Any) -> Design:
-    return lqr.design(model, target, force, dt, lqr.LqrOptions(**options))
-
-
-def _mpc(model: StepModel, target: float, force: float, dt: float, **options: Any) -> Design:
-    return mpc.design(model, target, force, dt, mpc.MpcOptions(**options))
-
-
-def _pid_rollout(plant: Kernel, d: pid.PidDesign, cond: Conditions,
-                 noise: FloatArray) -> tuple[FloatArray, FloatArray]:
-    return pid.rollout_under(plant, d.gains, cond, noise)
-
-
-def _lqr_rollout(plant: Kernel, d: lqr.LqrDesign, cond: Conditions,
-                 noise: FloatArray) -> tuple[FloatArray, FloatArray]:
-    return lqr.rollout_under(plant, d.law, d.observer, cond, noise)
-
-
-def _mpc_rollout(plant: Kernel, d: mpc.MpcDesign, cond: Conditions,
-                 noise: FloatArray) -> tuple[FloatArray, FloatArray]:
-    return mpc.rollout_under(plant, d.law, d.observer, cond, noise)
-
-
-DESIGNS: dict[str, Entry] = {
-    "pid": Entry(_pid(True), pid.Pid, _pid_rollout,
-                 "PID at a phase margin and crossover, output the nearest of the 5 forces", pid.PidOptions),
-    "pid-continuous": Entry(_pid(False), pid.Pid, _pid_rollout,
-                            "the same PID, any force in ±F", pid.PidOptions),
-    "lqr": Entry(_lqr, lqr.Lqr, _lqr_rollout,
-                 "LQR with integral action at the set-point, Kalman observer with force bias, 5 forces",
-                 lqr.LqrOptions),
-    "mpc": Entry(_mpc, mpc.Mpc, _mpc_rollout,
-                 "finite-alphabet MPC over 1 s, move-blocked tree, Kalman observer with force bias",
-                 mpc.MpcOptions),
-}
-"""Every baseline design by name."""
+DESIGNS: dict[str, Entry] = {listing.name: _entry(listing) for listing in CATALOGUE}
+"""Every baseline design by name (the catalogue's order)."""
 
 
 def entry(name: str) -> Entry:
@@ -122,7 +102,7 @@ def parse_kind(kind: str) -> tuple[str, str]:
 def make(name: str, model: StepModel, target: float, force: float, dt: float, **options: Any) -> Design:
     """Design ``name`` on ``model`` for ``target`` (deterministic); an unknown option is a one-line error."""
     e = entry(name)
-    known = {f.name for f in fields(e.options)} - {"quantised"}
+    known = {f.name for f in fields(e.options)} - set(e.fixed)
     unknown = sorted(set(options) - known)
     if unknown:
         raise ConfigError(f"baseline {name}: unknown option(s) {', '.join(unknown)}; known: "

@@ -327,3 +327,15 @@ class Mpc:
         u = float(act(self.law, self.observer, self.ws, self.ost, self.cs, base.measured(y), self.first))
         self.first = False
         return u
+
+
+Options = MpcOptions
+"""The baseline face (:mod:`msd_bench.core.baselines.catalogue`): its keyword options."""
+Stepwise = Mpc
+"""The baseline face: the stepwise form built from a design."""
+
+
+def rollout(plant: Kernel, d: MpcDesign, cond: Conditions,
+            noise: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The baseline face: :func:`rollout_under` with the design's law and observer."""
+    return rollout_under(plant, d.law, d.observer, cond, noise)

@@ -256,3 +256,15 @@ class Pid:
         u = float(act(self.gains, self.cs, base.measured(y), self.first))
         self.first = False
         return u
+
+
+Options = PidOptions
+"""The baseline face (:mod:`msd_bench.core.baselines.catalogue`): its keyword options."""
+Stepwise = Pid
+"""The baseline face: the stepwise form built from a design."""
+
+
+def rollout(plant: Kernel, d: PidDesign, cond: Conditions,
+            noise: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The baseline face: :func:`rollout_under` with the design's gains."""
+    return rollout_under(plant, d.gains, cond, noise)
