@@ -121,6 +121,9 @@ def test_every_registered_kind_gets_its_fit_figure(tmp_path):
     stored["greybox-rig"] = StepModel(kernels.KIND_GREYBOX_RIG,
                                       np.concatenate([PlantParams().as_array(), [0.2, 0.02, 1.0]]),
                                       "greybox-rig")
+    p = PlantParams()
+    rk4 = np.array([p.m, p.c, 0.0, 0.0, p.h, p.L, p.F, p.dt, p.k, p.g, 0.0, 0.01, 0.0, 1.0, 1.0])
+    stored["greybox-rk4"] = StepModel(kernels.KIND_RK4, rk4, "greybox-rk4", dt=p.dt, force_limit=p.F)
     assert set(stored) == set(MODEL_KINDS), "add a stored model of the new kind to this test"
     paths = write_figures(tmp_path, FigureData(1.0, 0.01, models=stored, records=_records()))
     assert sorted(p.name for p in paths) == sorted(f"fit_{n}.png" for n in MODEL_KINDS)

@@ -56,6 +56,10 @@ CONTRACT_MODELS: dict[str, Callable[[], StepModel]] = {
     "greybox-rig": lambda: StepModel(kernels.KIND_GREYBOX_RIG,
                                      np.concatenate([PLANT.as_array(), [0.2, 0.02, 2.0]]), "greybox-rig",
                                      dt=PLANT.dt, force_limit=PLANT.F),
+    "greybox-rk4": lambda: StepModel(kernels.KIND_RK4,  # the plant's springs, ramped input, an offset
+                                     np.array([PLANT.m, PLANT.c, 0.0, 0.0, PLANT.h, PLANT.L, PLANT.F,
+                                               PLANT.dt, PLANT.k, PLANT.g, 0.1, 0.01, 0.05, 2.0, 1.0]),
+                                     "greybox-rk4", dt=PLANT.dt, force_limit=PLANT.F),
 }
 """Every model kind under contract: the true plant and one stored artifact per surrogate kind."""
 
@@ -176,7 +180,7 @@ def test_force_within_the_limit_is_not_saturated(model: StepModel) -> None:
 def test_limit_is_the_model_s_own(model: StepModel) -> None:
     if model.kind == kernels.KIND_PLANT:
         wider = plant_model(replace(PLANT, F=2 * F))
-    elif model.kind == kernels.KIND_GREYBOX_RIG:  # its F is a parameter, as the plant's
+    elif model.kind in (kernels.KIND_GREYBOX_RIG, kernels.KIND_RK4):  # its F is a parameter, as the plant's
         params = model.params.copy()
         params[6] = 2 * F
         wider = replace(model, params=params, force_limit=2 * F)

@@ -91,6 +91,8 @@ def _rest_state(model: StepModel, x: float, u: float) -> FloatArray:
         s[kernels.ARX_INPUT] = u
     elif model.kind == KIND_GREYBOX_RIG:  # the lag's output and every queued command are u
         s[kernels.RIG_LAG:slots(model)] = u
+    elif model.kind == kernels.KIND_RK4:  # the ramp's start: the command that held it there
+        s[kernels.ARX_INPUT] = u
     return s
 
 
@@ -148,7 +150,8 @@ def operating_point(model: StepModel, target: float) -> OperatingPoint:
         a[:, i] = (_next(model, up, u_eq, 0.0) - _next(model, down, u_eq, 0.0))[:n] / (2 * _FD_STEP)
     # A load is never clipped; it enters like an unsaturated force except behind an actuator.
     load = (_next(model, s_eq, u_eq, _FD_STEP) - _next(model, s_eq, u_eq, -_FD_STEP))[:n] / (2 * _FD_STEP)
-    b = load if model.kind != KIND_GREYBOX_RIG else _command_column(model, s_eq, u_eq, n)
+    behind = model.kind in (KIND_GREYBOX_RIG, kernels.KIND_RK4)  # a delay line, a lag or a ramp
+    b = _command_column(model, s_eq, u_eq, n) if behind else load
     velocity = np.zeros(n)
     if kernels.holds_velocity(model.kind):
         velocity[MOTION] = 1.0
@@ -158,7 +161,8 @@ def operating_point(model: StepModel, target: float) -> OperatingPoint:
 
 
 def _command_column(model: StepModel, s_eq: FloatArray, u_eq: float, n: int) -> FloatArray:
-    """Response of the used slots to the command (into the delay line or the lag), central differences.
+    """Response of the used slots to the command (into the delay line, the lag or rk4's ramp),
+    central differences.
 
     A one-sided difference at a saturated equilibrium force: the command cannot go beyond ±F.
     """

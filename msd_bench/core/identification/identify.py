@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from msd_bench.core.errors import ConfigError, IdentificationError, InvalidInputError
-from msd_bench.core.identification import greybox
+from msd_bench.core.identification import greybox, greybox_rk4
 from msd_bench.core.identification.data import Experiment, IOData
 from msd_bench.core.identification.excitation import MultilevelConfig, PrbsConfig, multilevel, prbs
 from msd_bench.core.identification.fit import fit_percent
@@ -318,16 +318,18 @@ def identify_greybox(train: IOData, cfg: GreyboxConfig | None = None) -> StepMod
     return StepModel(kernels.KIND_PLANT, p.as_array(), name="greybox", info=info, dt=p.dt, force_limit=p.F)
 
 
-def free_run(model: StepModel, exp: Experiment, initial: InitialState = "estimate") -> FloatArray:
+def free_run(model: StepModel, exp: Experiment, initial: InitialState = "estimate",
+             horizon: int = INIT_HORIZON) -> FloatArray:
     """Free-run simulation of ``exp.u``, one output per sample (``yhat[0]`` is the initial position).
 
     ``initial="estimate"`` (the default, MATLAB ``compare``'s choice) starts from
     :func:`estimate_initial_state`; ``"measured"`` from the first two raw
     samples: ``(y[1], y[0], u[0])`` for an ARX-type model, ``(y[1], (y[1] - y[0]) / dt)``
-    for a plant-structure model, with ``yhat[:2] = y[:2]``.
+    for a plant-structure model, with ``yhat[:2] = y[:2]``. ``horizon``: the samples the
+    estimate may use (a benchmark protocol states its own, the Silverbox's is 50).
     """
     if initial == "estimate":
-        return _simulate_from(model, exp, estimate_initial_state(model, exp))
+        return _simulate_from(model, exp, estimate_initial_state(model, exp, horizon))
     if initial == "measured":
         return _simulate_from(model, exp, _measured_start(model, exp))
     raise ConfigError(f"initial state must be 'estimate' or 'measured', got {initial!r}")
@@ -366,6 +368,8 @@ def _measured_start(model: StepModel, exp: Experiment) -> FloatArray:
         s[:2] = exp.y[1], (exp.y[1] - exp.y[0]) / float(model.params[7])
         if model.kind == kernels.KIND_GREYBOX_RIG:  # its actuator, idle before the record, took u[0]
             kernels.rig_actuator(model.params, s, kernels.saturate(float(exp.u[0]), model.force_limit))
+        if model.kind == kernels.KIND_RK4:  # the command that acted last (the ramp's next start)
+            s[kernels.ARX_INPUT] = kernels.saturate(float(_fed(model, exp.u)[0]), model.force_limit)
     else:
         s[:3] = exp.y[1], exp.y[0], exp.u[0]
     return s
@@ -380,7 +384,15 @@ def _simulate_from(model: StepModel, exp: Experiment, state: FloatArray) -> Floa
     """
     s = np.array(state, dtype=float)
     y0 = s[0] - float(model.params[7]) * s[1] if model.kind in PLANT_LIKE else s[1]
-    return np.concatenate([[y0], kernels.rollout(model.kernel, exp.u[1:], s)])
+    return np.concatenate([[y0], kernels.rollout(model.kernel, _fed(model, exp.u)[1:], s)])
+
+
+def _fed(model: StepModel, u: FloatArray) -> FloatArray:
+    """The record's commands as the model's kernel takes them: advanced by an rk4 model's input lead
+    (its ``ramp`` structure, :func:`greybox_rk4.fed_input`), unchanged for every other kind."""
+    if model.kind != kernels.KIND_RK4:
+        return u
+    return greybox_rk4.fed_input(u, int(model.info.get("input_lead", 0)))
 
 
 def one_step(model: StepModel, exp: Experiment) -> FloatArray:
@@ -389,11 +401,17 @@ def one_step(model: StepModel, exp: Experiment) -> FloatArray:
         return greybox.one_step(model.params, exp.y, exp.u)
     if model.kind == kernels.KIND_GREYBOX_RIG:
         return kernels.rig_one_step(model.kernel, exp.y, exp.u)
+    if model.kind == kernels.KIND_RK4:
+        return greybox_rk4.one_step(model, exp)
     return model.predict_one_step(exp.y, exp.u)
 
 
-def evaluate(model: StepModel, validation: IOData, initial: InitialState = "estimate") -> FitReport:
+def evaluate(model: StepModel, validation: IOData, initial: InitialState = "estimate",
+             horizon: int = INIT_HORIZON, skip: int = 0) -> FitReport:
     """Simulation and one-step Best-Fit on ``validation`` (concatenated over its experiments).
+
+    ``horizon``: the initial-state window (samples); ``skip``: the first samples of each
+    experiment left out of every score (a protocol that initialises on its window scores after it).
 
     ``sim_fit`` uses ``initial`` (default: estimated initial states, see the
     module docstring); ``sim_fit_raw_start`` always the first two raw samples;
@@ -401,20 +419,23 @@ def evaluate(model: StepModel, validation: IOData, initial: InitialState = "esti
     noise-free truth when every experiment carries it.
     """
     exps = validation.experiments
-    y = np.concatenate([e.y for e in exps])
-    sim = np.concatenate([free_run(model, e, initial) for e in exps])
-    raw = sim if initial == "measured" else np.concatenate([free_run(model, e, "measured") for e in exps])
-    one = np.concatenate([one_step(model, e) for e in exps])
+    if not (isinstance(skip, int) and 0 <= skip < min(len(e) for e in exps)):
+        raise ConfigError(f"skip must be an integer in [0, shortest experiment), got {skip!r}")
+    y = np.concatenate([e.y[skip:] for e in exps])
+    sim = np.concatenate([free_run(model, e, initial, horizon)[skip:] for e in exps])
+    raw = sim if initial == "measured" else np.concatenate([free_run(model, e, "measured")[skip:]
+                                                            for e in exps])
+    one = np.concatenate([one_step(model, e)[skip:] for e in exps])
     truth = None
     if validation.has_truth:
-        truth = fit_percent(np.concatenate([e.y_true for e in exps]), sim)
+        truth = fit_percent(np.concatenate([e.y_true[skip:] for e in exps]), sim)
     seconds = model.info.get("fit_seconds", float("nan"))
     return FitReport(
         model=model.name,
         sim_fit=fit_percent(y, sim),
         one_step_fit=fit_percent(y, one),
         n_identification=int(model.info.get("n_samples", 0)),
-        n_validation=validation.n_samples,
+        n_validation=y.size,
         fit_seconds=float(seconds),
         sim_fit_raw_start=fit_percent(y, raw),
         sim_fit_truth=truth,

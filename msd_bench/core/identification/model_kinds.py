@@ -131,6 +131,13 @@ def _fit_greybox_rig(req: FitRequest) -> StepModel:
     return greybox_rig.identify_greybox_rig(req.records.broad_train, cfg)
 
 
+def _fit_greybox_rk4(req: FitRequest) -> StepModel:
+    from msd_bench.core.identification import greybox_rk4
+
+    cfg = greybox_rk4.Rk4Config(stroke=req.stroke, force=req.force)
+    return greybox_rk4.identify_greybox_rk4(req.records.broad_train, cfg)
+
+
 MODEL_KINDS: dict[str, ModelKind] = {
     k.name: k
     for k in (
@@ -142,6 +149,7 @@ MODEL_KINDS: dict[str, ModelKind] = {
                   _nlarx_fitter("improved")),
         ModelKind("greybox", "Grey-box", "plant", "broad", "broad", _fit_greybox),
         ModelKind("greybox-rig", "Grey-box rig", "greybox-rig", "broad", "broad", _fit_greybox_rig),
+        ModelKind("greybox-rk4", "Grey-box RK4", "rk4", "broad", "broad", _fit_greybox_rk4),
     )
 }
 """Every surrogate kind, in report order."""

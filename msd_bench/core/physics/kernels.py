@@ -57,6 +57,14 @@ Parameter layouts (``Kernel.params``):
   constant (s, 0 = none) and the input delay (whole samples, at most
   :data:`RIG_DELAY_MAX`): the rig emulator's actuator and friction
   (:mod:`msd_bench.core.rigs.rig`) as a model, driven by the *commanded* force
+* rk4 (:mod:`msd_bench.core.identification.greybox_rk4`): ``[m, c, k1, k2, k3, L, F, dt, ks, gs,
+  fc, vc, f0, substeps, interp]`` — ``m x'' = f - c x' - k1 x - k2 x² - k3 x³ - ks sin(gs x)
+  - fc tanh(x'/vc) + f0``, integrated by classical Runge-Kutta (RK4) with ``substeps`` equal
+  substeps per sample; the force ``f`` is the saturated command held over the sample
+  (``interp = 0``, a ZOH actuator) or ramped linearly from the previous sample's command to this
+  one (``interp = 1``, a band-limited generator seen causally). Its state is ``[x, v, u_{k-1}, 0]``.
+  L, F and dt sit where the plant's do, so code that reads a plant-like model's stroke and
+  sample time reads them alike.
 * NLARX: ``[L, S, x_scale, u_scale, c0, w1, w2, w3, w4, S x (alpha, b1..b4, b0)]``
   with ``phi = [x_k/xs, x_{k-1}/xs, u_k/us, u_{k-1}/us]`` and
   ``x_{k+1} = xs (c0 + w.phi + sum_j alpha_j sigmoid(b_j.phi + b0_j))``.
@@ -87,9 +95,10 @@ KIND_LINEAR = 1
 KIND_PLM = 2
 KIND_NLARX = 3
 KIND_GREYBOX_RIG = 4
+KIND_RK4 = 5
 
 KIND_NAMES = {KIND_PLANT: "plant", KIND_LINEAR: "linear", KIND_PLM: "plm", KIND_NLARX: "nlarx",
-              KIND_GREYBOX_RIG: "greybox-rig"}
+              KIND_GREYBOX_RIG: "greybox-rig", KIND_RK4: "rk4"}
 
 PLM_CENTRES = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
 """Nominal centres of f1..f5 (f1 is 1 below -2, f5 is 1 above 1.5)."""
@@ -102,6 +111,10 @@ PLM_SCHEDULED_SIZE = PLM_SIZE + 5
 NLARX_HEAD = 9
 NLARX_UNIT = 6
 RIG_SIZE = PLANT_SIZE + 3
+RK4_SIZE = 15
+"""Parameters of an rk4 model (module docstring)."""
+RK4_SUBSTEPS_MAX = 64
+"""Most RK4 substeps per sample an rk4 model may state."""
 RIG_DELAY_MAX = 5
 """Longest input delay (samples) a greybox-rig model may state: the delay line's slots."""
 RIG_STATE_SIZE = 3 + RIG_DELAY_MAX
@@ -163,8 +176,8 @@ def state_size(kind: int) -> int:
 
 @numba.njit(cache=True)
 def holds_velocity(kind: int) -> bool:
-    """Slot :data:`MOTION` is the velocity (plant, greybox-rig), not the previous position (ARX)."""
-    return kind in (KIND_PLANT, KIND_GREYBOX_RIG)
+    """Slot :data:`MOTION` is the velocity (plant, greybox-rig, rk4), not the previous position (ARX)."""
+    return kind in (KIND_PLANT, KIND_GREYBOX_RIG, KIND_RK4)
 
 
 @numba.njit(cache=True)
@@ -175,7 +188,7 @@ def used_slots(model: Kernel) -> int:
         return 2
     if model.kind == KIND_GREYBOX_RIG:
         return RIG_LAG + 1 + int(model.params[RIG_SIZE - 1])
-    return ARX_INPUT + 1
+    return ARX_INPUT + 1  # ARX-type [x_k, x_{k-1}, u_{k-1}] and rk4 [x, v, u_{k-1}]
 
 
 @numba.njit(cache=True)
@@ -401,6 +414,8 @@ def advance(model: Kernel, s: FloatArray, u: float) -> float:
         return x
     if model.kind == KIND_GREYBOX_RIG:
         return _rig_step(model.params, s, u, 0.0)
+    if model.kind == KIND_RK4:
+        return rk4_advance(model.params, s, u, 0.0)
     return _arx_step(model, s, u)
 
 
@@ -421,6 +436,8 @@ def advance_loaded(model: Kernel, s: FloatArray, u: float, load: float) -> float
         return x
     if model.kind == KIND_GREYBOX_RIG:
         return _rig_step(model.params, s, saturate(u, model.force_limit), load)
+    if model.kind == KIND_RK4:
+        return rk4_advance(model.params, s, saturate(u, model.force_limit), load)
     return _arx_step(model, s, saturate(u, model.force_limit) + load)
 
 
@@ -472,6 +489,78 @@ def _rig_step(p: FloatArray, s: FloatArray, u: float, load: float) -> float:
     s[0] = x
     s[1] = v
     return x
+
+
+@numba.njit(cache=True)
+def rk4_accel(p: FloatArray, x: float, v: float, f: float) -> float:
+    """The rk4 model's acceleration at (x, v) under the acting force ``f`` (layout: module docstring)."""
+    restoring = p[2] * x + p[3] * x * x + p[4] * x * x * x + p[8] * math.sin(p[9] * x)
+    friction = p[1] * v + p[10] * math.tanh(v / p[11])
+    a: float = (f + p[12] - restoring - friction) / p[0]
+    return a
+
+
+@numba.njit(cache=True)
+def rk4_motion(p: FloatArray, x: float, v: float, f0: float, f1: float) -> tuple[float, float]:
+    """(x, v) one sample on, by ``p[13]`` RK4 substeps under a force ramping from ``f0`` to ``f1``.
+
+    No stroke and no check here: :func:`rk4_advance` projects and refuses a
+    non-finite position, the fitter's simulation stops at one (a rejected step).
+    """
+    n = int(p[13])
+    h = p[7] / n
+    for i in range(n):
+        fa = f0 + (f1 - f0) * (i / n)
+        fm = f0 + (f1 - f0) * ((i + 0.5) / n)
+        fb = f0 + (f1 - f0) * ((i + 1.0) / n)
+        a1 = rk4_accel(p, x, v, fa)
+        x2, v2 = x + 0.5 * h * v, v + 0.5 * h * a1
+        a2 = rk4_accel(p, x2, v2, fm)
+        x3, v3 = x + 0.5 * h * v2, v + 0.5 * h * a2
+        a3 = rk4_accel(p, x3, v3, fm)
+        x4, v4 = x + h * v3, v + h * a3
+        a4 = rk4_accel(p, x4, v4, fb)
+        x = x + h * (v + 2.0 * v2 + 2.0 * v3 + v4) / 6.0
+        v = v + h * (a1 + 2.0 * a2 + 2.0 * a3 + a4) / 6.0
+    return x, v
+
+
+@numba.njit(cache=True)
+def rk4_advance(p: FloatArray, s: FloatArray, u: float, load: float) -> float:
+    """One rk4-model sample under the saturated command ``u`` (and an external ``load``, held).
+
+    The command ramps from the previous one (slot :data:`ARX_INPUT`) when ``p[14] = 1``;
+    a position past the stroke is projected on it and the velocity zeroed, like the plant's stops.
+    """
+    start = s[ARX_INPUT] if p[14] > 0.5 else u
+    x, v = rk4_motion(p, s[0], s[1], start + load, u + load)
+    x_new = on_stroke(x, 0.5 * p[5])
+    if x_new != x:
+        v = 0.0
+    s[0] = x_new
+    s[1] = v
+    s[ARX_INPUT] = u
+    return x_new
+
+
+@numba.njit(cache=True)
+def rk4_simulate(p: FloatArray, u: FloatArray, x0: float, v0: float, u_prev: float) -> FloatArray:
+    """Free run of an rk4 model without stroke (the fitter's): ``x[k]`` before ``u[k]`` acts.
+
+    ``u`` is taken as the acting force (the caller saturates it). A non-finite
+    state fills the rest with NaN: the fitter rejects that step.
+    """
+    n = u.shape[0]
+    out = np.full(n, np.nan)
+    x, v, last = x0, v0, u_prev
+    ramp = p[14] > 0.5
+    for k in range(n):
+        out[k] = x
+        x, v = rk4_motion(p, x, v, last if ramp else u[k], u[k])
+        last = u[k]
+        if not (math.isfinite(x) and math.isfinite(v)):
+            break
+    return out
 
 
 @numba.njit(cache=True)

@@ -29,6 +29,10 @@ RIG_DELAY_MAX = 5
 """Longest input delay (samples) of a greybox-rig model (``kernels.RIG_DELAY_MAX``, restated here
 so listing kinds does not load numba; a test pins the two equal)."""
 
+RK4_SUBSTEPS_MAX = 64
+"""Most RK4 substeps per sample of an rk4 model (``kernels.RK4_SUBSTEPS_MAX``, restated like
+:data:`RIG_DELAY_MAX`)."""
+
 NLARX_MAX_UNITS = 1024
 """Most sigmoid units an NLARX model may state (the fitter's default is 10): bounds the length
 of the parameter vector the kernel walks."""
@@ -142,13 +146,21 @@ KERNEL_LAYOUTS: dict[str, KernelLayout] = {
                                      _pos("L", STROKE_MAX), _pos("F"), _pos("dt", 1e3),
                                      Slot("friction", 0.0, COEF_MAX), Slot("tau", 0.0, 1e3),
                                      Slot("delay", 0, RIG_DELAY_MAX, integer=True))),
+        KernelLayout("rk4", (_pos("m"), *_coefs("c", "k1", "k2", "k3"), _pos("L", STROKE_MAX), _pos("F"),
+                             _pos("dt", 1e3), Slot("ks"), Slot("gs", 0.0, COEF_MAX),
+                             Slot("fc", 0.0, COEF_MAX), _pos("vc"), Slot("f0"),
+                             Slot("substeps", 1, RK4_SUBSTEPS_MAX, integer=True),
+                             Slot("interp", 0, 1, integer=True))),
     )
 }
 """Every compiled kernel's parameter layout, count rule and bounds (plant: all physical
 parameters positive, as :class:`msd_bench.core.physics.plant.PlantParams` requires; greybox-rig: the
 plant's, then friction and lag >= 0 and a whole delay in [0, RIG_DELAY_MAX]; ARX kinds: a
 positive stroke and coefficients within ±:data:`COEF_MAX`; PLM: five local models, optionally
-five strictly increasing centres; NLARX: 1 to :data:`NLARX_MAX_UNITS` units, the count in slot S)."""
+five strictly increasing centres; rk4: a positive mass, stroke, F, dt and Coulomb smoothing
+speed, a non-negative sine frequency and Coulomb friction, signed damping, springs and offset,
+1 to :data:`RK4_SUBSTEPS_MAX` substeps and a 0/1 input interpolation flag; NLARX: 1 to
+:data:`NLARX_MAX_UNITS` units, the count in slot S)."""
 
 KERNELS = tuple(KERNEL_LAYOUTS)
 """Compiled kernel kinds by name (:data:`msd_bench.core.physics.kernels.KIND_NAMES`)."""

@@ -137,8 +137,9 @@ class StepModel:
         return self.linear_fit().to_continuous()
 
 
-PLANT_LIKE = (kernels.KIND_PLANT, kernels.KIND_GREYBOX_RIG)
-"""Kernel kinds whose parameters start with the plant's ``[m, c, k, g, h, L, F, dt]``."""
+PLANT_LIKE = (kernels.KIND_PLANT, kernels.KIND_GREYBOX_RIG, kernels.KIND_RK4)
+"""Kernel kinds whose parameters hold a plant's ``L, F, dt`` in slots 5-7 and whose state is
+``[x, v, ...]`` (the plant's own ``[m, c, k, g, h, L, F, dt]``; rk4's springs sit in 2-4)."""
 
 
 def plant_model(params: PlantParams) -> StepModel:
