@@ -58,6 +58,7 @@ RIG_DOMAIN = 231
 BENCHMARKS: dict[str, list[list[str]]] = {
     "performance": [["benchmarks/bench_training.py"], ["benchmarks/bench_lockstep.py"],
                     ["benchmarks/bench_plant_rate.py"], ["benchmarks/bench_bench.py"]],
+    "silverbox": [["scripts/silverbox.py"]],
 }
 """Named benchmark suites: each script prints one JSON object, stored under its file's stem."""
 

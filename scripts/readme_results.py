@@ -800,6 +800,42 @@ def view_identification_speed(doc: dict[str, Any], name: str) -> str:
     return "\n".join(rows) + "\n"
 
 
+SILVERBOX_SETS = (("multisine", "multisine"), ("arrow_full", "arrow, full"),
+                  ("arrow_no_extrapolation", "arrow w/o extrapolation"))
+
+
+def _mv_cell(v: float | None) -> str:
+    return "diverged" if v is None else f"{v:.2f}"
+
+
+def view_silverbox(doc: dict[str, Any], name: str) -> str:
+    """``scripts/silverbox.py``: each kind's free-run RMSE (mV) on the three test sets, its held-out
+    validation RMSE and fit time, then the published results on the same protocol."""
+    sb = doc["benchmarks"]["silverbox"]
+    heads = " | ".join(label for _, label in SILVERBOX_SETS)
+    lines = [f"| model | {heads} | validation | fit time (s) |", "|---|---|---|---|---|---|"]
+    for row in sb["kinds"]:
+        if row["status"] != "ok":
+            lines.append(f"| {row['label']} (`{row['kind']}`) | {row['status']} | | | | |")
+            continue
+        cells = " | ".join(_mv_cell(row["rmse_mv"][key]) for key, _ in SILVERBOX_SETS)
+        val = _mv_cell(row["validation_rmse_mv"])
+        lines.append(f"| {row['label']} (`{row['kind']}`) | {cells} | {val} | {row['fit_seconds']:.1f} |")
+    for pub in sb["published"]:
+        cells = " | ".join(f"{pub['rmse_mv'][key]:g}" for key, _ in SILVERBOX_SETS)
+        lines.append(f"| published: {pub['method']} ({pub['source']}) | {cells} | | |")
+    pro = sb["protocol"]
+    note = (f"RMSE in mV, free-run simulation; the first {pro['window']} samples of each set only set the "
+            f"initial state. Fitted on {pro['estimation_samples']:,} samples of the training range "
+            f"[{pro['train'][0]}, {pro['train'][1]}), its last {pro['validation_samples']:,} held out "
+            "(validation column); "
+            "no test set chose anything.")
+    m = doc.get("machine", {})
+    src = (f"_Generated from `docs/results/{name}.json`: `{'; '.join(doc['commands'])}` at commit "
+           f"`{str(doc.get('commit', '?'))[:10]}` on {m.get('cpu', '?')} ({m.get('cores', '?')} cores)._")
+    return "\n".join([*lines, "", note, "", src]) + "\n"
+
+
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency,
     "peers": view_peers, "fits": view_fits, "stoploop": view_stoploop, "performance": view_performance,
@@ -811,7 +847,7 @@ VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "deeprl": view_deeprl, "deeprl_efficiency": view_deeprl_efficiency, "rig_realtime": view_rig_realtime,
     "greybox_rig_floors": view_greybox_rig_floors,
     "rigs_kinds": view_rigs_kinds, "rigs_floors": view_rigs_floors,
-    "identification_speed": view_identification_speed}
+    "identification_speed": view_identification_speed, "silverbox": view_silverbox}
 
 
 def render(readme: str, results_dir: Path) -> str:
