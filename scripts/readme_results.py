@@ -808,28 +808,39 @@ def _mv_cell(v: float | None) -> str:
     return "diverged" if v is None else f"{v:.2f}"
 
 
+def _resid_cell(r: dict[str, Any] | None) -> str:
+    if r is None:
+        return "—"
+    white = "pass" if r["whiteness_pass"] else f"fail ({r['auto_outside']}/{r['lags']})"
+    indep = "pass" if r["independence_pass"] else f"fail ({r['cross_outside']}/{2 * r['lags'] + 1})"
+    return f"{white} / {indep}"
+
+
 def view_silverbox(doc: dict[str, Any], name: str) -> str:
     """``scripts/silverbox.py``: each kind's free-run RMSE (mV) on the three test sets, its held-out
     validation RMSE and fit time, then the published results on the same protocol."""
     sb = doc["benchmarks"]["silverbox"]
     heads = " | ".join(label for _, label in SILVERBOX_SETS)
-    lines = [f"| model | {heads} | validation | fit time (s) |", "|---|---|---|---|---|---|"]
+    lines = [f"| model | {heads} | validation | fit time (s) | resid: white / independent of input |",
+             "|---|---|---|---|---|---|---|"]
     for row in sb["kinds"]:
         if row["status"] != "ok":
-            lines.append(f"| {row['label']} (`{row['kind']}`) | {row['status']} | | | | |")
+            lines.append(f"| {row['label']} (`{row['kind']}`) | {row['status']} | | | | | |")
             continue
         cells = " | ".join(_mv_cell(row["rmse_mv"][key]) for key, _ in SILVERBOX_SETS)
         val = _mv_cell(row["validation_rmse_mv"])
-        lines.append(f"| {row['label']} (`{row['kind']}`) | {cells} | {val} | {row['fit_seconds']:.1f} |")
+        lines.append(f"| {row['label']} (`{row['kind']}`) | {cells} | {val} | {row['fit_seconds']:.1f} | "
+                     f"{_resid_cell(row.get('resid_multisine'))} |")
     for pub in sb["published"]:
         cells = " | ".join(f"{pub['rmse_mv'][key]:g}" for key, _ in SILVERBOX_SETS)
-        lines.append(f"| published: {pub['method']} ({pub['source']}) | {cells} | | |")
+        lines.append(f"| published: {pub['method']} ({pub['source']}) | {cells} | | | |")
     pro = sb["protocol"]
     note = (f"RMSE in mV, free-run simulation; the first {pro['window']} samples of each set only set the "
             f"initial state. Fitted on {pro['estimation_samples']:,} samples of the training range "
             f"[{pro['train'][0]}, {pro['train'][1]}), its last {pro['validation_samples']:,} held out "
             "(validation column); "
-            "no test set chose anything.")
+            "no test set chose anything. resid: `msd-bench resid` on the multisine test set (a grey-box's "
+            "simulation residuals, an ARX-type model's one-step ones; lags outside the 99 % band).")
     m = doc.get("machine", {})
     src = (f"_Generated from `docs/results/{name}.json`: `{'; '.join(doc['commands'])}` at commit "
            f"`{str(doc.get('commit', '?'))[:10]}` on {m.get('cpu', '?')} ({m.get('cores', '?')} cores)._")

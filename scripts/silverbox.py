@@ -29,13 +29,15 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from msd_bench.core.errors import MsdBenchError  # noqa: E402
-from msd_bench.core.identification import protocol  # noqa: E402
+from msd_bench.core.identification import diagnostics, protocol  # noqa: E402
 from msd_bench.core.identification.data import Experiment, IOData  # noqa: E402
 from msd_bench.core.identification.model_kinds import MODEL_KINDS, FitRequest, fit_model  # noqa: E402
 from msd_bench.core.identification.records import Records  # noqa: E402
 
 DATA = REPO / "data" / "silverbox.npz"
 KINDS = ("glm", "nlarx-paper", "nlarx-improved", "greybox", "greybox-rig", "greybox-rk4", "plm")
+RESID_LAGS = 25
+"""Lags of the residual tests (``msd-bench resid``'s default) on the multisine test set."""
 NOT_APPLICABLE = {"plm": "not applicable: needs five bias records (one per operating force)"}
 PUBLISHED = [
     {"method": "deep state-space encoder (SUBNET), nx = 4",
@@ -81,6 +83,12 @@ def run_kind(kind: str, est: IOData, val: IOData, u: np.ndarray, y: np.ndarray,
         "rmse_mv": {name: _mv(v) for name, v in scores.items()},
         "validation_rmse_mv": _mv(protocol.rmse_after_window(model, val.experiments[0], proto.window)),
     }
+    a, b = proto.tests["multisine"]
+    res = diagnostics.resid(model, Experiment(u[a:b], y[a:b], "multisine"), RESID_LAGS, proto.window)
+    row["resid_multisine"] = {"residuals": res.source, "lags": res.lags, "whiteness_pass": res.whiteness_pass,
+                              "independence_pass": res.independence_pass,
+                              "auto_outside": int(np.sum(np.abs(res.auto) > res.band)),
+                              "cross_outside": int(np.sum(np.abs(res.cross) > res.band))}
     if kind == "greybox-rk4":
         row["model"] = {k: model.info[k] for k in ("structure", "input_lead", "integrator", "parameters",
                                                    "stderr", "fixed")}
