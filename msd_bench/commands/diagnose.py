@@ -140,14 +140,20 @@ def _compare(args: argparse.Namespace) -> int:
     if args.png is not None:
         _compare_figure(args.png, exp, results, bands, args.window)
     if args.json:
+        for row, model in zip(rows, models, strict=True):
+            if "stderr" in model.info:
+                row["parameters"] = model.info.get("parameters")
+                row["stderr"] = model.info["stderr"]
         print(json.dumps({"record": str(args.record), "samples": len(exp), "window": args.window,
                           "models": rows}, indent=1))
     else:
-        for row in rows:
+        for row, model in zip(rows, models, strict=True):
             pred = "" if row["prediction_fit_percent"] is None else \
                 f"; {args.k}-step prediction fit {row['prediction_fit_percent']:.2f} %"
             print(f"{row['model']}: fit {row['fit_percent']:.2f} %, RMSE {row['rmse']:.6g} "
                   f"(record units){pred}")
+            for line in diagnostics.parameter_lines(model):
+                print(line)
     return 0
 
 

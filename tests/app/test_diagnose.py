@@ -80,7 +80,8 @@ def test_commands_on_model_files(tmp_path: Path, fitted: StepModel,
     model, npz = _files(tmp_path, fitted)
     args = ["--record", str(npz), "--u", "force", "--y", "pos", "--window", "50"]
     assert main(["compare", str(model), *args, "--png", str(tmp_path / "c.png"), "--band"]) == 0
-    assert "greybox-rk4: fit 9" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "greybox-rk4: fit 9" in out and "  k3 = 4" in out and "assume white residuals" in out
     assert (tmp_path / "c.png").stat().st_size > 1000
     assert main(["resid", str(model), *args, "--png", str(tmp_path / "r.png")]) == 0
     out = capsys.readouterr().out.splitlines()

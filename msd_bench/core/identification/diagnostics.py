@@ -160,6 +160,22 @@ def resid(model: StepModel, exp: Experiment, lags: int = 25,
                      bool(np.all(np.abs(cross) <= band)))
 
 
+def parameter_lines(model: StepModel) -> list[str]:
+    """Each estimated parameter with its standard error and 95 % interval (``±1.96`` standard
+    errors), for a model that stores them (the rk4 grey-box); none otherwise."""
+    stderr = model.info.get("stderr", {})
+    values = model.info.get("parameters", {})
+    if not isinstance(stderr, dict) or not isinstance(values, dict):
+        return []
+    out = []
+    for name, se in stderr.items():
+        v = float(values[name])
+        out.append(f"  {name} = {v:.6g} ± {float(se):.2g} (95 %: [{v - 1.96 * se:.6g}, {v + 1.96 * se:.6g}])")
+    if out:
+        out.append("  (standard errors from s² (JᵀJ)⁻¹ at the optimum: they assume white residuals)")
+    return out
+
+
 def sim_band(model: StepModel, exp: Experiment, draws: int = 50, seed: int = 0,
              window: int = identify.INIT_HORIZON) -> tuple[FloatArray, FloatArray]:
     """The 2.5 % and 97.5 % points of the free run over ``draws`` parameter sets from the model's
