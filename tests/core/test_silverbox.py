@@ -65,3 +65,19 @@ def test_the_full_protocol_reproduces_the_stored_rk4_row() -> None:
     for name, value in fresh.items():
         assert value == pytest.approx(row["rmse_mv"][name], abs=0.01), name
     assert fresh["multisine"] <= 1.2 and fresh["arrow_full"] <= 1.5 and fresh["arrow_no_extrapolation"] <= 1.0
+
+
+def test_the_state_window_is_a_parameter_and_scores_can_skip_it() -> None:
+    from msd_bench.core.errors import ConfigError
+    from msd_bench.core.identification import identify
+    from msd_bench.io.storage.artifacts import load_model
+
+    glm = load_model(REPO / "tests" / "data" / "pinned" / "glm.json")
+    t = np.arange(1000)
+    val = IOData((Experiment(np.sin(t * 0.05) * 3, np.sin(t * 0.05 - 0.5) + 0.01 * np.cos(t * 0.7)),))
+    default = identify.evaluate(glm, val)
+    assert default == identify.evaluate(glm, val, horizon=identify.INIT_HORIZON, skip=0)
+    short = identify.evaluate(glm, val, horizon=50, skip=50)
+    assert short.n_validation == 950 and short.sim_fit != default.sim_fit
+    with pytest.raises(ConfigError, match="skip must be an integer"):
+        identify.evaluate(glm, val, skip=1000)
