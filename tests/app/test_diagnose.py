@@ -84,8 +84,8 @@ def test_commands_on_model_files(tmp_path: Path, fitted: StepModel,
     assert "greybox-rk4: fit 9" in out and "  k3 = 4" in out and "assume white residuals" in out
     assert (tmp_path / "c.png").stat().st_size > 1000
     assert main(["resid", str(model), *args, "--png", str(tmp_path / "r.png")]) == 0
-    out = capsys.readouterr().out.splitlines()
-    assert len(out) == 2 and all(": pass (" in line for line in out)
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2 and all(": pass (" in line for line in lines)
     assert main(["compare", str(model), *args, "--json"]) == 0
     assert '"fit_percent"' in capsys.readouterr().out
 
@@ -114,3 +114,17 @@ def test_bad_input_is_one_line(tmp_path: Path, fitted: StepModel, capsys: pytest
 def test_a_missing_record_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["resid", str(PINNED / "glm.json"), "--record", str(tmp_path / "none.npz")]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_compare_reads_a_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from msd_bench.core.physics.plant import PlantParams, simulate
+    from msd_bench.io.bags.bag_writer import write_experiment
+
+    p = PlantParams()
+    u = np.sin(np.arange(800) * 0.05) * 4.0
+    x, v, ua = simulate(u, p)
+    bag = write_experiment(tmp_path / "bag", np.arange(800) * 10_000_000, ua, x, v, params={})
+    glm = str(PINNED / "glm.json")
+    assert main(["compare", glm, "--record", str(bag), "--k", "3", "--range", "0:600"]) == 0
+    out = capsys.readouterr().out
+    assert "glm: fit" in out and "3-step prediction fit" in out
