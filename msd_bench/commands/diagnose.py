@@ -8,9 +8,10 @@ prediction's fit where it has a predictor), draws measured against each model in
 independence of the input, 99 % bands) and draws both correlations into ``--png``.
 
 A record is a bag (``joint_states`` of ``--namespace``) or an array file: ``.npz`` (members
-``--u``/``--y``, default ``u``/``y``) or ``.csv`` (columns named ``--u``/``--y`` in a header
-line), sampled at the model's dt unless ``--dt`` says otherwise; ``--range A:B`` takes samples
-[A, B). Every mistake is one ``error:`` line (exit 2); no existing file is overwritten.
+``--u``/``--y``, default ``u``/``y``), ``.mat`` (variables ``--u``/``--y``) or ``.csv`` (columns
+named ``--u``/``--y`` in a header line), sampled at the model's dt unless ``--dt`` says
+otherwise; ``--range A:B`` takes samples [A, B). Every mistake is one ``error:`` line (exit 2);
+no existing file is overwritten.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ def register(sub: Any) -> None:
 
 
 def _record_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--record", type=Path, required=True, help="a bag, or an .npz / .csv array file")
+    p.add_argument("--record", type=Path, required=True, help="a bag, or an .npz / .mat / .csv array file")
     p.add_argument("--u", default="u", help="input member / column of an array file (default u)")
     p.add_argument("--y", default="y", help="output member / column of an array file (default y)")
     p.add_argument("--range", default="", help="samples A:B of the record (default all)")
@@ -69,10 +70,8 @@ def _load_models(paths: list[Path]) -> list[StepModel]:
 
 
 def _arrays(path: Path, u_key: str, y_key: str) -> tuple[np.ndarray, np.ndarray]:
-    if path.suffix == ".npz":
-        from msd_bench.io.storage.safe_npz import read_npz_bounded
-
-        members = read_npz_bounded(path, InvalidInputError)
+    if path.suffix in (".npz", ".mat"):
+        members = _members(path)
         missing = [k for k in (u_key, y_key) if k not in members]
         if missing:
             raise InvalidInputError(f"{path}: no member {missing[0]!r}; members: "
@@ -96,12 +95,27 @@ def _arrays(path: Path, u_key: str, y_key: str) -> tuple[np.ndarray, np.ndarray]
     return rows[:, header.index(u_key)], rows[:, header.index(y_key)]
 
 
+def _members(path: Path) -> dict[str, np.ndarray]:
+    """The arrays of an ``.npz`` (size-bounded reader) or a MATLAB ``.mat`` (scipy) file."""
+    if path.suffix == ".npz":
+        from msd_bench.io.storage.safe_npz import read_npz_bounded
+
+        return read_npz_bounded(path, InvalidInputError)
+    from scipy.io import loadmat
+
+    try:
+        doc = loadmat(path)
+    except (OSError, ValueError, TypeError, NotImplementedError) as exc:
+        raise InvalidInputError(f"{path}: unreadable .mat file ({type(exc).__name__})") from None
+    return {k: np.asarray(v) for k, v in doc.items() if not k.startswith("__")}
+
+
 def read_record(args: argparse.Namespace, model: StepModel) -> Experiment:
     """The record the arguments name, cut to ``--range``, at the model's sample time."""
     path = Path(args.record)
     if not path.exists():
         raise InvalidInputError(f"record {path} does not exist")
-    if path.suffix in (".npz", ".csv"):
+    if path.suffix in (".npz", ".mat", ".csv"):
         u, y = _arrays(path, args.u, args.y)
         dt = model.dt if args.dt is None else float(args.dt)
     else:

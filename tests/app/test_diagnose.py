@@ -88,6 +88,16 @@ def test_commands_on_model_files(tmp_path: Path, fitted: StepModel,
     assert len(lines) == 2 and all(": pass (" in line for line in lines)
     assert main(["compare", str(model), *args, "--json"]) == 0
     assert '"fit_percent"' in capsys.readouterr().out
+    from scipy.io import savemat
+
+    with np.load(npz) as d:
+        savemat(tmp_path / "rec.mat", {"V1": d["force"].reshape(-1, 1), "V2": d["pos"].reshape(-1, 1)})
+        rows = "".join(f"{float(y)!r},{float(u)!r}\n" for u, y in zip(d["force"], d["pos"], strict=True))
+        (tmp_path / "rec.csv").write_text("pos,force\n" + rows)
+    for rec, u, y in (("rec.mat", "V1", "V2"), ("rec.csv", "force", "pos")):
+        assert main(["compare", str(model), "--record", str(tmp_path / rec), "--u", u, "--y", y,
+                     "--window", "50", "--json"]) == 0
+        assert '"fit_percent": 9' in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(("extra", "match"), [
