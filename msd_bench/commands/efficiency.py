@@ -64,21 +64,33 @@ def _ints(text: str, option: str) -> tuple[int, ...]:
     return values
 
 
+def efficiency_config(args: argparse.Namespace) -> EfficiencyConfig:
+    """The validated sweep from parsed options (one-line ConfigError otherwise)."""
+    from msd_bench.app.efficiency import EfficiencyConfig
+
+    run_cfg = run_config_from_args(args)
+    return EfficiencyConfig(run_cfg, surrogate_agents=tuple(run_cfg.surrogate_agents()),
+                            plant_agents=tuple(run_cfg.plant_agents()),
+                            record_samples=_ints(args.record_samples, "--record-samples"),
+                            episodes=_ints(args.budgets, "--budgets"))
+
+
+def efficiency_tasks(cfg: EfficiencyConfig) -> list[str]:
+    """The tasks of an ``efficiency`` run directory in writing order: every point, then the report."""
+    return [*point_ids(cfg), "efficiency"]
+
+
 def run(args: argparse.Namespace) -> int:
     """Probe --out, sweep the points not written yet, write the JSON and the figure, print the crossings."""
-    from msd_bench.app.efficiency import EfficiencyConfig, crossings
+    from msd_bench.app.efficiency import crossings
     from msd_bench.io.storage.run_dir import RunDir, RunDirError
     from msd_bench.io.storage.safe_read import read_json_bounded
 
-    run_cfg = run_config_from_args(args)
-    cfg = EfficiencyConfig(run_cfg, surrogate_agents=tuple(run_cfg.surrogate_agents()),
-                           plant_agents=tuple(run_cfg.plant_agents()),
-                           record_samples=_ints(args.record_samples, "--record-samples"),
-                           episodes=_ints(args.budgets, "--budgets"))
+    cfg = efficiency_config(args)
     options = executor_from_args(args)
-    config = run_config_doc(run_cfg, record_samples=list(cfg.record_samples), episodes=list(cfg.episodes),
+    config = run_config_doc(cfg.run, record_samples=list(cfg.record_samples), episodes=list(cfg.episodes),
                             surrogate_agents=list(cfg.surrogate_agents), plant_agents=list(cfg.plant_agents))
-    rd = RunDir.open(Path(args.out), "efficiency", [*point_ids(cfg), "efficiency"], config)  # before work
+    rd = RunDir.open(Path(args.out), "efficiency", efficiency_tasks(cfg), config)  # before work
     if rd.pending():  # a run that died after its files but before the marker needs no new work
         _sweep(rd, cfg, options)
     rd.mark_complete()

@@ -79,6 +79,11 @@ def task_id(seed: int) -> str:
     return f"rig-{seed}"
 
 
+def rigs_tasks(cfg: RigsConfig) -> list[str]:
+    """The tasks of a ``rigs`` run directory in writing order: every rig, then the report."""
+    return [*map(task_id, cfg.rig_seeds()), "rigs"]
+
+
 def run(args: argparse.Namespace) -> int:
     """Probe --out, sweep the rigs not written yet, write rigs.json, rigs.md and the figure."""
     from msd_bench.commands.paper import run_config_doc
@@ -88,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     options = executor_from_args(args)
     config = run_config_doc(cfg.run, rigs=cfg.rig_seeds(), design=cfg.design, scenarios=list(cfg.scenarios),
                             resamples=cfg.resamples, robust_actuator=cfg.actuator)
-    rd = RunDir.open(Path(args.out), "rigs", [*map(task_id, cfg.rig_seeds()), "rigs"], config)  # before work
+    rd = RunDir.open(Path(args.out), "rigs", rigs_tasks(cfg), config)  # before work
     if rd.pending():
         _sweep(rd, cfg, options)
     rd.mark_complete()
