@@ -12,7 +12,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Empty, Float64, Float64MultiArray, String
 
 from msd_msgs_py.contract import JOINT_NAME, TopicSpec
-from msd_msgs_py.interface import MSD, PlantInterface
+from msd_msgs_py.interface import PlantInterface
 
 MESSAGE_CLASSES = {
     "std_msgs/msg/Float64": Float64,
@@ -73,10 +73,10 @@ def clock(stamp_ns: int) -> Clock:
 
 
 def command(iface: PlantInterface, u: float) -> Float64 | Float64MultiArray:
-    """The command that asks ``iface``'s plant for force ``u`` on our joint (others get 0.0)."""
-    if iface.kind == MSD:
-        return float64(u)
-    return Float64MultiArray(data=iface.command_values(u))
+    """The command that asks ``iface``'s plant for force ``u`` on our joint (others get 0.0): the face's
+    message type with the face's payload."""
+    msg: Float64 | Float64MultiArray = msg_class(iface.command)(data=iface.command_data(u))
+    return msg
 
 
 def command_force(iface: PlantInterface, msg: Float64 | Float64MultiArray) -> float | None:

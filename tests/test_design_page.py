@@ -111,9 +111,9 @@ def check_faces(text: str) -> list[str]:
     from msd_msgs_py import interface
 
     rows = table(text, ("face", "commands on", "command type", "`position`", "`reset`", "effort (default)"))
-    problems = compare("faces", [code(r[0]) for r in rows], list(interface.INTERFACE_KINDS))
+    problems = compare("faces", [code(r[0]) for r in rows], list(interface.FACES))
     for r in rows:
-        if code(r[0]) not in interface.INTERFACE_KINDS:
+        if code(r[0]) not in interface.FACES:
             continue
         face = interface.make(code(r[0]))
         actual = [face.command.name.replace(face.controller, "<controller>") if face.controller

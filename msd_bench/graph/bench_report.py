@@ -36,6 +36,7 @@ from msd_bench.io.reports.report import write_report, write_robustness
 from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.atomic import write_text_atomic
 from msd_bench.io.storage.run_output import FigureData, write_figures
+from msd_msgs_py.interface import PlantInterface
 
 from .bench import BenchConfig
 from .run_files import AgentDoc, read_fits, read_result
@@ -152,14 +153,11 @@ def on_node_robustness(cfg: BenchConfig, results: list[AgentResult]) -> dict[str
     return rob
 
 
-def _plant_ns_lines(facts: dict[str, Any]) -> str:
-    """What a reader of Table 1 must know about a run on a foreign node."""
+def _plant_ns_lines(facts: dict[str, Any], iface: PlantInterface) -> str:
+    """What a reader of Table 1 must know about a run on a foreign node (and its face, if not ours)."""
     lines = [f"Run against `{facts['plant_ns']}` (no emulator; real time; no reset: zero force until "
              f"still before every experiment and episode; docs/plant-ns.md)."]
-    face = facts.get("interface", {})
-    if face.get("interface", "msd") != "msd":
-        lines.append(f"Through the {face['interface']} face: commands on `{face['command_topic']}` for joint "
-                     f"`{face['joint']}`, effort {face['effort']} (docs/ros2-control.md).")
+    lines += [note for note in (iface.report_note(),) if note is not None]
     lines += [f"{facts[k][0].upper()}{facts[k][1:]}." for k in ("left_out", "dyna_budget") if facts[k]]
     scenarios = ", ".join(facts["node_scenarios"]) or "no scenario"
     lines.append(f"Robustness: measured on the node for {scenarios} "
@@ -179,7 +177,7 @@ def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any
         md = paths["table"]["md"]
         text = md.read_text().replace(f"on the true plant ({cfg.run.preset} preset)",
                                       f"on {cfg.plant_ns} (real time, measured position)", 1)
-        write_text_atomic(md, text.rstrip("\n") + "\n\n" + _plant_ns_lines(facts), root=root)
+        write_text_atomic(md, text.rstrip("\n") + "\n\n" + _plant_ns_lines(facts, cfg.interface), root=root)
         rob = on_node_robustness(cfg, results)
     if facts.get("supervisor"):  # on or off, and what it reported: one line under Table 1
         md = paths["table"]["md"]

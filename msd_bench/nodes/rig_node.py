@@ -66,8 +66,7 @@ from msd_bench.nodes.plant_node import (
 )
 from msd_bench.nodes.spin import stops_deferred
 from msd_msgs_py.contract import TRUTH_JOINT_STATES
-from msd_msgs_py.interface import ROS2_CONTROL
-from msd_msgs_py.ros import command_force, float64, joint_state, joint_states, msg_class, qos
+from msd_msgs_py.ros import command_force, float64, joint_states, msg_class, qos
 
 RIG_NAMESPACE = "/rig"
 """Default namespace of the rig emulator."""
@@ -120,12 +119,10 @@ class RigNode(PlantNode):
         self.imperfections = declare_from_dataclass(self, RigImperfections,
                                                     defaults=self.member.imperfections)
         self.interface = declare_interface(self)
-        self._r2c = self.interface.kind == ROS2_CONTROL
-        clash = set(self.rig_config.extra_joints) & {self.interface.joint}
-        if self._r2c and clash:
+        self._names = self.interface.state_names(self.rig_config.extra_joints)
+        if self._names.count(self.interface.joint) > 1:
             raise ConfigError(f"extra_joints must not name our joint {self.interface.joint!r}")
-        self._names = [*self.rig_config.extra_joints, self.interface.joint] if self._r2c else []
-        self._pad = [0.0] * len(self.rig_config.extra_joints)
+        self._pad = [0.0] * (len(self._names) - 1)  # the other joints, at rest, before ours
         return PlantNodeConfig(
             lockstep=False, watchdog_timeout=self.rig_config.watchdog_timeout,
             duplicate_check=self.rig_config.duplicate_check, sensor_noise=self.imperfections.sensor_noise,
@@ -133,14 +130,12 @@ class RigNode(PlantNode):
             live_port=self.rig_config.live_port)
 
     def _position_publisher(self) -> Publisher[Any] | None:
-        """The ros2_control face has no ``position`` topic."""
-        return None if self._r2c else super()._position_publisher()
+        """None where the face has no ``position`` topic (ros2_control)."""
+        return None if self.interface.position is None else super()._position_publisher()
 
     def _subscribe_commands(self) -> None:
-        """``force`` on the msd face; ``<controller>/commands`` (one value per joint) on ros2_control."""
-        if not self._r2c:
-            super()._subscribe_commands()
-            return
+        """The face's command topic: ``force`` on the msd face; ``<controller>/commands`` (one value per
+        joint) on ros2_control. The rig runs in real time only, so the topic's own depth holds."""
         cmd = self.interface.command
         self.create_subscription(msg_class(cmd), cmd.name, self._on_commands, qos(cmd))
 
@@ -157,8 +152,6 @@ class RigNode(PlantNode):
 
     def _state_message(self, stamp: int, x: float, v: float, effort: float) -> Any:
         """joint_states as this face shows it: our joint alone, or after the extra joints."""
-        if not self._r2c:
-            return joint_state(stamp, x, v, effort)
         return joint_states(stamp, self._names, [*self._pad, x], [*self._pad, v], [*self._pad, effort])
 
     def _declare_plant(self, _node: Any) -> ModelSpec:

@@ -39,7 +39,7 @@ from msd_bench.io.bags.bag_timing import READ, TimingPolicy, check_timing
 from msd_bench.io.bags.bag_writer import typestore
 from msd_bench.io.bags.reader import BagSamples, _params, _topic_list, decode_joint_state, read_experiment
 from msd_msgs_py.contract import PLANT_NAMESPACE
-from msd_msgs_py.interface import MSD, MSD_INTERFACE, PlantInterface
+from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
 FORCE_INPUTS = ("applied", "held")
 """How a measured-effort bag's input is rebuilt: the commands through the fitted actuator, or held."""
@@ -111,7 +111,7 @@ def read_interface_experiment(
     """
     path = Path(path)
     state_topic = iface.state.resolve(namespace)
-    if iface.kind == MSD and iface.effort_is_commanded:
+    if iface.contract_rows:
         if samples is not None and samples.path == path and samples.namespace == namespace:
             exp, params = samples.experiment(timing)
         else:
