@@ -211,7 +211,7 @@ def check_commands(text: str) -> list[str]:
                             f"{_command_module(sub.choices[code(r[0])])}")
     head = (cli.__doc__ or "").splitlines()[0]
     problems += [f"commands: cli.py's help line does not name {c!r}"
-                 for c in sub.choices if f"``{c}``" not in head]
+                 for c in sub.choices if not re.search(rf"(?<![\w-]){re.escape(c)}(?![\w-])", head)]
     return problems
 
 
