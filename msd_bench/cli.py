@@ -24,11 +24,11 @@ from msd_bench.core.errors import MsdBenchError  # only after the re-exec above
 
 def build_parser() -> argparse.ArgumentParser:
     """The full parser with every subcommand registered."""
-    from msd_bench.commands import bag, check_rig, diagnose, efficiency, paper, rigs, topics
+    from msd_bench.commands import bag, check_rig, diagnose, efficiency, identify, paper, rigs, topics
 
     parser = argparse.ArgumentParser(prog="msd-bench", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (paper, efficiency, rigs, bag, topics, check_rig, diagnose):
+    for module in (paper, efficiency, rigs, identify, bag, topics, check_rig, diagnose):
         module.register(sub)
     return parser
 

@@ -41,7 +41,7 @@ from msd_bench.app.pipeline import (
 )
 from msd_bench.app.scoring import PolicyRecord, Validation, assemble, record_cells
 from msd_bench.core.identification.identify import FitReport
-from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.model import StepModel, check_rate, plant_model
 from msd_bench.designs.kinds import made_on_plant
 from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.atomic import savez_atomic, write_text_atomic
@@ -164,6 +164,7 @@ def _models(directory: Path, cfg: RunConfig) -> tuple[dict[str, StepModel], dict
     fits: dict[str, FitReport] = {}
     for name in cfg.surrogates_needed():
         models[name] = artifacts.load_model(directory / f"{name}.json")
+        check_rate(models[name], cfg.plant.dt, "the run's plant")
         doc = models[name].info.get("validation_fit")
         if isinstance(doc, dict):
             try:

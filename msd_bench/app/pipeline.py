@@ -28,6 +28,7 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.job import agent_params, shared
 from msd_bench.app.plan import TRAIN, PlannedExperiment, paper_plan
 from msd_bench.app.scoring import PolicyRecord, Validation, assemble, metric_row
+from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.evaluation import robustness
 from msd_bench.core.evaluation.results import AgentResult, per_seed_row
 from msd_bench.core.identification import identify
@@ -92,6 +93,7 @@ def identify_surrogates(
     records: Records, names: Sequence[str], seed: int, plant: PlantParams,
     nlarx_scale: float = shared("nlarx_scale"),
     on_model: Callable[[str, StepModel, FitReport], None] | None = None,
+    units: tuple[str, str] = ("N", "m"),
 ) -> tuple[dict[str, StepModel], dict[str, FitReport]]:
     """Fit the requested model kinds and score each on the broad validation record.
 
@@ -100,7 +102,7 @@ def identify_surrogates(
     and flatter it. ``on_model`` hears of each model as soon as it is fitted and
     scored (the identifier node saves it then, so agents on it can start).
     """
-    req = FitRequest(records, seed, plant.L, plant.F, nlarx_scale)
+    req = FitRequest(records, seed, plant.L, plant.F, nlarx_scale, dt=plant.dt, units=units)
     models: dict[str, StepModel] = {}
     fits: dict[str, FitReport] = {}
     for name in names:
@@ -109,6 +111,43 @@ def identify_surrogates(
         if on_model is not None:
             on_model(name, models[name], fits[name])
     return models, fits
+
+
+FIT_FAILURES = (MsdBenchError, ArithmeticError, ValueError)
+"""What a fit that cannot be made raises (a one-line bench error, or the numerics giving up on a
+record unlike the model's structure): the kind fails alone, with that line as its reason."""
+
+
+def identify_each(
+    records: Records, names: Sequence[str], seed: int, plant: PlantParams,
+    nlarx_scale: float = shared("nlarx_scale"),
+    on_model: Callable[[str, StepModel, FitReport], None] | None = None,
+    units: tuple[str, str] = ("N", "m"),
+) -> tuple[dict[str, StepModel], dict[str, FitReport], dict[str, str]]:
+    """:func:`identify_surrogates` one kind at a time, so a kind that cannot be fitted fails alone.
+
+    Returns the models and fits of the kinds that were fitted and, per kind that was not, the
+    one-line reason (the identifier, ``msd-bench identify`` and ``msd-bench rigs`` write the
+    others and name the failures instead of stopping at the first).
+    """
+    models: dict[str, StepModel] = {}
+    fits: dict[str, FitReport] = {}
+    failed: dict[str, str] = {}
+    for name in names:
+        try:
+            got, scored = identify_surrogates(records, [name], seed, plant, nlarx_scale, on_model, units)
+        except FIT_FAILURES as err:
+            failed[name] = one_line(err)
+            continue
+        models.update(got)
+        fits.update(scored)
+    return models, fits, failed
+
+
+def one_line(err: BaseException) -> str:
+    """A failure's reason on one line; a numerical error says its type (its text may be terse)."""
+    text = " ".join(str(err).split()) or "no message"
+    return text if isinstance(err, MsdBenchError) else f"{type(err).__name__}: {text}"
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,7 @@ from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.app.plan import paper_plan
 from msd_bench.app.scoring import metric_row
-from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
 from msd_bench.core.evaluation.risk import trace_risk
 from msd_bench.core.evaluation.risk_table import summarise
@@ -185,20 +185,12 @@ def rig_parameters(spec: population.RigSpec) -> dict[str, Any]:
 def _identify(records: Any, run: RunConfig, params: Any,
               seed: int) -> tuple[dict[str, StepModel], dict[str, FitReport], dict[str, str]]:
     """Every model kind the agents need, from the rig's records; a kind that cannot be identified says why."""
-    from msd_bench.app.pipeline import identify_surrogates
+    from msd_bench.app.pipeline import identify_each
 
-    models: dict[str, StepModel] = {}
-    fits: dict[str, FitReport] = {}
-    failed: dict[str, str] = {}
-    for name in run.surrogates_needed():
-        try:
-            got, scored = identify_surrogates(records, [name], run.id_first_seed, params, run.nlarx_scale)
-        except MsdBenchError as err:  # its agents then count as failures on this rig, with the reason
-            failed[name] = f"rig {seed}: {err}"
-            continue
-        models.update(got)
-        fits.update(scored)
-    return models, fits, failed
+    models, fits, failed = identify_each(records, run.surrogates_needed(), run.id_first_seed, params,
+                                         run.nlarx_scale)
+    # its agents then count as failures on this rig, with the reason
+    return models, fits, {name: f"rig {seed}: {why}" for name, why in failed.items()}
 
 
 def _train(surrogate: StepModel, lr: QConfig, run: RunConfig) -> np.ndarray:

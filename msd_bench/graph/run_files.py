@@ -93,8 +93,8 @@ def read_result(path: Path) -> AgentDoc:
 
 def read_fits(path: Path) -> dict[str, FitReport]:
     """``fits.json``: a :class:`FitReport` per model name (None, JSON's NaN, read back as NaN)."""
-    doc = read_json_object(path)
-    return {str(name): _fit(value, f"{name!r}", path) for name, value in doc.items()}
+    doc = read_json_object(path)  # the failed kinds (key "failed") have no fit
+    return {str(name): _fit(value, f"{name!r}", path) for name, value in doc.items() if name != "failed"}
 
 
 def read_qtables(path: Path) -> QTables:

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Protocol
 
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.model import StepModel, check_rate, plant_model
 from msd_bench.core.physics.plant import preset
 
 
@@ -72,4 +72,6 @@ def model_backend(model: str | os.PathLike[str] | StepModel | None, plant_preset
     # vector against its kind's layout: a crafted file is one ArtifactError line, not a crashed kernel
     from msd_bench.io.storage.artifacts import load_model
 
-    return ModelBackend(load_model(Path(model)))
+    loaded = load_model(Path(model))
+    check_rate(loaded, preset(plant_preset).dt, f"the {plant_preset} plant")
+    return ModelBackend(loaded)

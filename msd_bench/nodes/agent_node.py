@@ -48,7 +48,7 @@ from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.evaluation.results import per_seed_row
 from msd_bench.core.evaluation.robustness import cell
 from msd_bench.core.evaluation.scenarios import Scenario
-from msd_bench.core.physics.model import StepModel
+from msd_bench.core.physics.model import StepModel, check_rate
 from msd_bench.core.rigs.rest import RestConfig
 from msd_bench.designs import Controller, Policy, Settings, Stepwise
 from msd_bench.designs.kinds import facts_record, made_on_plant, stepwise_namespace, stepwise_training
@@ -251,6 +251,7 @@ class AgentNode(Node):
         if not self.config.model_path:
             return None
         self.model = artifacts.load_model(Path(self.config.model_path))
+        check_rate(self.model, self.config.dt, "the agent (parameter dt)")
         return artifacts.source(Path(self.config.model_path))
 
     def _start(self) -> None:

@@ -20,25 +20,21 @@ from typing import Any
 from rclpy.node import Node
 from rclpy.task import Future
 
+from msd_bench.app.identification import IdentifyJob, failure_lines, identify_and_write, written
 from msd_bench.app.job import shared
-from msd_bench.app.pipeline import identify_surrogates
 from msd_bench.app.serve_protocol import event_line
-from msd_bench.core.errors import ConfigError, IdentificationError, InvalidInputError
-from msd_bench.core.identification.identify import FitReport
+from msd_bench.core.errors import ConfigError, IdentificationError
 from msd_bench.core.identification.model_kinds import (
     MODEL_KINDS,
     check_models,
     model_kind,
     needs_bias_records,
 )
-from msd_bench.core.physics.model import StepModel
-from msd_bench.core.physics.plant import PlantParams
 from msd_bench.io.bags.bag_interface import FORCE_INPUTS, ForceSource
 from msd_bench.io.bags.bag_records import BagRole, explicit_roles, load_records, record_name, roles_from_dir
 from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.atomic import write_text_atomic
-from msd_bench.io.storage.paths import OutputError, writable_dir
-from msd_bench.io.storage.run_output import write_models
+from msd_bench.io.storage.paths import writable_dir
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_config
 from msd_msgs_py.contract import PLANT_NAMESPACE
@@ -104,14 +100,17 @@ NODE_NAME = "identifier"
 
 def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERFACE,
                        sources: list[ForceSource] | None = None,
-                       on_saved: Callable[[str, Path], None] | None = None) -> dict[str, Any]:
+                       on_saved: Callable[[str, Path], None] | None = None,
+                       on_failed: Callable[[str, str], None] | None = None) -> dict[str, Any]:
     """Read, fit, write; return the fit reports (shared by the node and the tests).
 
     ``iface`` is the face the bags were recorded through; which force each bag gave as
     input (its effort, or the commands rebuilt by log time) goes to ``inputs.json`` and,
     when given, to ``sources`` (docs/ros2-control.md §Force). Each model is written
     as soon as it is fitted, then ``on_saved`` hears of it; ``fits.json`` and
-    ``inputs.json`` follow the last.
+    ``inputs.json`` follow the last. A kind that cannot be fitted fails alone (``on_failed``
+    hears of it, ``fits.json`` names it): an IdentificationError naming every failed kind
+    is raised only once the others are written (:mod:`msd_bench.app.identification`).
     """
     sources = [] if sources is None else sources
     out = writable_dir(cfg.out_dir, "out_dir")  # before the fit: a read-only disk fails at once
@@ -121,27 +120,17 @@ def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERF
         roles = explicit_roles(cfg.bias_bags, cfg.broad_bag, cfg.validation_bag, cfg.settle_samples)
     records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace, cfg.dt, iface=iface,
                            force_limit=cfg.force, sources=sources, force_input=cfg.force_input)
-    rig = PlantParams(L=cfg.stroke, F=cfg.force, dt=cfg.dt)  # only these (and the checked dt) are known
     parameters = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()}
     parameters["interface"] = iface.as_dict()
     parameters["inputs"] = [s.as_dict() for s in sources]
     prov = artifacts.Provenance(tuple(artifacts.source(r.path) for r in roles), parameters, cfg.seed)
-
-    def save(name: str, model: StepModel, fit: FitReport) -> None:
-        path = _written(lambda: write_models(out, {name: model}, {name: fit}, prov)[name], out)
-        if on_saved is not None:
-            on_saved(name, path)
-
-    fits: dict[str, FitReport] = {}
-    for name in cfg.models:  # one at a time, so a failed fit names its model and its bags
-        try:
-            _, fit = identify_surrogates(records, (name,), cfg.seed, rig, cfg.nlarx_scale, on_model=save)
-        except (IdentificationError, InvalidInputError) as err:
-            raise IdentificationError(f"fitting {name} on {_records_of(name, roles)}: {err}") from None
-        fits.update(fit)
-    report = {name: asdict(f) for name, f in fits.items()}
-    _written(lambda: _write_reports(out, report, iface, sources), out)
-    return report
+    job = IdentifyJob(cfg.models, cfg.seed, cfg.stroke, cfg.force, cfg.dt, cfg.nlarx_scale)
+    done = identify_and_write(records, job, out, prov, on_saved, on_failed)
+    written(lambda: _write_inputs(out, iface, sources), out)
+    if done.failed:  # after every other kind and fits.json are written: the exit status says it
+        raise IdentificationError("; ".join(failure_lines(done.failed, lambda n: _records_of(n, roles)))
+                                  + f" (the other kinds are written under {out})")
+    return done.fits
 
 
 def _records_of(model: str, roles: Sequence[BagRole]) -> str:
@@ -152,21 +141,11 @@ def _records_of(model: str, roles: Sequence[BagRole]) -> str:
     return "; ".join(f"{record_name(r)} from bag {r.path}" for r in used)
 
 
-def _write_reports(out: Path, report: dict[str, Any], iface: PlantInterface,
-                   sources: list[ForceSource]) -> Path:
-    """``fits.json`` and ``inputs.json``."""
-    write_text_atomic(out / "fits.json", json.dumps(artifacts.jsonable(report), indent=1) + "\n", root=out)
+def _write_inputs(out: Path, iface: PlantInterface, sources: list[ForceSource]) -> Path:
+    """``inputs.json``: the face the bags were recorded through and each bag's input."""
     inputs = {"interface": iface.as_dict(), "bags": [s.as_dict() for s in sources]}
     return write_text_atomic(out / "inputs.json", json.dumps(artifacts.jsonable(inputs), indent=1) + "\n",
                              root=out)
-
-
-def _written(write: Callable[[], Path], out: Path) -> Path:
-    """Run a write; a failing disk is the one-line OutputError naming ``out``."""
-    try:
-        return write()
-    except OSError as exc:
-        raise OutputError(f"out_dir {out}: writing the models failed ({exc.strerror or exc})") from None
 
 
 class IdentifierNode(Node):

@@ -32,7 +32,7 @@ from rclpy.node import Node
 from msd_bench.app.job import shared
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics import kernels
-from msd_bench.core.physics.model import StepModel
+from msd_bench.core.physics.model import StepModel, check_rate
 from msd_bench.io.storage.artifacts import load_model
 from msd_bench.nodes.params import declare_config, use_job
 from msd_bench.nodes.plant_node import ModelSpec, PlantNode, PlantNodeConfig
@@ -57,7 +57,9 @@ class SurrogateConfig:
 
 def load_spec(config: SurrogateConfig) -> ModelSpec:
     """The artifact at ``config.model_path`` as a :class:`ModelSpec` (ArtifactError if unreadable)."""
-    return ModelSpec(load_model(Path(config.model_path)), config.dt, config.force_limit)
+    model = load_model(Path(config.model_path))
+    check_rate(model, config.dt, "the surrogate node (parameter dt)")
+    return ModelSpec(model, config.dt, config.force_limit)
 
 
 ROLE = "surrogate"

@@ -58,7 +58,7 @@ from msd_bench.core.identification.plm import (
     refine_global,
 )
 from msd_bench.core.physics import kernels, plant
-from msd_bench.core.physics.model import PLANT_LIKE, StepModel
+from msd_bench.core.physics.model import NOMINAL_FORCE, PLANT_LIKE, StepModel
 from msd_bench.core.physics.sensor import SensorModel, sensor_rng
 
 if TYPE_CHECKING:  # the NLARX trains with torch: imported only when one is fitted
@@ -226,18 +226,24 @@ def _sensor_meta(sensor: SensorModel | None, seed: int) -> dict[str, object]:
     return {"sensor": {"noise_std": sensor.noise_std, "quant": sensor.quant, "seed": seed}}
 
 
-def identify_glm(train: IOData, cfg: GlmConfig | None = None) -> StepModel:
-    """One global linear model in absolute coordinates (the odd spring rests at 0 under 0 N)."""
+def identify_glm(train: IOData, cfg: GlmConfig | None = None,
+                 force_limit: float = NOMINAL_FORCE) -> StepModel:
+    """One global linear model in absolute coordinates (the odd spring rests at 0 under 0 N).
+
+    The model steps at the record's sample time and saturates at ``force_limit``.
+    """
     cfg = cfg or GlmConfig()
     t0 = time.perf_counter()
     fit = oe_fit(train.experiments, 0.0, 0.0, train.dt, max_nfev=cfg.max_nfev)
     info = {**_linear_info(fit), "n_samples": train.n_samples}
     info["fit_seconds"] = time.perf_counter() - t0
-    return StepModel(kernels.KIND_LINEAR, fit.to_params(cfg.stroke), name="glm", info=info)
+    return StepModel(kernels.KIND_LINEAR, fit.to_params(cfg.stroke), name="glm", info=info,
+                     dt=train.dt, force_limit=force_limit)
 
 
 def identify_plm(
-    records: Mapping[float, IOData] | Sequence[tuple[float, IOData]], cfg: PlmConfig | None = None
+    records: Mapping[float, IOData] | Sequence[tuple[float, IOData]], cfg: PlmConfig | None = None,
+    force_limit: float = NOMINAL_FORCE,
 ) -> StepModel:
     """Five local models, one per bias record, blended (see :mod:`msd_bench.core.identification.plm`)."""
     cfg = cfg or PlmConfig()
@@ -254,13 +260,13 @@ def identify_plm(
     t0 = time.perf_counter()
     local = [fit_local(b, r, max_nfev=cfg.max_nfev) for b, r in pairs]
     centres = operating_centres(local) if cfg.scheduling == "operating-points" else None
-    model = blend(local, cfg.stroke, centres=centres)
+    model = blend(local, cfg.stroke, centres=centres, force_limit=force_limit)
     if cfg.refine:
         model, ref = refine_global(
             model, [r for _, r in pairs], max_nfev=cfg.max_nfev, jacobian=cfg.jacobian
         )
         final = local_from_params(model.params, local[0].dt)
-        model.info.update(blend(final, cfg.stroke, centres=centres).info)
+        model.info.update(blend(final, cfg.stroke, centres=centres, force_limit=force_limit).info)
         for entry in model.info["local_models"] if ref.kept else []:
             entry["method"] = "oe, refined on the blend"
         model.info["local_fits"] = [  # the separate local fits the refinement started from
@@ -278,9 +284,11 @@ def identify_plm(
     return model
 
 
-def identify_nlarx(train: IOData, cfg: NlarxConfig | None = None, stroke: float = 5.0) -> StepModel:
+def identify_nlarx(train: IOData, cfg: NlarxConfig | None = None, stroke: float = 5.0,
+                   force_limit: float = NOMINAL_FORCE) -> StepModel:
     """NLARX sigmoid network, ``paper`` or ``improved`` form (see
-    :mod:`msd_bench.core.identification.nlarx`)."""
+    :mod:`msd_bench.core.identification.nlarx`), stepping at the record's sample time and
+    saturating at ``force_limit``."""
     from msd_bench.core.identification.nlarx import NlarxConfig, fit_nlarx
 
     cfg = cfg or NlarxConfig()
@@ -288,7 +296,8 @@ def identify_nlarx(train: IOData, cfg: NlarxConfig | None = None, stroke: float 
     t0 = time.perf_counter()
     params, info = fit_nlarx(train.experiments, stroke, cfg, train.dt)
     info.update(n_samples=train.n_samples, dt=train.dt, fit_seconds=time.perf_counter() - t0)
-    return StepModel(kernels.KIND_NLARX, params, name=f"nlarx-{cfg.form}", info=info)
+    return StepModel(kernels.KIND_NLARX, params, name=f"nlarx-{cfg.form}", info=info,
+                     dt=train.dt, force_limit=force_limit)
 
 
 def identify_greybox(train: IOData, cfg: GreyboxConfig | None = None) -> StepModel:

@@ -20,11 +20,12 @@ in torch (the NLARX) or python-control.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
-from msd_bench.core.errors import ConfigError
+from msd_bench.core.errors import ConfigError, IdentificationError
 from msd_bench.core.physics.layouts import (  # re-exported: the layouts were defined here
     COEF_MAX,
     KERNEL_LAYOUTS,
@@ -60,6 +61,13 @@ class FitRequest:
     """Actuator limit F, N: commands saturate at ±F (the grey-box model's saturation)."""
     nlarx_scale: float = 1.0
     """Multiplies the NLARX training iterations (< 1 only for smoke runs)."""
+    dt: float = 0.01
+    """Sample time, s, of the records (default: the plant's ``DT``, not imported because the plant
+    loads numba, which listing kinds must not): every model steps at it and its file records it
+    (:func:`fit_model` refuses a fit whose model steps at another)."""
+    units: tuple[str, str] = ("N", "m")
+    """Units of the input and output as the records give them (``("V", "V")`` for a circuit):
+    recorded in the model file, never converted."""
 
 
 Fitter = Callable[[FitRequest], "StepModel"]
@@ -92,13 +100,15 @@ class ModelKind:
 def _fit_glm(req: FitRequest) -> StepModel:
     from msd_bench.core.identification import identify
 
-    return identify.identify_glm(req.records.broad_train, identify.GlmConfig(stroke=req.stroke))
+    return identify.identify_glm(req.records.broad_train, identify.GlmConfig(stroke=req.stroke),
+                                 force_limit=req.force)
 
 
 def _fit_plm(req: FitRequest) -> StepModel:
     from msd_bench.core.identification import identify
 
-    return identify.identify_plm(req.records.bias_train, identify.PlmConfig(stroke=req.stroke))
+    return identify.identify_plm(req.records.bias_train, identify.PlmConfig(stroke=req.stroke),
+                                 force_limit=req.force)
 
 
 def _nlarx_fitter(form: str) -> Fitter:
@@ -111,7 +121,7 @@ def _nlarx_fitter(form: str) -> Fitter:
         base = NlarxConfig(form=form, seed=req.seed)
         cfg = replace(base, one_step_iters=max(1, round(base.one_step_iters * req.nlarx_scale)),
                       sim_iters=round(base.sim_iters * req.nlarx_scale))
-        return identify.identify_nlarx(req.records.broad_train, cfg, req.stroke)
+        return identify.identify_nlarx(req.records.broad_train, cfg, req.stroke, force_limit=req.force)
 
     return fit
 
@@ -177,7 +187,16 @@ def needs_bias_records(names: Iterable[str]) -> bool:
 
 
 def fit_model(name: str, req: FitRequest) -> StepModel:
-    """Fit the kind ``name``; the model carries the registry name whatever its fitter called it."""
+    """Fit the kind ``name``; the model carries the registry name whatever its fitter called it,
+    the request's stroke and units in its ``info`` (which its file records), and steps at the
+    request's ``dt`` and ``force`` (an IdentificationError otherwise: a fitter that dropped them
+    would write a model that runs at the wrong rate or saturates at the wrong force)."""
     entry = model_kind(name)
     model = entry.fit(req)
-    return replace(model, name=name, info={**model.info, "model_kind": name})
+    if not (math.isclose(model.dt, req.dt, rel_tol=1e-9) and math.isclose(model.force_limit, req.force)):
+        raise IdentificationError(f"model kind {name}: fitted at dt {model.dt:g} s, force limit "
+                                  f"{model.force_limit:g}, but the request gave dt {req.dt:g} s, "
+                                  f"force {req.force:g}")
+    info = {**model.info, "model_kind": name, "stroke": req.stroke,
+            "units": {"input": req.units[0], "output": req.units[1]}}
+    return replace(model, name=name, info=info)

@@ -59,7 +59,7 @@ from msd_bench.core.identification.data import Experiment, IOData
 from msd_bench.core.identification.linear import LinearFit, oe_fit
 from msd_bench.core.identification.operating_points import PLM_BIASES
 from msd_bench.core.physics import kernels
-from msd_bench.core.physics.model import StepModel
+from msd_bench.core.physics.model import NOMINAL_FORCE, StepModel
 
 FloatArray = NDArray[np.float64]
 
@@ -97,8 +97,12 @@ def blend(
     stroke: float,
     name: str = "plm",
     centres: Sequence[float] | None = None,
+    force_limit: float = NOMINAL_FORCE,
 ) -> StepModel:
     """Pack five local models (ordered f1..f5, i.e. bias -10..10) into one PLM StepModel.
+
+    The model steps at the local models' sample time and saturates at ``force_limit``
+    (the rig's actuator limit), both of which its file records.
 
     Without ``centres`` the model blends by the paper's memberships f1..f5;
     with ``centres`` (strictly increasing positions, one per local model) it
@@ -131,7 +135,8 @@ def blend(
         c = _checked_centres(centres)
         params.extend(c)
         info["centres"] = c
-    return StepModel(kernels.KIND_PLM, np.array(params), name=name, info=info)
+    return StepModel(kernels.KIND_PLM, np.array(params), name=name, info=info, dt=local[0].dt,
+                     force_limit=force_limit)
 
 
 def _checked_centres(centres: Sequence[float]) -> list[float]:

@@ -137,6 +137,18 @@ class StepModel:
         return self.linear_fit().to_continuous()
 
 
+def check_rate(model: StepModel, dt: float, where: str) -> None:
+    """Refuse, in one line, a model that steps at another sample time than ``where`` runs at.
+
+    A model's coefficients hold only at the rate it was identified at: stepping it at another
+    would silently run it faster or slower than the rig (models are never resampled).
+    """
+    if not math.isclose(model.dt, dt, rel_tol=1e-9):
+        raise InvalidInputError(
+            f"model {model.name!r} was identified at dt {model.dt:g} s ({1 / model.dt:g} Hz) but {where} "
+            f"runs at dt {dt:g} s ({1 / dt:g} Hz); identify it at that rate (models are never resampled)")
+
+
 PLANT_LIKE = (kernels.KIND_PLANT, kernels.KIND_GREYBOX_RIG, kernels.KIND_RK4)
 """Kernel kinds whose parameters hold a plant's ``L, F, dt`` in slots 5-7 and whose state is
 ``[x, v, ...]`` (the plant's own ``[m, c, k, g, h, L, F, dt]``; rk4's springs sit in 2-4)."""

@@ -14,6 +14,7 @@ import datetime as _dt
 import hashlib
 import io
 import json
+import logging
 import math
 import platform
 from dataclasses import dataclass, field
@@ -27,11 +28,16 @@ from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.layouts import KERNEL_LAYOUTS
 from msd_bench.core.physics.model import StepModel
+from msd_bench.core.physics.plant import DT
 from msd_bench.io.storage.atomic import write_bytes_atomic
 from msd_bench.io.storage.safe_npz import read_npz_bounded
 from msd_bench.io.storage.safe_read import loads_bounded, read_json_bounded
 
+_log = logging.getLogger(__name__)
+
 MODEL_SCHEMA = "msd-bench/model"
+DEFAULT_UNITS = {"input": "N", "output": "m"}
+"""Units a model file states when its maker did not say (the emulated plant's)."""
 QTABLE_SCHEMA = "msd-bench/qtable"
 POLICY_SCHEMA = "msd-bench/policy"
 SCHEMA_VERSION = 1
@@ -101,6 +107,8 @@ def save_model(model: StepModel, path: Path, provenance: Provenance, *, root: Pa
         "params": [float(v) for v in model.params],
         "dt": float(model.dt),
         "force_limit": float(model.force_limit),
+        "stroke": 2 * model.x_max,
+        "units": jsonable(model.info.get("units", DEFAULT_UNITS)),
         "info": jsonable(model.info),
         "provenance": provenance.as_dict(),
     }
@@ -126,6 +134,8 @@ def load_model(path: Path) -> StepModel:
     if not isinstance(name, str) or not isinstance(info, dict):
         raise ArtifactError(f"{path}: malformed model artifact (name must be a string, info an object)")
     limits = {k: _number(doc[k], k, path) for k in ("dt", "force_limit") if k in doc}  # older: defaults
+    if "dt" not in limits:
+        _log.warning("%s: no sample time recorded (an older model file); loading it at dt %g s", path, DT)
     try:
         return StepModel(kinds[kind], params, name, info, **limits)
     except MsdBenchError as exc:
