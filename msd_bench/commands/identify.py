@@ -53,7 +53,8 @@ def register(subparsers: Any) -> None:
     bags.add_argument("--bias-bags", default="", help="a rig's PRBS bags as BIAS=PATH,... (for plm)")
     bags.add_argument("--namespace", default=PLANT_NAMESPACE, help="namespace of the bags' topics")
     bags.add_argument("--dt", type=float, default=0.01, help="the bags' sample time, s")
-    p.add_argument("--models", default=",".join(MODEL_KINDS), help="kinds to fit, comma-separated")
+    p.add_argument("--models", help="kinds to fit, comma-separated (default: every kind; from a file, "
+                   "every kind but plm, which needs five bias records)")
     p.add_argument("--out", type=Path, required=True, help="output directory (created; nothing overwritten)")
     p.add_argument("--seed", type=int, default=0, help="seed of the NLARX training")
     p.add_argument("--stroke", type=float, help="stroke L (output units): outputs are kept in [-L/2, L/2] "
@@ -66,9 +67,10 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Identify from the file or the bags given; 1 if any kind failed (the others are written)."""
-    models = tuple(m.strip() for m in args.models.split(",") if m.strip())
-    check_models(models)
     files = [(fmt, getattr(args, fmt)) for fmt in FORMATS if getattr(args, fmt) is not None]
+    default = [k for k in MODEL_KINDS if not (files and needs_bias_records([k]))]
+    models = tuple(m.strip() for m in (args.models or ",".join(default)).split(",") if m.strip())
+    check_models(models)
     if len(files) > 1 or (files and (args.bags or args.broad_bag)):
         raise IdentifyError("give one record: --csv, --npz or --mat FILE, or --bags/--broad-bag")
     if files:

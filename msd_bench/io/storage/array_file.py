@@ -9,6 +9,7 @@ is not a finite 1-D number series) is one line naming the file and what was wron
 from __future__ import annotations
 
 import csv
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +33,7 @@ def read_signals(path: Path, fmt: str, u: str, y: str) -> tuple[FloatArray, Floa
     path = Path(path)
     if not path.is_file():
         raise ArrayFileError(f"{path}: no such file")
-    columns = {"csv": _csv, "npz": _npz, "mat": _mat}[fmt](path)
+    columns = _npz(path, (u, y)) if fmt == "npz" else {"csv": _csv, "mat": _mat}[fmt](path)
     got = tuple(_signal(columns, name, path) for name in (u, y))
     if got[0].size != got[1].size:
         raise ArrayFileError(f"{path}: {u} has {got[0].size} samples but {y} has {got[1].size}")
@@ -78,8 +79,15 @@ def _csv(path: Path) -> dict[str, np.ndarray]:
     return {h: np.array(v) for h, v in out.items()}
 
 
-def _npz(path: Path) -> dict[str, np.ndarray]:
-    return read_npz_bounded(path, ArrayFileError)  # bounded, and any unreadable archive is one line
+def _npz(path: Path, names: tuple[str, str]) -> dict[str, np.ndarray]:
+    """The two named members only (bounded; an unreadable archive is one line)."""
+    got = read_npz_bounded(path, ArrayFileError, only=names)
+    if len(got) < len(set(names)):
+        with zipfile.ZipFile(path) as zf:  # readable: read_npz_bounded has opened it
+            have = sorted(n[: -len(".npy")] for n in zf.namelist())
+        missing = next(n for n in names if n not in got)
+        raise ArrayFileError(f"{path}: no column {missing!r}; it has {', '.join(have)}")
+    return got
 
 
 def _mat(path: Path) -> dict[str, np.ndarray]:

@@ -17,6 +17,7 @@ import tokenize
 import warnings
 import zipfile
 import zlib
+from collections.abc import Collection
 from pathlib import Path
 from typing import IO
 
@@ -46,8 +47,10 @@ _UNREAD = 0x1 | 0x20 | 0x40
 
 
 def read_npz_bounded(path: Path, error: type[MsdBenchError] = MsdBenchError,
-                     max_bytes: int = MAX_NPZ_BYTES) -> dict[str, np.ndarray]:
-    """Every member of the archive at ``path`` as an array, under the size bounds.
+                     max_bytes: int = MAX_NPZ_BYTES,
+                     only: Collection[str] | None = None) -> dict[str, np.ndarray]:
+    """Every member of the archive at ``path`` (or only those named in ``only``: a lab file may
+    hold members of types not read here, e.g. overload flags) as an array, under the size bounds.
 
     Members are native-endian copies (a big-endian ``>f8`` member becomes
     ``float64``), so compiled code can read them as they are.
@@ -58,7 +61,8 @@ def read_npz_bounded(path: Path, error: type[MsdBenchError] = MsdBenchError,
             raise error(f"{path}: archive of {path.stat().st_size} bytes exceeds the {max_bytes}-byte limit")
         with zipfile.ZipFile(path) as zf:
             infos = _checked_members(zf, path, error, max_bytes)
-            return {info.filename[: -len(".npy")]: _member(zf, info, path, error) for info in infos}
+            return {info.filename[: -len(".npy")]: _member(zf, info, path, error) for info in infos
+                    if only is None or info.filename[: -len(".npy")] in only}
     except MsdBenchError:  # a ValueError too: already the one line, naming the file
         raise
     except _READ_ERRORS as exc:
