@@ -105,4 +105,5 @@ def written(write: Callable[[], Path], out: Path) -> Path:
 
 def failure_lines(failed: dict[str, str], where: Callable[[str], str] | None = None) -> Sequence[str]:
     """One line per failed kind (``where`` adds which records it was fitted on)."""
-    return [f"{name} failed{' on ' + where(name) if where else ''}: {why}" for name, why in failed.items()]
+    return [f"fitting {name} on {where(name)}: {why}" if where else f"fitting {name}: {why}"
+            for name, why in failed.items()]

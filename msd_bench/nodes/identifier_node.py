@@ -162,7 +162,8 @@ class IdentifierNode(Node):
 
     def _run(self) -> None:
         self._timer.cancel()
-        self.report = identify_from_bags(self.config, self.interface, self.sources, self._saved)
+        self.report = identify_from_bags(self.config, self.interface, self.sources, self._saved,
+                                         self._failed)
         for src in self.sources:
             self.get_logger().info(src.line())
         for name, f in self.report.items():
@@ -170,6 +171,9 @@ class IdentifierNode(Node):
                 f"{name}: fit {f['sim_fit']:.1f} % (simulation), {f['one_step_fit']:.2f} % (one-step)")
         print(event_line(NODE_NAME, IDENTIFIED_EVENT, {"models": sorted(self.report)}), flush=True)
         self.done.set_result(0)
+
+    def _failed(self, name: str, why: str) -> None:
+        self.get_logger().error(f"{name} could not be fitted (the other kinds still are): {why}")
 
     def _saved(self, name: str, path: Path) -> None:
         self.get_logger().info(SAVED.format(name=name, path=path))

@@ -133,3 +133,28 @@ def test_node_from_a_job_file_announces_its_models_as_events(ctx, executor, bag_
     events = [e for e in (parse_event(ln, "identifier") for ln in capfd.readouterr().out.splitlines()) if e]
     assert [e["event"] for e in events] == ["model_saved", "identified"]
     assert events[0]["model"] == "glm" and Path(events[0]["path"]) == tmp_path / "models" / "glm.json"
+
+
+def test_a_kind_that_fails_leaves_the_others_written_and_named(bag_dir, tmp_path, monkeypatch):
+    """Issue 32: the kinds before and after a failing one are fitted and written, fits.json names the
+    failure, and only then does the identifier fail (its exit status says so)."""
+    from dataclasses import replace
+
+    from msd_bench.core.errors import IdentificationError
+    from msd_bench.core.identification.model_kinds import MODEL_KINDS
+
+    def boom(req):
+        raise IdentificationError("model produced a non-finite position")
+
+    monkeypatch.setitem(MODEL_KINDS, "greybox", replace(MODEL_KINDS["greybox"], fit=boom))
+    failed: list[str] = []
+    cfg = IdentifierConfig(bags_dir=str(bag_dir), models=("glm", "greybox", "plm"), out_dir=str(tmp_path))
+    with pytest.raises(IdentificationError, match=r"^fitting greybox on .*model produced a non-finite "
+                                                  r"position \(the other kinds are written under"):
+        identify_from_bags(cfg, on_failed=lambda name, why: failed.append(name))
+    assert failed == ["greybox"]
+    fits = json.loads((tmp_path / "fits.json").read_text())
+    assert sorted(fits) == ["failed", "glm", "plm"]
+    assert fits["failed"] == {"greybox": "model produced a non-finite position"}
+    assert (tmp_path / "glm.json").is_file() and (tmp_path / "plm.json").is_file()
+    assert (tmp_path / "inputs.json").is_file()
