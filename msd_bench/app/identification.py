@@ -24,10 +24,7 @@ from msd_bench.core.physics.plant import PlantParams
 from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.atomic import write_text_atomic
 from msd_bench.io.storage.paths import OutputError
-from msd_bench.io.storage.run_output import write_models
-
-FAILED_KEY = "failed"
-"""The key of ``fits.json`` listing the kinds that could not be fitted: ``{kind: reason}``."""
+from msd_bench.io.storage.run_output import FAILED_KEY, write_models
 
 
 @dataclass(frozen=True)

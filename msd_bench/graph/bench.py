@@ -221,12 +221,29 @@ def stage_identify(cfg: BenchConfig, procs: ProcessSet, on_saved: Callable[[str]
     except LaunchError as err:
         raise StageError(f"{err}: {last_line(job.lines) or 'no output'}") from None
     server.close()
-    if status != 0:
-        raise StageError(f"{job.name} failed (exit {status}): {last_line(job.lines) or 'no output'}")
-    _check_identified(job)
     from msd_bench.graph.run_files import read_json_object  # bounded: fits.json is a file like any other
 
+    if status != 0 and not failed_models(cfg):  # some kinds failing alone: the others are written
+        raise StageError(f"{job.name} failed (exit {status}): {last_line(job.lines) or 'no output'}")
+    if status == 0:
+        _check_identified(job)
     return read_json_object(cfg.run_dir / "models" / "fits.json")
+
+
+def failed_models(cfg: BenchConfig) -> dict[str, str]:
+    """The model kinds the identifier could not fit, with their reasons (``fits.json``): their
+    agents are not run, and Table 1 reports them as failed with that reason."""
+    from msd_bench.graph.run_files import read_failed_fits
+
+    return read_failed_fits(cfg.run_dir / "models" / "fits.json")
+
+
+def unmade_agents(cfg: BenchConfig) -> dict[str, str]:
+    """Per agent kind whose model could not be fitted, why (one line)."""
+    failed = failed_models(cfg)
+    models = {k: agent_kind(k).surrogate for k in cfg.run.agents}
+    return {k: f"its model {m} could not be identified: {failed[m]}"
+            for k, m in models.items() if m in failed}
 
 
 def agent_placement(cfg: BenchConfig, kind: str) -> dict[str, Any]:
@@ -352,8 +369,9 @@ def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[i
     (``server`` if the caller launched it early, so its start-up overlapped identification).
     ``started``: kinds already submitted to ``server`` (:func:`start_model_free`); their results are
     collected in report order like the rest."""
+    unmade = unmade_agents(cfg)
     if cfg.via_ros:
-        for name in cfg.run.surrogates_needed():
+        for name in [n for n in cfg.run.surrogates_needed() if n not in failed_models(cfg)]:
             p = procs.start("surrogate.py", surrogate_args(cfg, name), name=f"surrogate-{name}")
             p.wait_for_line(r"ready \(", timeout=60.0)
     agents = cfg.run.agents
@@ -361,6 +379,9 @@ def stage_agents(cfg: BenchConfig, procs: ProcessSet, say: Say, bar: Callable[[i
     started = started or {}
     for i, kind in enumerate(agents):
         bar(i, len(agents), kind)
+        if kind in unmade:
+            say(f"agent {kind} not run: {unmade[kind]}")
+            continue
         job = started.get(kind) or server.submit(agent_args(cfg, kind), name=f"agent-{kind}")
         status = job.wait(3600.0 if cfg.plant_ns is None else 4 * 3600.0)
         if status != 0:

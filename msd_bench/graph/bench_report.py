@@ -38,7 +38,7 @@ from msd_bench.io.storage.atomic import write_text_atomic
 from msd_bench.io.storage.run_output import FigureData, write_figures
 from msd_msgs_py.interface import PlantInterface
 
-from .bench import BenchConfig
+from .bench import BenchConfig, unmade_agents
 from .run_files import AgentDoc, read_fits, read_result
 
 
@@ -170,7 +170,14 @@ def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any
     records = load_records(cfg)
     results, rob = assemble_all(cfg, records, scenarios=cfg.plant_ns is None)
     out, root = cfg.run_dir / "report", cfg.run_dir  # every write stays in the run, no symlink followed
+    unmade = unmade_agents(cfg)  # kinds whose model could not be fitted: failed rows, with the reason
+    facts = {**facts, "failed_agents": unmade} if unmade else facts
     paths: dict[str, Any] = {"table": write_report(out, results, facts, root=root)}
+    if unmade:
+        md = paths["table"]["md"]
+        rows = "".join(f"| {kind} | failed: {why} |\n" for kind, why in unmade.items())
+        text = md.read_text().rstrip("\n") + "\n\n| agent kind | not run |\n|---|---|\n" + rows
+        write_text_atomic(md, text, root=root)
     policies = {kind: record.policy for kind, (record, _) in records.items()}
     paths["figures"] = write_figures(out / "figures", figure_data(cfg, results, policies), root=root)
     if cfg.plant_ns is not None:  # the title names the node, not the emulator's true plant

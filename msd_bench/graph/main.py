@@ -222,6 +222,10 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                 on_saved = (agent_starter(cfg, agent_server, early, say)
                             if agent_server is not None and pipelined(cfg, sensor) else None)
                 fits = timed(cfg, "identify", lambda: stage_identify(cfg, procs, on_saved, ident_server))
+                from msd_bench.io.storage.run_output import FAILED_KEY  # loaded once there are models
+
+                for name, why in fits.pop(FAILED_KEY, {}).items():
+                    say(f"  {name}: FAILED (its agents are reported failed): {why}")
                 for name, f in fits.items():
                     truth = ("" if f.get("sim_fit_truth") is None
                              else f" ({f['sim_fit_truth']:.1f} % vs truth)")

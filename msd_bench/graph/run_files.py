@@ -24,6 +24,7 @@ from msd_bench.core.evaluation.results import METRIC_KEYS
 from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.learning.qconfig import QConfig, encoding
 from msd_bench.io.storage import artifacts
+from msd_bench.io.storage.run_output import FAILED_KEY
 from msd_bench.io.storage.safe_read import read_json_bounded
 
 
@@ -93,8 +94,16 @@ def read_result(path: Path) -> AgentDoc:
 
 def read_fits(path: Path) -> dict[str, FitReport]:
     """``fits.json``: a :class:`FitReport` per model name (None, JSON's NaN, read back as NaN)."""
-    doc = read_json_object(path)  # the failed kinds (key "failed") have no fit
-    return {str(name): _fit(value, f"{name!r}", path) for name, value in doc.items() if name != "failed"}
+    doc = read_json_object(path)  # the kinds that failed (FAILED_KEY) have no fit
+    return {str(name): _fit(value, f"{name!r}", path) for name, value in doc.items() if name != FAILED_KEY}
+
+
+def read_failed_fits(path: Path) -> dict[str, str]:
+    """``fits.json``'s kinds that could not be fitted, with their one-line reasons (none if absent)."""
+    failed = read_json_object(path).get(FAILED_KEY, {}) if path.is_file() else {}
+    if not isinstance(failed, dict) or not all(isinstance(v, str) for v in failed.values()):
+        raise RunFileError(f"{path}: {FAILED_KEY!r} must map model kinds to reasons")
+    return {str(k): v for k, v in failed.items()}
 
 
 def read_qtables(path: Path) -> QTables:

@@ -35,6 +35,11 @@ class Saved(Protocol):
         """Its own figures."""
 
 
+FAILED_KEY = "failed"
+"""The key of ``fits.json`` listing the model kinds that could not be fitted: ``{kind: reason}``
+(written by :mod:`msd_bench.app.identification`; bench.py reports those kinds' agents as failed)."""
+
+
 def write_models(out_dir: Path, models: Mapping[str, StepModel], fits: Mapping[str, FitReport],
                  provenance: artifacts.Provenance, root: Path | None = None,
                  overwrite: bool = False) -> dict[str, Path]:
