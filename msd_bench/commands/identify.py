@@ -52,7 +52,8 @@ def register(subparsers: Any) -> None:
     bags.add_argument("--validation-bag", help="a rig's validation bag")
     bags.add_argument("--bias-bags", default="", help="a rig's PRBS bags as BIAS=PATH,... (for plm)")
     bags.add_argument("--namespace", default=PLANT_NAMESPACE, help="namespace of the bags' topics")
-    bags.add_argument("--dt", type=float, default=0.01, help="the bags' sample time, s")
+    bags.add_argument("--dt", type=float, default=0.0,
+                      help="the bags' sample time, s (default: the median interval of their stamps)")
     p.add_argument("--models", help="kinds to fit, comma-separated (default: every kind; from a file, "
                    "every kind but plm, which needs five bias records)")
     p.add_argument("--out", type=Path, required=True, help="output directory (created; nothing overwritten)")

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +31,15 @@ from msd_bench.core.identification.model_kinds import (
     needs_bias_records,
 )
 from msd_bench.io.bags.bag_interface import FORCE_INPUTS, ForceSource
-from msd_bench.io.bags.bag_records import BagRole, explicit_roles, load_records, record_name, roles_from_dir
+from msd_bench.io.bags.bag_records import (
+    BagRole,
+    bag_dirs,
+    explicit_roles,
+    load_records,
+    record_name,
+    roles_from_dir,
+    stamp_interval,
+)
 from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.atomic import write_text_atomic
 from msd_bench.io.storage.paths import writable_dir
@@ -67,8 +75,9 @@ class IdentifierConfig:
     """Multiplies the NLARX training iterations (< 1 only for smoke runs)."""
     namespace: str = PLANT_NAMESPACE
     """Namespace the bags' topics live under."""
-    dt: float = field(default=shared("dt"), metadata={"range": (1e-4, 10.0)})
-    """The run's sample time, s: every bag's stamps must tick at it (checked, never resampled)."""
+    dt: float = field(default=0.0, metadata={"range": (0.0, 10.0)})
+    """The run's sample time, s: every bag's stamps must tick at it (checked, never resampled);
+    0 (the default): the median interval between the bags' stamps."""
     force_input: str = "applied"
     """Bags whose effort is measured (ros2_control): identify from the commands passed through the
     actuator fitted to the effort (``applied``, the force the msd face reports) or from the commands
@@ -114,10 +123,12 @@ def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERF
     """
     sources = [] if sources is None else sources
     out = writable_dir(cfg.out_dir, "out_dir")  # before the fit: a read-only disk fails at once
-    if cfg.bags_dir:
-        roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace, cfg.dt)
-    else:
-        roles = explicit_roles(cfg.bias_bags, cfg.broad_bag, cfg.validation_bag, cfg.settle_samples)
+    explicit = [] if cfg.bags_dir else explicit_roles(cfg.bias_bags, cfg.broad_bag, cfg.validation_bag,
+                                                      cfg.settle_samples)
+    if not cfg.dt:  # from the data: the median stamp interval (then checked on every bag as if given)
+        paths = bag_dirs(Path(cfg.bags_dir)) if cfg.bags_dir else [r.path for r in explicit]
+        cfg = replace(cfg, dt=stamp_interval(paths, cfg.namespace))
+    roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace, cfg.dt) if cfg.bags_dir else explicit
     records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace, cfg.dt, iface=iface,
                            force_limit=cfg.force, sources=sources, force_input=cfg.force_input)
     parameters = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()}

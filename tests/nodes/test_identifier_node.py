@@ -158,3 +158,23 @@ def test_a_kind_that_fails_leaves_the_others_written_and_named(bag_dir, tmp_path
     assert fits["failed"] == {"greybox": "model produced a non-finite position"}
     assert (tmp_path / "glm.json").is_file() and (tmp_path / "plm.json").is_file()
     assert (tmp_path / "inputs.json").is_file()
+
+
+def test_dt_omitted_is_the_bags_median_stamp_interval(tmp_path, capsys):
+    """Issue 32: a rig's bags at 610.35 Hz (1.6384 ms) identified without dt, by the console command
+    with the node's roles: the model steps, and its file says it steps, at the bags' rate."""
+    from msd_bench.cli import main
+
+    ts_ns = 1_638_400
+    for name, seed in (("broad", 3), ("val", 4)):
+        u = multilevel(MultilevelConfig(n_samples=N if name == "broad" else NV), seed)
+        x, v, ua = simulate(u, P)
+        write_experiment(tmp_path / name, np.arange(u.size) * ts_ns, ua, x, v, params={})
+    out = tmp_path / "models"
+    bags = ["--broad-bag", str(tmp_path / "broad"), "--validation-bag", str(tmp_path / "val")]
+    assert main(["identify", *bags, "--models", "glm", "--out", str(out)]) == 0
+    assert json.loads((out / "glm.json").read_text())["dt"] == ts_ns * 1e-9
+    assert artifacts.load_model(out / "glm.json").dt == ts_ns * 1e-9
+    assert "glm: written to" in capsys.readouterr().out
+    assert main(["identify", *bags, "--models", "glm", "--dt", "0.01", "--out", str(tmp_path / "m2")]) == 2
+    assert "recorded at 610.4 Hz, expected 100 Hz" in capsys.readouterr().err  # a given dt is checked

@@ -99,6 +99,17 @@ def roles_from_dir(bags_dir: Path, namespace: str = "/msd", dt: float = DEFAULT_
     return roles
 
 
+def stamp_interval(paths: Sequence[Path], namespace: str = "/msd") -> float:
+    """The median interval, s, between consecutive stamps of the bags at ``paths``: the sample time
+    when a run does not state it (each bag's stamps are then checked against it as usual)."""
+    steps = [np.diff(np.sort(read_samples(p, namespace).rows.stamps)) for p in paths]
+    pooled = np.concatenate(steps) if steps else np.empty(0)
+    if pooled.size == 0 or not np.median(pooled) > 0:
+        raise BagError(f"{', '.join(map(str, paths)) or 'no bag'}: too few distinct stamps to tell the "
+                       "sample time; give dt")
+    return float(np.median(pooled)) * 1e-9
+
+
 def bag_dirs(bags_dir: Path) -> list[Path]:
     """The bag directories directly under ``bags_dir``, in name order.
 
