@@ -51,6 +51,8 @@ def register(subparsers: Any) -> None:
     bags.add_argument("--broad-bag", help="a rig's broad-range training bag")
     bags.add_argument("--validation-bag", help="a rig's validation bag")
     bags.add_argument("--bias-bags", default="", help="a rig's PRBS bags as BIAS=PATH,... (for plm)")
+    bags.add_argument("--settle-samples", type=int, default=0,
+                      help="leading samples dropped from each bias bag (ours store their own)")
     bags.add_argument("--namespace", default=PLANT_NAMESPACE, help="namespace of the bags' topics")
     bags.add_argument("--dt", type=float, default=0.0,
                       help="the bags' sample time, s (default: the median interval of their stamps)")
@@ -130,6 +132,7 @@ def _from_bags(args: argparse.Namespace, models: tuple[str, ...]) -> dict[str, s
     bias = tuple(b.strip() for b in args.bias_bags.split(",") if b.strip())
     cfg = IdentifierConfig(bags_dir=args.bags or "", broad_bag=args.broad_bag or "",
                            validation_bag=args.validation_bag or "", bias_bags=bias, models=models,
+                           settle_samples=args.settle_samples,
                            seed=args.seed, namespace=args.namespace, dt=args.dt, out_dir=str(args.out),
                            nlarx_scale=args.nlarx_scale,
                            **{k: getattr(args, k) for k in ("stroke", "force")
