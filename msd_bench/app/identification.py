@@ -13,18 +13,20 @@ from __future__ import annotations
 import json
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from msd_bench.app.pipeline import identify_each
 from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.identification.records import Records
-from msd_bench.core.physics.model import StepModel
 from msd_bench.core.physics.plant import PlantParams
 from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.atomic import write_text_atomic
 from msd_bench.io.storage.paths import OutputError
 from msd_bench.io.storage.run_output import FAILED_KEY, write_models
+
+_T = TypeVar("_T")
 
 
 @dataclass(frozen=True)
@@ -65,17 +67,16 @@ def identify_and_write(records: Records, job: IdentifyJob, out: Path, prov: arti
     """Fit every kind of ``job`` on ``records``, writing each model under ``out`` as it is fitted
     (``on_saved`` hears of it; ``on_failed`` of a kind that failed), then ``fits.json``."""
     rig = PlantParams(L=job.stroke, F=job.force, dt=job.dt)  # only these are known of the rig
+    _refuse_existing(out, job.models)  # before any fit: a refused write is not a kind's failure
     paths: dict[str, Path] = {}
-
-    def save(name: str, model: StepModel, fit: FitReport) -> None:
-        paths[name] = written(lambda: write_models(out, {name: model}, {name: fit}, prov)[name], out)
-        if on_saved is not None:
-            on_saved(name, paths[name])
-
     fits: dict[str, FitReport] = {}
     failed: dict[str, str] = {}
-    for name in job.models:  # one call per kind, so each failure is heard as it happens
-        _, fit, bad = identify_each(records, (name,), job.seed, rig, job.nlarx_scale, save, job.units)
+    for name in job.models:  # one call per kind: each model is written, or its failure heard, at once
+        model, fit, bad = identify_each(records, (name,), job.seed, rig, job.nlarx_scale, units=job.units)
+        if name in model:  # the write is outside the fit's failures: a failing disk stops the run
+            paths[name] = written(partial(write_models, out, model, fit, prov), out)[name]
+            if on_saved is not None:
+                on_saved(name, paths[name])
         fits.update(fit)
         failed.update(bad)
         if bad and on_failed is not None:
@@ -85,6 +86,14 @@ def identify_and_write(records: Records, job: IdentifyJob, out: Path, prov: arti
     return Identified(report, failed, paths)
 
 
+def _refuse_existing(out: Path, models: Sequence[str]) -> None:
+    """One-line OutputError if a file this run would write is already under ``out`` (never overwritten)."""
+    for name in [*(f"{m}.json" for m in models), "fits.json"]:
+        if (out / name).exists():
+            raise OutputError(f"{out / name}: already exists; refusing to overwrite (choose another output "
+                              "directory)")
+
+
 def write_fits(out: Path, report: dict[str, Any], failed: dict[str, str]) -> Path:
     """``fits.json``: a fit report per fitted kind, and the failed kinds under :data:`FAILED_KEY`."""
     doc = {**report, FAILED_KEY: dict(failed)} if failed else report
@@ -92,7 +101,7 @@ def write_fits(out: Path, report: dict[str, Any], failed: dict[str, str]) -> Pat
     return write_text_atomic(out / "fits.json", text, root=out)
 
 
-def written(write: Callable[[], Path], out: Path) -> Path:
+def written(write: Callable[[], _T], out: Path) -> _T:
     """Run a write; a failing disk is the one-line OutputError naming ``out``."""
     try:
         return write()

@@ -48,6 +48,9 @@ from msd_bench.nodes.params import declare_config
 from msd_msgs_py.contract import PLANT_NAMESPACE
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 
+FROM_STAMPS = 0.0
+"""The identifier's ``dt`` meaning "the median interval between the bags' stamps"."""
+
 
 @dataclass(frozen=True)
 class IdentifierConfig:
@@ -75,9 +78,10 @@ class IdentifierConfig:
     """Multiplies the NLARX training iterations (< 1 only for smoke runs)."""
     namespace: str = PLANT_NAMESPACE
     """Namespace the bags' topics live under."""
-    dt: float = field(default=0.0, metadata={"range": (0.0, 10.0)})
+    dt: float = field(default=FROM_STAMPS, metadata={"range": (0.0, 10.0)})
     """The run's sample time, s: every bag's stamps must tick at it (checked, never resampled);
-    0 (the default): the median interval between the bags' stamps."""
+    :data:`FROM_STAMPS` (the default, so a rig's bags need not state it): the median interval
+    between the bags' stamps. A bench run's job always gives the run's ``dt``."""
     force_input: str = "applied"
     """Bags whose effort is measured (ros2_control): identify from the commands passed through the
     actuator fitted to the effort (``applied``, the force the msd face reports) or from the commands
@@ -125,7 +129,7 @@ def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERF
     out = writable_dir(cfg.out_dir, "out_dir")  # before the fit: a read-only disk fails at once
     explicit = [] if cfg.bags_dir else explicit_roles(cfg.bias_bags, cfg.broad_bag, cfg.validation_bag,
                                                       cfg.settle_samples)
-    if not cfg.dt:  # from the data: the median stamp interval (then checked on every bag as if given)
+    if cfg.dt == FROM_STAMPS:  # the median stamp interval, then checked on every bag as if given
         paths = bag_dirs(Path(cfg.bags_dir)) if cfg.bags_dir else [r.path for r in explicit]
         cfg = replace(cfg, dt=stamp_interval(paths, cfg.namespace))
     roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace, cfg.dt) if cfg.bags_dir else explicit

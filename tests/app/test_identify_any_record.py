@@ -156,3 +156,13 @@ def test_every_kind_records_its_rate_force_limit_stroke_and_units(kind, fast_rec
 def test_a_fit_at_another_rate_than_requested_is_refused(fast_records):
     with pytest.raises(IdentificationError, match=r"fitted at dt 0\.005 s"):
         model_kinds.fit_model("glm", FitRequest(fast_records, 0, 4.0, 8.0, dt=0.01))
+
+
+def test_a_second_run_into_the_same_directory_overwrites_nothing(npz, tmp_path, capsys):
+    src = ["--npz", str(npz), "--u", "V1", "--y", "V2"]
+    assert _identify(src, tmp_path) == 0
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    capsys.readouterr()
+    assert _identify(src, tmp_path) == 2  # refused before any fit, not recorded as the kind's failure
+    assert "glm.json: already exists; refusing to overwrite" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before

@@ -42,9 +42,10 @@ from msd_bench.nodes.recorder_node import RecorderConfig
 from msd_bench.nodes.surrogate_node import SurrogateConfig
 
 NODE_CONFIGS = (AgentNodeConfig, IdentifierConfig, ExcitationNodeConfig, RecorderConfig, SurrogateConfig)
-HOMONYMS = {ExcitationNodeConfig: {"window"}}
+HOMONYMS = {ExcitationNodeConfig: {"window"}, IdentifierConfig: {"dt"}}
 """Fields that only share a name with a run quantity (the excitation's ``window`` counts commands in
-flight, not the SSE's terminal samples)."""
+flight, not the SSE's terminal samples; the identifier's ``dt`` defaults to ``FROM_STAMPS``, the
+bags' own rate, and its job always carries the run's: issue 32)."""
 JOB_FIELDS = frozenset(SHARED_DEFAULTS) | frozenset(SHARED_ALIASES)
 """The names of the run quantities a job carries (and their aliases in node configs)."""
 PACKAGE = Path(__file__).resolve().parents[2] / "msd_bench"

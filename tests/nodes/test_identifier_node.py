@@ -173,8 +173,8 @@ def test_dt_omitted_is_the_bags_median_stamp_interval(tmp_path, capsys):
     out = tmp_path / "models"
     bags = ["--broad-bag", str(tmp_path / "broad"), "--validation-bag", str(tmp_path / "val")]
     assert main(["identify", *bags, "--models", "glm", "--out", str(out)]) == 0
-    assert json.loads((out / "glm.json").read_text())["dt"] == ts_ns * 1e-9
-    assert artifacts.load_model(out / "glm.json").dt == ts_ns * 1e-9
+    assert json.loads((out / "glm.json").read_text())["dt"] == ts_ns / 1e9
+    assert artifacts.load_model(out / "glm.json").dt == ts_ns / 1e9
     assert "glm: written to" in capsys.readouterr().out
     assert main(["identify", *bags, "--models", "glm", "--dt", "0.01", "--out", str(tmp_path / "m2")]) == 2
     assert "recorded at 610.4 Hz, expected 100 Hz" in capsys.readouterr().err  # a given dt is checked

@@ -9,6 +9,7 @@ line naming the file and the field, raised before the node does anything (a reco
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,7 @@ from rclpy.parameter import Parameter
 
 from msd_bench.app.config import RunConfig
 from msd_bench.app.job import JobError, job_document
+from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.identification import excitation as exc
 from msd_bench.core.physics.kernels import KIND_LINEAR
 from msd_bench.core.physics.model import StepModel
@@ -138,7 +140,7 @@ GLM = StepModel(KIND_LINEAR, np.array([5.0, 0.02, 0.01, -1.6, 0.68, 1.0, 0.5]), 
 
 
 def test_a_surrogate_from_its_job_file_and_a_p_beside_it(ctx, tmp_path):
-    save_model(GLM, tmp_path / "models" / "glm.json", Provenance(seed=1))
+    save_model(replace(GLM, dt=0.02), tmp_path / "models" / "glm.json", Provenance(seed=1))  # the job's rate
     path = _file(tmp_path, "surrogate-glm", surrogate_job(BenchConfig(tmp_path, RUN, via_ros=True), "glm"))
     _edited(path, dt=0.02, force_limit=4.0, duplicate_check=0.0)  # a plant node field: its section too
     node = build_surrogate(context=ctx, parameter_overrides=[Parameter("job", value=str(path))])
@@ -148,6 +150,17 @@ def test_a_surrogate_from_its_job_file_and_a_p_beside_it(ctx, tmp_path):
     node = build_surrogate(context=ctx, namespace="/surrogate/other", parameter_overrides=[
         Parameter("job", value=str(path)), Parameter("force_limit", value=2.5)])
     assert (node.spec.dt, node.spec.force_limit) == (0.02, 2.5)
+
+
+def test_a_surrogate_refuses_a_model_of_another_rate_in_one_line(ctx, tmp_path):
+    """Issue 32: a model identified at 100 Hz is not served at 50 Hz (never resampled)."""
+    save_model(GLM, tmp_path / "models" / "glm.json", Provenance(seed=1))
+    path = _file(tmp_path, "surrogate-glm", surrogate_job(BenchConfig(tmp_path, RUN, via_ros=True), "glm"))
+    _edited(path, dt=0.02)
+    with pytest.raises(InvalidInputError, match=r"identified at dt 0\.01 s \(100 Hz\) but the surrogate node "
+                                                r"\(parameter dt\) runs at dt 0\.02 s \(50 Hz\)") as err:
+        build_surrogate(context=ctx, parameter_overrides=[Parameter("job", value=str(path))])
+    assert "\n" not in str(err.value)
 
 
 def test_a_bad_surrogate_job_names_the_file_and_the_field(ctx, tmp_path):

@@ -107,7 +107,7 @@ def stamp_interval(paths: Sequence[Path], namespace: str = "/msd") -> float:
     if pooled.size == 0 or not np.median(pooled) > 0:
         raise BagError(f"{', '.join(map(str, paths)) or 'no bag'}: too few distinct stamps to tell the "
                        "sample time; give dt")
-    return float(np.median(pooled)) * 1e-9
+    return float(np.median(pooled)) / 1e9  # divided: 1638400 ns is 0.0016384 s exactly as typed
 
 
 def bag_dirs(bags_dir: Path) -> list[Path]:

@@ -134,12 +134,13 @@ def load_model(path: Path) -> StepModel:
     if not isinstance(name, str) or not isinstance(info, dict):
         raise ArtifactError(f"{path}: malformed model artifact (name must be a string, info an object)")
     limits = {k: _number(doc[k], k, path) for k in ("dt", "force_limit") if k in doc}  # older: defaults
-    if "dt" not in limits:
-        _log.warning("%s: no sample time recorded (an older model file); loading it at dt %g s", path, DT)
     try:
-        return StepModel(kinds[kind], params, name, info, **limits)
+        model = StepModel(kinds[kind], params, name, info, **limits)
     except MsdBenchError as exc:
         raise ArtifactError(f"{path}: {exc}") from None
+    if "dt" not in limits:  # only for a model that loads: a refused file is its one error line
+        _log.warning("%s: no sample time recorded (an older model file); loading it at dt %g s", path, DT)
+    return model
 
 
 def _model_params(value: Any, kind: str, path: Path) -> np.ndarray:
