@@ -1,4 +1,4 @@
-"""The ``msd-bench`` console: paper, efficiency, rigs, bag, echo, hz, check-rig, compare, resid.
+"""The ``msd-bench`` console: paper, efficiency, rigs, identify, bag, echo, hz, check-rig, compare, resid.
 
 Also runs as ``python -m msd_bench`` with any interpreter: one that lacks the
 project's dependencies re-executes with the project's venv (``msd_bench/_bootstrap.py``).
