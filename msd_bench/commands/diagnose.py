@@ -28,6 +28,7 @@ from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.identification import diagnostics, identify
 from msd_bench.core.identification.data import Experiment
 from msd_bench.core.physics.model import StepModel
+from msd_bench.io.storage.array_file import read_signals
 
 
 def register(sub: Any) -> None:
@@ -69,54 +70,13 @@ def _load_models(paths: list[Path]) -> list[StepModel]:
     return [load_model(p) for p in paths]
 
 
-def _arrays(path: Path, u_key: str, y_key: str) -> tuple[np.ndarray, np.ndarray]:
-    if path.suffix in (".npz", ".mat"):
-        members = _members(path)
-        missing = [k for k in (u_key, y_key) if k not in members]
-        if missing:
-            raise InvalidInputError(f"{path}: no member {missing[0]!r}; members: "
-                                    f"{', '.join(sorted(members))}")
-        u, y = (np.asarray(members[k], dtype=float).ravel() for k in (u_key, y_key))
-        return u, y
-    try:
-        lines = path.read_text().splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InvalidInputError(f"{path}: unreadable ({type(exc).__name__})") from None
-    header = [h.strip() for h in lines[0].split(",")] if lines else []
-    missing = [k for k in (u_key, y_key) if k not in header]
-    if missing:
-        raise InvalidInputError(f"{path}: no column {missing[0]!r} in the header line {header}")
-    try:
-        rows = np.array([[float(v) for v in ln.split(",")] for ln in lines[1:] if ln.strip()])
-    except ValueError as exc:
-        raise InvalidInputError(f"{path}: a value is not a number ({exc})") from None
-    if rows.ndim != 2 or rows.shape[1] != len(header):
-        raise InvalidInputError(f"{path}: every row must have {len(header)} values")
-    return rows[:, header.index(u_key)], rows[:, header.index(y_key)]
-
-
-def _members(path: Path) -> dict[str, np.ndarray]:
-    """The arrays of an ``.npz`` (size-bounded reader) or a MATLAB ``.mat`` (scipy) file."""
-    if path.suffix == ".npz":
-        from msd_bench.io.storage.safe_npz import read_npz_bounded
-
-        return read_npz_bounded(path, InvalidInputError)
-    from scipy.io import loadmat
-
-    try:
-        doc = loadmat(path)
-    except (OSError, ValueError, TypeError, NotImplementedError) as exc:
-        raise InvalidInputError(f"{path}: unreadable .mat file ({type(exc).__name__})") from None
-    return {k: np.asarray(v) for k, v in doc.items() if not k.startswith("__")}
-
-
 def read_record(args: argparse.Namespace, model: StepModel) -> Experiment:
     """The record the arguments name, cut to ``--range``, at the model's sample time."""
     path = Path(args.record)
     if not path.exists():
         raise InvalidInputError(f"record {path} does not exist")
     if path.suffix in (".npz", ".mat", ".csv"):
-        u, y = _arrays(path, args.u, args.y)
+        u, y = read_signals(path, path.suffix[1:], args.u, args.y)
         dt = model.dt if args.dt is None else float(args.dt)
     else:
         from msd_bench.io.bags.reader import read_experiment

@@ -101,7 +101,7 @@ def test_commands_on_model_files(tmp_path: Path, fitted: StepModel,
 
 
 @pytest.mark.parametrize(("extra", "match"), [
-    (["--u", "nope"], "no member 'nope'"),
+    (["--u", "nope"], "no column 'nope'"),
     (["--range", "10:5"], "outside the record"),
     (["--range", "a:b"], "--range must be A:B"),
     (["--dt", "0.02"], "record sampled at dt=0.02"),
