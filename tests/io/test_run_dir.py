@@ -122,3 +122,53 @@ def test_a_task_writing_through_a_symlink_is_refused(tmp_path: Path) -> None:
         rd.write_task("a", {"a.txt": _text("injected")})
     assert (outside.read_text(), outside.stat().st_mtime_ns) == before
     assert not rd.is_done("a")
+
+
+def _two_done(tmp_path: Path) -> list[str]:
+    first = RunDir.open(tmp_path, "paper", TASKS, CONFIG)
+    first.write_task("a", {"parts/a.json": _text('{"mae": 2.536}')})
+    first.write_task("b", {"parts/b.json": _text('{"mae": 1.000}')})
+    return []  # the first attempt dies here
+
+
+def _resume(tmp_path: Path) -> tuple[RunDir, list[str]]:
+    lines: list[str] = []
+    again = RunDir.open(tmp_path, "paper", TASKS, CONFIG)
+    again.say = lines.append
+    return again, lines
+
+
+def test_a_reused_file_tampered_at_the_same_length_is_recomputed_with_one_line(tmp_path: Path) -> None:
+    _two_done(tmp_path)
+    (tmp_path / "parts" / "a.json").write_text('{"mae": 0.036}')  # same byte length, forged value
+    again, lines = _resume(tmp_path)
+    assert again.pending() == ["a", "c"] and again.pending() == ["a", "c"]
+    assert lines == ["tasks/a.json: parts/a.json does not match the SHA-256 in the record "
+                     "(changed since it was written); task a is run again"]
+    for t in TASKS:
+        again.write_task(t, {f"parts/{t}.json": _text('{"mae": 2.536}')})
+    assert again.written == ["a", "c"]
+    assert (tmp_path / "parts" / "a.json").read_text() == '{"mae": 2.536}'
+    again.mark_complete()
+    assert is_complete(tmp_path)
+
+
+@pytest.mark.parametrize(("damage", "said"), [
+    ("empty", "tasks/a.json: the record lists no files; task a is run again"),
+    ("missing", "tasks/a.json: parts/a.json is missing; task a is run again"),
+])
+def test_a_record_listing_no_files_or_a_missing_one_is_redone_and_named(
+        tmp_path: Path, damage: str, said: str) -> None:
+    _two_done(tmp_path)
+    rec = tmp_path / "tasks" / "a.json"
+    if damage == "empty":
+        doc = json.loads(rec.read_text())
+        rec.write_text(json.dumps({**doc, "files": []}))
+    else:
+        (tmp_path / "parts" / "a.json").unlink()
+    again, lines = _resume(tmp_path)
+    assert again.run_task("a", lambda: [atomic.write_text_atomic(tmp_path / "parts" / "a.json", "{}",
+                                                                 root=again.root)])
+    assert lines == [said]
+    assert not again.run_task("b", lambda: [])  # b's record still vouches for its file
+    assert again.is_done("a") and lines == [said]

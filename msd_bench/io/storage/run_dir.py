@@ -11,8 +11,10 @@ Why: a run that dies half-way must neither be mistaken for a finished one nor
 block its own rerun, and a later cluster executor must be able to hand tasks to
 workers and collect them. Every file goes through :mod:`msd_bench.io.storage.atomic`
 (no torn file, no symlink followed below the root, which is resolved once);
-a task counts as done only when its record exists and its files still have the
-sizes recorded; the marker is written only when every task is done.
+a task counts as done only when its record exists, lists at least one file, and
+every file it lists is still there with the recorded size and SHA-256 (a file
+changed behind the run's back is never reused: its task is redone, and one line
+on stderr says which task and why); the marker is written only when every task is done.
 
 :meth:`RunDir.open` is also the probe of ``--out``: it is run before any work
 and accepts only a missing or empty directory (a new run) or an unfinished run
@@ -28,6 +30,7 @@ import json
 import os
 import re
 import stat
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -71,6 +74,9 @@ class RunDir:
         """True when an unfinished run was found and is continued."""
         self.written: list[str] = []
         """Tasks this process wrote (the ones skipped were done by an earlier attempt)."""
+        self.say: Callable[[str], None] = _stderr
+        """Where the one line about a record that cannot be trusted goes (stderr unless replaced)."""
+        self._told: set[str] = set()
 
     @classmethod
     def open(cls, path: str | Path, command: str, tasks: Sequence[str], config: Mapping[str, Any],
@@ -110,17 +116,22 @@ class RunDir:
         return self.root / TASKS / f"{task}.json"
 
     def is_done(self, task: str) -> bool:
-        """True when ``task`` was recorded and every file it wrote is still there at its size."""
+        """True when ``task`` was recorded and every file it wrote is still there, unchanged.
+
+        A record that exists but cannot be trusted (unreadable, listing no files, naming
+        a missing file or one whose size or SHA-256 differs) makes the task pending, and
+        the first time it is seen a line names the record and the reason.
+        """
         rec = self._record_path(task)
         if not _regular(rec):
             return False
-        try:
-            doc = read_json_bounded(rec, RunDirError)
-        except RunDirError:
+        why = _record_problem(self.root, rec, task)
+        if why is not None:
+            if task not in self._told and task not in self.written:
+                self._told.add(task)
+                self.say(f"{TASKS}/{task}.json: {why}; task {task} is run again")
             return False
-        if not isinstance(doc, dict) or doc.get("task") != task or not isinstance(doc.get("files"), list):
-            return False
-        return all(_intact(self.root, f) for f in doc["files"])
+        return True
 
     def run_task(self, task: str, produce: Callable[[], Sequence[Path]]) -> bool:
         """Run ``produce`` (which writes files under the root, atomically) unless ``task`` is done.
@@ -173,6 +184,7 @@ def is_complete(path: str | Path) -> bool:
     if not isinstance(doc, dict) or not isinstance(doc.get("tasks"), list):
         return False
     run = RunDir(Path(os.path.realpath(root)), str(doc.get("command")), [str(t) for t in doc["tasks"]], True)
+    run.say = _silent  # a question, not a resume: nothing is run again
     return not run.pending()
 
 
@@ -230,18 +242,60 @@ def _regular(path: Path) -> bool:
         return False
 
 
-def _intact(root: Path, entry: Any) -> bool:
-    """A task record's file entry names a regular file below ``root`` of the recorded size."""
+def _record_problem(root: Path, rec: Path, task: str) -> str | None:
+    """Why the task record ``rec`` does not vouch for its task's files, or None when it does."""
+    try:
+        doc = read_json_bounded(rec, RunDirError)
+    except RunDirError:
+        return "the record is not readable JSON"
+    if not isinstance(doc, dict) or doc.get("task") != task or not isinstance(doc.get("files"), list):
+        return "the record is not a task record of this task"
+    if not doc["files"]:
+        return "the record lists no files"
+    for entry in doc["files"]:
+        why = _entry_problem(root, entry)
+        if why is not None:
+            return why
+    return None
+
+
+def _entry_problem(root: Path, entry: Any) -> str | None:
+    """Why a record's file entry does not match a regular file below ``root``, or None when it does."""
     if not isinstance(entry, dict) or not isinstance(entry.get("path"), str):
-        return False
+        return "the record has a file entry without a path"
     rel = Path(entry["path"])
     if rel.is_absolute() or ".." in rel.parts or not rel.parts:
-        return False
+        return f"the record names {entry['path']!r}, a path outside the run"
     try:
         info = os.lstat(root / rel)
     except (OSError, ValueError):
-        return False
-    return stat.S_ISREG(info.st_mode) and info.st_size == entry.get("bytes")
+        return f"{rel.as_posix()} is missing"
+    if not stat.S_ISREG(info.st_mode):
+        return f"{rel.as_posix()} is not a regular file"
+    if info.st_size != entry.get("bytes"):
+        return f"{rel.as_posix()} has {info.st_size} bytes, the record says {entry.get('bytes')}"
+    if _sha256(root / rel) != entry.get("sha256"):
+        return f"{rel.as_posix()} does not match the SHA-256 in the record (changed since it was written)"
+    return None
+
+
+def _sha256(path: Path) -> str | None:
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                h.update(block)
+    except OSError:
+        return None
+    return h.hexdigest()
+
+
+def _silent(line: str) -> None:
+    del line
+
+
+def _stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
 
 
 def _names(entries: list[str], most: int = 3) -> str:
