@@ -52,6 +52,13 @@ class Task:
     args: tuple[Any, ...] = ()
 
 
+MAX_WORKERS = 1024
+"""The most ``--workers`` a sweep accepts: more processes than any machine or cluster here has cores,
+far below a number that would exhaust process tables or Ray's scheduler."""
+MAX_RETRIES = 100
+"""The most ``--retries``: a task whose worker died 100 times is broken, not unlucky."""
+
+
 @dataclass(frozen=True)
 class ExecutorOptions:
     """How a sweep is executed (``--executor``, ``--workers``, ``--ray-address``, ``--retries``)."""
@@ -68,6 +75,11 @@ class ExecutorOptions:
             raise ConfigError(f"unknown executor {self.kind!r}; choose from {', '.join(EXECUTORS)}")
         if self.workers < 0 or self.retries < 0:
             raise ConfigError(f"--workers and --retries must be >= 0, got {self.workers} and {self.retries}")
+        if self.workers > MAX_WORKERS:
+            raise ConfigError(f"--workers {self.workers} is more than {MAX_WORKERS}, the most a sweep starts")
+        if self.retries > MAX_RETRIES:
+            raise ConfigError(f"--retries {self.retries} is more than {MAX_RETRIES}, the most a task is "
+                              "restarted")
         if self.ray_address is not None and self.kind != "ray":
             raise ConfigError("--ray-address needs --executor ray")
 
@@ -308,10 +320,38 @@ def patient_node_start(ray: Any, seconds: float) -> Iterator[None]:
         services.get_node = original
 
 
+@contextmanager
+def join_as_given(ray: Any, address: str) -> Iterator[None]:
+    """While ``ray.init`` joins ``address``, Ray keeps a ``host:port`` as the user gave it.
+
+    Ray 2.60's ``canonicalize_bootstrap_address`` rewrites a loopback host (127.0.0.1,
+    localhost) to the machine's external interface address, so a cluster asked for on
+    loopback was joined (and its errors reported) on another address. ``auto`` and
+    ``ray://`` keep Ray's own handling. Pinned Ray (2.60.0): the real-cluster test joins
+    through it (tests/cluster).
+    """
+    from msd_bench.app.ray_probe import split_host_port
+
+    services = ray._private.services
+    original = services.canonicalize_bootstrap_address
+    given = split_host_port(address) if not address.startswith("ray://") else None
+
+    def canonical(addr: Any, temp_dir: Any = None) -> Any:
+        return address if addr == address else original(addr, temp_dir)
+
+    if given is not None:
+        services.canonicalize_bootstrap_address = canonical
+    try:
+        yield
+    finally:
+        services.canonicalize_bootstrap_address = original
+
+
 def start_ray(ray: Any, address: str | None, kw: dict[str, Any]) -> None:
     """``ray.init`` with the project's one-line error, and no Ray process left behind when it fails."""
     where = address or "a local cluster"
-    patience = patient_node_start(ray, RAY_START_PATIENCE_S) if address is None else contextlib.nullcontext()
+    patience = (patient_node_start(ray, RAY_START_PATIENCE_S) if address is None
+                else join_as_given(ray, address))
     try:
         with patience:
             ray.init(address=address, **kw)

@@ -66,25 +66,32 @@ def add_supervisor_argument(p: argparse.ArgumentParser) -> None:
 
 def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     """Where a sweep's tasks run (:mod:`msd_bench.app.executor`): this machine's cores or a Ray cluster."""
-    from msd_bench.app.executor import DEFAULT_RETRIES, EXECUTORS
+    from msd_bench.app.executor import DEFAULT_RETRIES, EXECUTORS, MAX_RETRIES, MAX_WORKERS
+    from msd_bench.app.ray_probe import PROBE_TIMEOUT_S
 
     p.add_argument("--executor", choices=tuple(EXECUTORS), default="local",
                    help="local: worker processes on this machine; ray: a Ray cluster (local unless "
                         "--ray-address) (local)")
     p.add_argument("--workers", type=int, default=0,
-                   help="worker processes, each single-threaded (0 = one per core)")
+                   help=f"worker processes, each single-threaded (0 = one per core; at most {MAX_WORKERS})")
     p.add_argument("--ray-address", default=None, metavar="ADDR",
-                   help="join this Ray cluster (auto, host:port, ray://host:port) instead of starting one")
+                   help="join this Ray cluster (auto, host:port, ray://host:port) instead of starting one; "
+                        f"probed for at most {PROBE_TIMEOUT_S:g} s before --out is written")
     p.add_argument("--retries", type=int, default=DEFAULT_RETRIES,
-                   help=f"restarts of a task whose worker died before the sweep fails ({DEFAULT_RETRIES})")
+                   help="restarts of a task whose worker died before the sweep fails "
+                        f"(at most {MAX_RETRIES}) ({DEFAULT_RETRIES})")
 
 
 def executor_from_args(args: argparse.Namespace) -> ExecutorOptions:
     """The validated executor options (one-line ConfigError otherwise)."""
     from msd_bench.app.executor import ExecutorOptions
+    from msd_bench.app.ray_probe import probe_ray_address
 
-    return ExecutorOptions(kind=args.executor, workers=args.workers, ray_address=args.ray_address,
-                           retries=args.retries)
+    options = ExecutorOptions(kind=args.executor, workers=args.workers, ray_address=args.ray_address,
+                              retries=args.retries)
+    if options.ray_address is not None:  # before --out is touched: an unreachable cluster is one line
+        probe_ray_address(options.ray_address)
+    return options
 
 
 def run_config_from_args(args: argparse.Namespace) -> RunConfig:
