@@ -46,6 +46,7 @@ from msd_bench.designs.kinds import made_on_plant
 from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.atomic import savez_atomic, write_text_atomic
 from msd_bench.io.storage.run_dir import RunDir, RunDirError
+from msd_bench.io.storage.run_fields import is_int, seed_row
 from msd_bench.io.storage.run_output import write_models
 from msd_bench.io.storage.safe_npz import read_npz_bounded
 from msd_bench.io.storage.safe_read import read_json_bounded
@@ -131,7 +132,9 @@ def load_run(rd: RunDir, cfg: RunConfig, scenarios: bool = True) -> PaperRun:
         xs = read_npz_bounded(rd.root / "parts" / f"{task}.npz", RunDirError)
         if doc.get("schema") != PART_SCHEMA or doc.get("schema_version") != PART_VERSION:
             raise RunDirError(f"{rd.root / 'parts' / task}.json is not a paper part of this msd-bench")
-        for kind, entry in doc["kinds"].items():
+        for kind, entry in _part_kinds(doc, rd.root / "parts" / f"{task}.json").items():
+            if kind not in xs:
+                raise RunDirError(f"{rd.root / 'parts' / task}.npz: no responses of kind {kind}")
             surrogate = agent_kind(kind).surrogate
             model = plant_model(cfg.plant) if made_on_plant(kind) else run.models[id_seed][surrogate]
             policy = designs.load(rd.root / "policies" / kind / f"id{id_seed}", model)
@@ -144,6 +147,27 @@ def load_run(rd: RunDir, cfg: RunConfig, scenarios: bool = True) -> PaperRun:
     first = cfg.id_first_seed
     run.records[first] = make_records(cfg, first)  # the figures' records: cheap to make again, seeded
     return run
+
+
+def _part_kinds(doc: dict[str, Any], path: Path) -> dict[str, dict[str, Any]]:
+    """A part's ``kinds``, every field the report stage reads type-checked (one line naming it)."""
+    kinds = doc.get("kinds")
+    if not isinstance(kinds, dict):
+        raise RunDirError(f"{path}: kinds must be an object")
+    for kind, entry in kinds.items():
+        where = f"kinds[{kind!r}]"
+        if not isinstance(entry, dict):
+            raise RunDirError(f"{path}: {where} must be an object")
+        seeds, rows = entry.get("seeds"), entry.get("per_seed")
+        if not isinstance(seeds, list) or not all(is_int(x) for x in seeds):
+            raise RunDirError(f"{path}: {where}.seeds must be a list of integers")
+        if not isinstance(rows, list) or len(rows) != len(seeds):
+            raise RunDirError(f"{path}: {where}.per_seed must be a list of one row per seed")
+        for i, row in enumerate(rows):
+            seed_row(row, f"{where}.per_seed[{i}]", path, RunDirError)
+        if not isinstance(entry.get("cells"), dict):
+            raise RunDirError(f"{path}: {where}.cells must be an object")
+    return kinds
 
 
 def _collect(run: PaperRun, kind: str, parts: Sequence[Found], scenarios: bool) -> None:

@@ -20,10 +20,10 @@ import numpy as np
 
 from msd_bench.app.agents import learner_from_meta
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.core.evaluation.results import METRIC_KEYS
 from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.learning.qconfig import QConfig, encoding
 from msd_bench.io.storage import artifacts
+from msd_bench.io.storage.run_fields import is_int, is_number, seed_row
 from msd_bench.io.storage.run_output import FAILED_KEY
 from msd_bench.io.storage.safe_read import read_json_bounded
 
@@ -70,7 +70,7 @@ def read_run_facts(path: Path) -> dict[str, Any]:
     """``run.json`` from an earlier stage of the run: an object whose ``timings`` are numbers."""
     doc = read_json_object(path)
     timings = doc.get("timings", {})
-    if not isinstance(timings, dict) or not all(_is_number(v) for v in timings.values()):
+    if not isinstance(timings, dict) or not all(is_number(v) for v in timings.values()):
         raise RunFileError(f"{path}: timings must be an object of stage seconds")
     return doc
 
@@ -110,7 +110,7 @@ def read_qtables(path: Path) -> QTables:
     """An agent's ``qtables.npz``: shapes agree with the stored learner config and seeds."""
     arrays, meta = artifacts.load_qtables(path)
     seeds = meta.get("seeds")
-    if not isinstance(seeds, list) or not seeds or not all(_is_int(s) and 0 <= s < 2**63 for s in seeds):
+    if not isinstance(seeds, list) or not seeds or not all(is_int(s) and 0 <= s < 2**63 for s in seeds):
         raise RunFileError(f"{path}: meta seeds must be a non-empty list of integers in [0, 2**63)")
     learner = _learner(meta, path)
     missing = [k for k in ("q", "first", "last") if k not in arrays]
@@ -148,9 +148,9 @@ def _fits_hint(value: Any, hint: Any) -> bool:
     if hint is bool:
         return isinstance(value, bool)
     if hint is int:
-        return _is_int(value)
+        return is_int(value)
     if hint is float:
-        return _is_number(value)
+        return is_number(value)
     if hint is str:
         return isinstance(value, str)
     item = typing.get_args(hint)[0] if typing.get_origin(hint) is tuple else None
@@ -171,9 +171,9 @@ def _fit(value: Any, what: str, path: Path) -> FitReport:
         if hint is str:
             ok = isinstance(v, str)
         elif hint is int:
-            ok = _is_int(v)
+            ok = is_int(v)
         else:  # float or float | None: None is how NaN was written
-            ok = v is None or _is_number(v)
+            ok = v is None or is_number(v)
         if not ok:
             raise RunFileError(f"{path}: fit {what} field {name} has the wrong type ({type(v).__name__})")
         if hint not in (str, int):
@@ -187,20 +187,8 @@ def _fit(value: Any, what: str, path: Path) -> FitReport:
 
 
 def _seed_row(row: Any, what: str, path: Path) -> dict[str, Any]:
-    """A per-seed row: integer seeds, metrics as numbers or None, a boolean success."""
-    if not isinstance(row, dict):
-        raise RunFileError(f"{path}: {what} must be an object")
-    for key in ("seed", "id_seed"):
-        if not _is_int(row.get(key)):
-            raise RunFileError(f"{path}: {what}.{key} must be an integer")
-    for key in METRIC_KEYS:
-        if key not in row or not (row[key] is None or _is_number(row[key])):
-            raise RunFileError(f"{path}: {what}.{key} must be a number or null")
-    if not _is_number(row["sse"]) or not _is_number(row["mae"]):
-        raise RunFileError(f"{path}: {what}: sse and mae must be numbers")
-    if not isinstance(row.get("success"), bool):
-        raise RunFileError(f"{path}: {what}.success must be true or false")
-    return row
+    """A per-seed row (:func:`msd_bench.io.storage.run_fields.seed_row`)."""
+    return seed_row(row, what, path, RunFileError)
 
 
 def _cell(cell: Any, what: str, path: Path) -> dict[str, Any]:
@@ -212,11 +200,11 @@ def _cell(cell: Any, what: str, path: Path) -> dict[str, Any]:
     if wins > n:
         raise RunFileError(f"{path}: {what}: n_success {wins} exceeds n {n}")
     for key in ("median_sse", "median_mae"):
-        if not (cell.get(key) is None or _is_number(cell.get(key))):
+        if not (cell.get(key) is None or is_number(cell.get(key))):
             raise RunFileError(f"{path}: {what}.{key} must be a number or null")
     for key in ("sse", "mae"):
         values = cell.get(key, [])
-        if not isinstance(values, list) or not all(v is None or _is_number(v) for v in values):
+        if not isinstance(values, list) or not all(v is None or is_number(v) for v in values):
             raise RunFileError(f"{path}: {what}.{key} must be a list of numbers")
     return {**cell, "median_sse": math.nan if cell.get("median_sse") is None else cell["median_sse"]}
 
@@ -229,21 +217,6 @@ def _field(doc: dict[str, Any], key: str, kind: type, path: Path) -> Any:
 
 
 def _count(value: Any, what: str, path: Path) -> int:
-    if not _is_int(value) or value < 0:
+    if not is_int(value) or value < 0:
         raise RunFileError(f"{path}: {what} must be a non-negative integer")
     return int(value)
-
-
-def _is_int(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
-def _is_number(value: Any) -> bool:
-    """A JSON number within float range (an int of 400 digits is not a float)."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        return False
-    try:
-        float(value)
-    except OverflowError:
-        return False
-    return True
