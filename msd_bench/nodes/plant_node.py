@@ -76,7 +76,7 @@ from msd_bench.core.physics import kernels
 from msd_bench.core.physics.model import StepModel, plant_model
 from msd_bench.core.physics.plant import PRESETS, PlantParams, preset
 from msd_bench.core.physics.sensor import SensorModel, VelocityEstimator, sensor_rng
-from msd_bench.core.safety.supervisor import MAX_LATCH_TEXT, parse_latch
+from msd_bench.core.safety.supervisor import MAX_LATCH_TEXT, LogThrottle, parse_latch
 from msd_bench.io.reports.live_server import OFF, LiveServer, start_live
 from msd_bench.nodes import plant_claim
 from msd_bench.nodes.health import StallTracker, diagnostic_array
@@ -414,6 +414,7 @@ class PlantNode(Node):
         only ``estop_clear`` naming the latch count clears it; a reset never does."""
         self.estop_latches = 0
         self.estop_latched = False
+        self._wrong_clears = LogThrottle(1.0)  # one line a second, with a count, however many arrive
         self.estop_stamp: int | None = None
         """Stamp (ns) of the first row stepped after the latest latch: from it on every row is 0 N."""
         self.create_subscription(Empty, ESTOP.name, self._on_estop, qos(ESTOP))
@@ -433,8 +434,12 @@ class PlantNode(Node):
         with self._lock:
             cleared = self.estop_latched and latch == self.estop_latches
             self.estop_latched = self.estop_latched and not cleared
-        self.get_logger().info(f"e-stop clear {msg.data[:MAX_LATCH_TEXT]!r}: "
-                               f"{'cleared' if cleared else f'ignored (latch {self.estop_latches})'}")
+        if cleared:
+            self.get_logger().info(f"e-stop clear {msg.data[:MAX_LATCH_TEXT]!r}: cleared")
+        elif count := self._wrong_clears.note(time.monotonic()):
+            more = f", and {count - 1} more wrong clears in the last second" if count > 1 else ""
+            self.get_logger().info(f"e-stop clear {msg.data[:MAX_LATCH_TEXT]!r}: ignored "
+                                   f"(latch {self.estop_latches}{more})")
 
     def _note_estop(self, stamp: int) -> None:
         """Remember the first row stepped under the latest e-stop latch (what a test checks)."""

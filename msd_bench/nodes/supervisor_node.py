@@ -55,6 +55,7 @@ from msd_bench.core.safety.supervisor import (
     NONE,
     REASONS,
     Decision,
+    LogThrottle,
     Supervisor,
     SupervisorOptions,
     parse_latch,
@@ -108,6 +109,7 @@ class SupervisorNode(Node):
         opts = (SupervisorOptions() if not self.config.options_file
                 else read_options(Path(self.config.options_file)))
         self.supervisor = Supervisor(opts, preset(self.config.preset))
+        self._wrong_clears = LogThrottle(1.0)
         self.reference = self.config.reference
         self._y = 0.0
         self._t_state: float | None = None
@@ -285,9 +287,10 @@ class SupervisorNode(Node):
         latch = parse_latch(msg.data[:MAX_LATCH_TEXT + 64])
         if self.supervisor.clear_estop(latch):
             self.get_logger().info(f"e-stop latch {latch} cleared: the next run (after a reset) may go")
-        else:
-            self.get_logger().warning(f"e-stop clear {msg.data[:MAX_LATCH_TEXT]!r} ignored: the current "
-                                      f"latch is {self.supervisor.estop_latches} "
+        elif count := self._wrong_clears.note(time.monotonic()):
+            more = f" (and {count - 1} more wrong clears in the last second)" if count > 1 else ""
+            self.get_logger().warning(f"e-stop clear {msg.data[:MAX_LATCH_TEXT]!r} ignored{more}"
+                                      f": the current latch is {self.supervisor.estop_latches} "
                                       f"({'latched' if self.supervisor.estop_latched else 'not latched'})")
 
     def status(self) -> dict[str, Any]:

@@ -17,9 +17,11 @@ from msd_bench.core.safety.supervisor import (
     TIME_LIMIT,
     VELOCITY,
     Limits,
+    LogThrottle,
     Supervisor,
     SupervisorOptions,
     braking_distance,
+    parse_latch,
     stop_position,
 )
 
@@ -177,3 +179,18 @@ def test_the_stepwise_form_is_the_compiled_one_bit_for_bit(name: str) -> None:
         d = sup.step(y[k], 1.0, batch.command[0, k])
         assert d.force == batch.force[0, k] and d.reason == batch.reason[0, k], k
     assert int(sup.state[5]) == batch.aborts[0]
+
+
+@pytest.mark.parametrize(("text", "latch"), [
+    ("1", 1), (" 12 ", 12), ("01", -1), ("001", -1), ("+1", -1), ("1.0", -1), ("١", -1), ("", -1),
+    ("0", 0), ("00", -1), ("1" * 21, -1),
+])
+def test_a_clear_names_its_latch_in_one_spelling_only(text: str, latch: int) -> None:
+    assert parse_latch(text) == latch
+
+
+def test_wrong_clears_are_one_line_a_second_with_their_count() -> None:
+    throttle = LogThrottle(1.0)
+    lines = [c for c in (throttle.note(i / 1000) for i in range(3000)) if c]  # 3,000 clears in 3 s
+    assert lines == [1, 1000, 1000] and throttle.pending == 999
+    assert throttle.note(10.0) == 1000  # the next line carries the ones held back

@@ -274,3 +274,23 @@ def test_a_reference_starts_a_run_reported_as_one_event_and_an_estop_aborts_it(c
     done = events(capsys.readouterr().out, "supervisor_done")
     assert len(done) == 1 and done[0]["runs"] == 2 and done[0]["aborted_runs"] == 1
     assert done[0]["outside_steps"] == 1 and done[0]["estop_latches"] == 1
+
+
+def test_a_flood_of_wrong_clears_clears_nothing_and_is_logged_once_a_second(ctx, executor):
+    """'01' for latch 1 clears nothing, and 300 wrong clears are a few counted lines, not 300."""
+    sup, client = start(ctx, executor)
+    client.estop.publish(Empty())
+    assert spin_until(executor, lambda: sup.supervisor.estop_latched)
+    said: list[int] = []
+    note = sup._wrong_clears.note
+    sup._wrong_clears.note = lambda now: said.append(note(now)) or said[-1]  # type: ignore[method-assign]
+    started = time.monotonic()
+    for i in range(300):  # one at a time: the topic's depth is 10
+        client.clear.publish(String(data="01"))
+        assert spin_until(executor, lambda i=i: len(said) > i)
+    seconds = time.monotonic() - started
+    lines = [c for c in said if c]
+    assert sup.supervisor.estop_latched
+    assert len(lines) <= seconds + 1 and sum(lines) + sup._wrong_clears.pending == 300
+    client.clear.publish(String(data="1"))
+    assert spin_until(executor, lambda: not sup.supervisor.estop_latched)

@@ -320,10 +320,41 @@ MAX_LATCH_TEXT = 20
 
 
 def parse_latch(text: str) -> int:
-    """The latch count an e-stop clear names (decimal digits, surrounding blanks allowed); -1 if it
-    names none, so it matches no latch."""
+    """The latch count an e-stop clear names; -1 if it names none, so it matches no latch.
+
+    The count must be written as ``str(count)`` is (surrounding blanks allowed): ASCII decimal
+    digits without a sign or a leading zero, so exactly one spelling clears a latch (``'01'``,
+    ``'+1'`` and ``'1.0'`` clear nothing). The count is printed in the log and on /diagnostics:
+    a clear proves its sender saw the current latch, not who the sender is (docs/faults.md
+    §Trust boundary)."""
     t = text.strip()
-    return int(t) if 0 < len(t) <= MAX_LATCH_TEXT and t.isascii() and t.isdigit() else -1
+    if not (0 < len(t) <= MAX_LATCH_TEXT and t.isascii() and t.isdigit()) or (t[0] == "0" and t != "0"):
+        return -1
+    return int(t)
+
+
+class LogThrottle:
+    """At most one log line per ``period`` seconds, each saying how many events it stands for.
+
+    Why: a wrong e-stop clear is logged (an operator must see it was ignored), but anyone on the
+    domain can send thousands; one line per second with a count keeps the log readable and its
+    size bounded. The clock is passed in, so the science stays testable without ROS.
+    """
+
+    def __init__(self, period: float = 1.0) -> None:
+        self.period = period
+        self._last: float | None = None
+        self.pending = 0
+        """Events not yet reported by a line."""
+
+    def note(self, now: float) -> int:
+        """Count one event at ``now``; return how many events a line written now stands for (0: stay
+        quiet)."""
+        self.pending += 1
+        if self._last is not None and now - self._last < self.period:
+            return 0
+        self._last, count, self.pending = now, self.pending, 0
+        return count
 
 
 class Decision(NamedTuple):
