@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from msd_bench.core.errors import MsdBenchError
-from msd_bench.io.bags.bag_check import check_bag, crc_problem
+from msd_bench.io.bags.bag_check import check_bag, scan_bag
 from msd_bench.io.bags.bag_recover import RECOVERED_SUFFIX, recover
 from msd_bench.io.bags.reader import bag_info
 
@@ -26,19 +26,42 @@ EXIT_DAMAGED = 1
 
 
 def _info(args: argparse.Namespace) -> int:
-    """Everything is read before the first line is printed: a fault is one error line, not half an info."""
+    """Everything is read before the first line is printed: a fault is one error line, not half an info.
+
+    The per-topic counts rosbags reports are ``metadata.yaml``'s claims; for an MCAP bag the CRC scan
+    ``bag info`` runs anyway counts the messages too, so a count is printed as verified, as the data's
+    with the claim beside it when they differ, or marked as not verified (a damaged or sqlite3 bag).
+    """
     info = bag_info(args.path)
-    problem = crc_problem(args.path) if info.storage == "mcap" else None
+    scan = scan_bag(args.path) if info.storage == "mcap" else None
+    problem = scan.problems[0] if scan is not None and scan.problems else None
+    found = scan.topics if scan is not None and problem is None else None
     print(f"bag:       {info.path}")
     print(f"duration:  {info.duration_s:.3f} s")
+    wrong = []
     for topic, (ros_type, count) in sorted(info.topics.items()):
-        print(f"topic:     {topic}  [{ros_type}]  {count} messages")
+        counted = None if found is None else found[topic]
+        print(f"topic:     {topic}  [{ros_type}]  {_count_text(count, counted)}")
+        if counted is not None and counted != count:
+            wrong.append(topic)
     print(f"params:    {json.dumps(info.params, sort_keys=True) if info.params else '(none)'}")
     if info.storage != "mcap":
         print(f"storage:   {info.storage} (no chunk CRCs to check; bag check reads MCAP bags only)")
     if problem is not None:
         print(f"warning: {args.path}: {problem}; run `msd-bench bag check {args.path}`", file=sys.stderr)
+    elif wrong:
+        print(f"warning: {args.path}: metadata.yaml's message counts disagree with the data on "
+              f"{', '.join(wrong[:3])}; run `msd-bench bag check {args.path}`", file=sys.stderr)
     return 0
+
+
+def _count_text(claimed: int, counted: int | None) -> str:
+    """A topic's count: verified, the data's with metadata.yaml's claim beside it, or marked unverified."""
+    if counted is None:
+        return f"{claimed} messages (metadata.yaml's count, not verified)"
+    if counted != claimed:
+        return f"{counted} messages (metadata.yaml claims {claimed})"
+    return f"{counted} messages"
 
 
 def _check(args: argparse.Namespace) -> int:

@@ -177,3 +177,32 @@ def test_bag_check_on_a_truncated_file(tmp_path: Path) -> None:
         fh.truncate(mcap.stat().st_size // 2)
     report = check_bag(bag)
     assert any("truncated or corrupt" in p for p in report.problems), report.problems
+
+
+def test_bag_info_prints_counts_it_verified_and_names_a_claim_that_disagrees(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bag = _bag(tmp_path / "claim", _regular())
+    assert bag_main(["bag", "info", str(bag)]) == 0
+    out, err = capsys.readouterr()
+    assert f"/msd/joint_states  [sensor_msgs/msg/JointState]  {N} messages\n" in out and not err
+    meta = bag / "metadata.yaml"
+    text = meta.read_text()
+    at = text.index("  - message_count: 300\n")  # the first topic's claim: /msd/joint_states
+    meta.write_text(text[:at] + "  - message_count: 1000000000000000\n" + text[at + 23:])
+    assert bag_main(["bag", "info", str(bag)]) == 0
+    out, err = capsys.readouterr()
+    assert f"/msd/joint_states  [sensor_msgs/msg/JointState]  {N} messages (metadata.yaml claims " \
+           "1000000000000000)" in out
+    assert err.count("\n") == 1 and "disagree with the data on /msd/joint_states" in err
+
+
+def test_bag_info_marks_counts_of_a_damaged_bag_as_not_verified(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bag = _bag(tmp_path / "flip", _regular())
+    mcap = bag / "flip.mcap"
+    data = bytearray(mcap.read_bytes())
+    data[len(data) // 3] ^= 0x40
+    mcap.write_bytes(bytes(data))
+    assert bag_main(["bag", "info", str(bag)]) == 0
+    out = capsys.readouterr().out
+    assert out.count("(metadata.yaml's count, not verified)") == 3

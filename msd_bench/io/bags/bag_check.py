@@ -227,6 +227,13 @@ def check_bag(path: str | Path) -> CheckReport:
 
 def crc_problem(path: str | Path) -> str | None:
     """The first CRC fault of a bag (front-to-back scan only), or None; for ``bag info``'s warning."""
+    report = scan_bag(path)
+    return report.problems[0] if report.problems else None
+
+
+def scan_bag(path: str | Path) -> CheckReport:
+    """The front-to-back scan alone (CRCs, and per-topic counts of the messages found): what
+    ``bag info`` reads anyway, so it can print counts it verified instead of metadata.yaml's claims."""
     report = CheckReport(mcap_file(Path(path)))
     _scan(report)
-    return report.problems[0] if report.problems else None
+    return report
