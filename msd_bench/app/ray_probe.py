@@ -68,7 +68,12 @@ def _tcp_probe(address: str, pair: tuple[str, int], timeout: float) -> None:
                           f"({exc.strerror or type(exc).__name__}); is the Ray head running?") from None
 
 
-def _gcs_probe(address: str, timeout: float) -> None:
+def alive_nodes(address: str, timeout: float = PROBE_TIMEOUT_S) -> int:
+    """How many live nodes the Ray cluster at ``address`` has (a one-line ConfigError if none answers)."""
+    return _gcs_probe(address, timeout)
+
+
+def _gcs_probe(address: str, timeout: float) -> int:
     try:
         done = subprocess.run([sys.executable, "-c", _CHILD, address], capture_output=True, text=True,
                               timeout=timeout, stdin=subprocess.DEVNULL, check=False)
@@ -85,6 +90,7 @@ def _gcs_probe(address: str, timeout: float) -> None:
                           f"(the probe failed: {_last_line(done.stderr)})")
     if int(answer) == 0:
         raise ConfigError(f"--ray-address {address}: the Ray cluster there has no live node")
+    return int(answer)
 
 
 def _last_line(text: str) -> str:
