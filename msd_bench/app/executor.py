@@ -353,8 +353,8 @@ def start_ray(ray: Any, address: str | None, kw: dict[str, Any]) -> None:
     patience = (patient_node_start(ray, RAY_START_PATIENCE_S) if address is None
                 else join_as_given(ray, address))
     try:
-        with patience:
-            ray.init(address=address, **kw)
+        with patience:  # "local": a new cluster of our own, never one a `ray start` left on the machine
+            ray.init(address=address if address is not None else "local", **kw)
     except (ConnectionError, ValueError, RuntimeError) as err:
         ray.shutdown()
         raise ConfigError(f"cannot start or join Ray at {where}: {_first_line(err)}") from None

@@ -2,11 +2,11 @@
 
 Two nodes on this machine (``ray start --head --port P`` given 127.0.0.1, and a second
 ``ray start --address 127.0.0.1:P``; ``--num-cpus 1`` each), joined at the address as given.
-The sweep's result must equal the local pool's bit for bit (timings aside); killing the second
-node while it runs a task must cost a retry line, not the result; a sweep stopped half-way resumes
-on the cluster. Each node is stopped through its own ``ray start --block`` process group (never a
-machine-wide ``ray stop``, which would end other users' Ray processes too). What this proves:
-docs/cluster.md §A real cluster in the tests.
+The sweeps' results (``rigs`` and ``paper``) must equal the local pool's bit for bit (timings
+aside); killing the second node while it runs a task must cost a retry line, not the result; a
+sweep stopped half-way resumes on the cluster. Each node is stopped through its own
+``ray start --block`` process group (never a machine-wide ``ray stop``, which would end other
+users' Ray processes too). What this proves: docs/cluster.md §A real cluster in the tests.
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ import pytest
 from msd_bench.app.ray_probe import alive_nodes
 from msd_bench.core.errors import ConfigError
 from tests.app.test_rigs import RIGS, _without_times
+from tests.app.test_sweep_executors import PAPER, _without_run_facts
 
 pytestmark = pytest.mark.cluster
 
@@ -133,6 +134,31 @@ def _first_rig(proc: subprocess.Popen[str], out: Path) -> None:
         time.sleep(0.2)
 
 
+def _running_a_task(node: subprocess.Popen[bytes]) -> bool:
+    """Whether a Ray worker started under ``node`` (a descendant of its ``ray start`` process) is
+    executing a sweep task: Ray sets an executing worker's process title to ``ray::<function>``."""
+    parent: dict[int, int] = {}
+    titles: dict[int, str] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+            titles[int(entry.name)] = (entry / "cmdline").read_bytes().decode(errors="replace")
+        except OSError:
+            continue
+        parent[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+    for pid, title in titles.items():
+        if "_remote_call" not in title:
+            continue
+        up = pid
+        while up > 1 and up != node.pid:
+            up = parent.get(up, 0)
+        if up == node.pid:
+            return True
+    return False
+
+
 def _finish(proc: subprocess.Popen[str]) -> str:
     try:
         _, err = proc.communicate(timeout=300)
@@ -158,6 +184,22 @@ def test_a_sweep_killed_on_the_cluster_resumes_there_to_the_local_pools_result(
     assert _rigs(tmp_path / "ray") == local
 
 
+def test_paper_on_the_cluster_writes_the_tables_of_the_local_pool(
+        cluster: tuple[str, subprocess.Popen[bytes]], tmp_path: Path) -> None:
+    address, _ = cluster
+    runs = {"local": _msd_bench(*PAPER, "--workers", "2", "--out", str(tmp_path / "local")),
+            "ray": _msd_bench(*PAPER, "--executor", "ray", "--ray-address", address,
+                              "--out", str(tmp_path / "ray"))}
+    for proc in runs.values():
+        _finish(proc)
+    for name in ("table1.json", "robustness.json"):
+        local, ray = (json.loads((tmp_path / d / name).read_text()) for d in runs)
+        if name == "table1.json":
+            assert ray["run"]["executor"] == "ray"
+            local, ray = _without_run_facts(local), _without_run_facts(ray)
+        assert ray == local
+
+
 def test_rigs_on_a_real_cluster_equal_the_local_pool_and_survive_a_killed_node(
         cluster: tuple[str, subprocess.Popen[bytes]], local: Any, tmp_path: Path) -> None:
     """Last in the file: it kills the cluster's second node."""
@@ -165,8 +207,12 @@ def test_rigs_on_a_real_cluster_equal_the_local_pool_and_survive_a_killed_node(
     ray = _msd_bench(*SWEEP, "--executor", "ray", "--ray-address", address, "--retries", "3",
                      "--out", str(tmp_path / "ray"))
     try:
-        _first_rig(ray, tmp_path / "ray")
-        _stop(worker, now=True)  # one of the two running rigs was on this node
+        deadline = time.monotonic() + 100
+        while not _running_a_task(worker) and time.monotonic() < deadline:
+            assert ray.poll() is None, ray.communicate()
+            time.sleep(0.05)
+        assert _running_a_task(worker), "the second node never ran a task"
+        _stop(worker, now=True)  # while it runs a rig
     finally:
         err = _finish(ray)
     assert "worker died (Ray lost it:" in err and "retry 1 of 3" in err, err
