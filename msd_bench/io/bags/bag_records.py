@@ -100,14 +100,23 @@ def roles_from_dir(bags_dir: Path, namespace: str = "/msd", dt: float = DEFAULT_
 
 
 def stamp_interval(paths: Sequence[Path], namespace: str = "/msd") -> float:
-    """The median interval, s, between consecutive stamps of the bags at ``paths``: the sample time
-    when a run does not state it (each bag's stamps are then checked against it as usual)."""
-    steps = [np.diff(np.sort(read_samples(p, namespace).rows.stamps)) for p in paths]
-    pooled = np.concatenate(steps) if steps else np.empty(0)
-    if pooled.size == 0 or not np.median(pooled) > 0:
-        raise BagError(f"{', '.join(map(str, paths)) or 'no bag'}: too few distinct stamps to tell the "
-                       "sample time; give dt")
-    return float(np.median(pooled)) / 1e9  # divided: 1638400 ns is 0.0016384 s exactly as typed
+    """The sample time, s, of bags at ``paths`` when a run does not state it: each bag's median
+    interval between consecutive stamps, which must agree (bags at two rates are one line naming
+    both, never a pooled median no bag has); each bag's stamps are then checked against it as usual."""
+    rates: list[tuple[Path, float]] = []
+    for p in paths:
+        steps = np.diff(np.sort(read_samples(p, namespace).rows.stamps))
+        if steps.size == 0 or not np.median(steps) > 0:
+            raise BagError(f"{p}: too few distinct stamps to tell the sample time; give dt")
+        rates.append((p, float(np.median(steps)) / 1e9))  # divided: 1638400 ns is 0.0016384 s as typed
+    if not rates:
+        raise BagError("no bag to tell the sample time from; give dt")
+    first, dt = rates[0]
+    for p, other in rates[1:]:
+        if abs(other - dt) > 1e-6 * dt:
+            raise BagError(f"bags at two rates: {first} at {1 / dt:.4g} Hz, {p} at {1 / other:.4g} Hz "
+                           "(samples are never resampled: record both at one rate, or give dt)")
+    return dt
 
 
 def bag_dirs(bags_dir: Path) -> list[Path]:
