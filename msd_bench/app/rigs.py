@@ -32,8 +32,10 @@ from typing import Any
 
 import numpy as np
 
+from msd_bench import designs
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
+from msd_bench.app.job import agent_params
 from msd_bench.app.plan import paper_plan
 from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError
@@ -42,15 +44,15 @@ from msd_bench.core.evaluation.risk import trace_risk
 from msd_bench.core.evaluation.risk_table import summarise
 from msd_bench.core.evaluation.scenarios import Scenario, noise_seed, parse
 from msd_bench.core.identification.identify import FitReport
-from msd_bench.core.learning.qconfig import QConfig
 from msd_bench.core.physics.model import StepModel
 from msd_bench.core.rigs import population
 from msd_bench.core.rigs.rig import Rig
-from msd_bench.core.rigs.rig_loop import RigRun, run_on_rig
+from msd_bench.core.rigs.rig_loop import RigRun, run_controller_on_rig, run_on_rig
 from msd_bench.core.rigs.rig_play import measured_actuator, play_plan, records_of
 from msd_bench.core.rigs.rig_stats import DEFAULT_RESAMPLES, rate_summary
-from msd_bench.designs import kinds
+from msd_bench.designs import Drive, Policy, kinds
 from msd_bench.designs.kinds import split_by_model
+from msd_bench.designs.protocol import settings_from
 
 RIG_SCENARIOS = ("setpoint=-1.5", "setpoint=-0.5", "setpoint=0.5", "setpoint=1.5",
                  "disturbance=2@15", "disturbance=-2@15")
@@ -102,8 +104,6 @@ class RigsConfig:
         plant_kinds = split_by_model(self.run.agents)[1]
         if plant_kinds:
             raise ConfigError(f"rigs trains on identified surrogates only, not {', '.join(plant_kinds)}")
-        for kind in self.run.agents:  # the rig's own loop validates Q-tables: other designs say so now
-            _learner(self.run, kind)
         for sid in self.scenarios:
             rig_scenario(sid)
         self.check_rig_set()
@@ -147,26 +147,31 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
     played = play_plan(rig, paper_plan(run.id_first_seed, run.samples, run.val_samples))
     records = records_of(played, drawn.params.dt)
     drive = measured_actuator(played, drawn.params.dt)
-    delay = drive.delay_samples if cfg.actuator == "measured" else 0
+    told = Drive(drive.delay_samples, drive.time_constant_s) if cfg.actuator == "measured" else None
     t_play = time.perf_counter()
     models, fits, failed = _identify(records, run, drawn.params, seed)
     t_id = time.perf_counter()
-    outcomes, t_train = [], 0.0
+    outcomes, t_train, not_made = [], 0.0, {}
     for kind in run.agents:
         surrogate = models.get(agent_kind(kind).surrogate)
         t = time.perf_counter()
-        lr = _learner(run, kind, delay)
-        tables = _train(surrogate, lr, run) if surrogate is not None else None
+        policy, why = _make(surrogate, run, kind, told) if surrogate is not None else (None, "")
         t_train += time.perf_counter() - t
-        outcomes += _validate(cfg, rig, kind, lr, surrogate, tables, seed)
+        if why:
+            not_made[kind] = f"rig {seed}: {why}"
+            outcomes += _not_designed(run, kind, not_made[kind])
+            continue
+        outcomes += _validate(cfg, rig, kind, policy, seed)
     done = time.perf_counter()
     return {
         "rig": seed, "design": seed not in population.HELD_OUT_RIGS, "parameters": rig_parameters(drawn),
         "rests": {"before_experiments": [p.rest.samples for p in played],
                   "not_still": sum(not p.rest.still for p in played)},
         "fits": {name: fits[name].as_row() for name in fits}, "identification_failed": failed,
+        "design_failed": not_made,
         "actuator": {"delay_samples": drive.delay_samples, "lag_s": drive.time_constant_s,
-                     "fit_percent": drive.fit_percent, "told_robust_agent": delay},
+                     "fit_percent": drive.fit_percent,
+                     "told_robust_agent": told.delay_samples if told is not None else 0},
         "outcomes": outcomes,
         "seconds": {"play": t_play - t0, "identify": t_id - t_play, "train": t_train,
                     "validate": done - t_id - t_train, "total": done - t0},
@@ -193,53 +198,59 @@ def _identify(records: Any, run: RunConfig, params: Any,
     return models, fits, {name: f"rig {seed}: {why}" for name, why in failed.items()}
 
 
-def _train(surrogate: StepModel, lr: QConfig, run: RunConfig) -> np.ndarray:
-    """The kind's greedy tables (learner ``lr``), one per learning seed, trained on its surrogate only.
-
-    The one place that trains (the controller protocol replaces it when it lands)."""
-    from msd_bench.core.learning.qtrain import train
-
-    return train(surrogate, lr, run.learning_seeds(0)).q
-
-
-def _learner(run: RunConfig, kind: str, delay: int = 0) -> QConfig:
-    """The Q-learner of ``kind`` at the run's budget, told the rig's actuator ``delay`` (samples) if it
-    has a model observer (a kind of another design is one ConfigError line: the rig sweep validates
-    Q-tables through the rig's own loop)."""
-    from msd_bench.designs.qlearning import for_actuator, learner_config
-
-    return for_actuator(learner_config(kind, run.episodes, run.steps, run.plant.F, run.shaping), delay)
+def _make(surrogate: StepModel, run: RunConfig, kind: str, drive: Drive | None) -> tuple[Policy | None, str]:
+    """The kind's policy made by its design on its surrogate only, one member per learning seed (a
+    deterministic design: one), told the rig's ``drive`` (None: nothing); or why its design could not
+    be made on this rig's surrogate (a baseline's tuning rule may find no gains for it: a result)."""
+    try:
+        settings = settings_from(agent_params(run))
+        return designs.make(kind, surrogate, settings, run.learning_seeds(0), drive), ""
+    except ConfigError as exc:
+        return None, str(exc)
 
 
-def _validate(cfg: RigsConfig, rig: Rig, kind: str, lr: QConfig, surrogate: StepModel | None,
-              tables: np.ndarray | None, rig_seed: int) -> list[dict[str, Any]]:
-    """Every learning seed's table on the rig: nominal first, then each rig scenario, in that order."""
+def _not_designed(run: RunConfig, kind: str, why: str) -> list[dict[str, Any]]:
+    """A kind whose design failed on the rig's surrogate: a failed run per member it would have had."""
+    return [{"kind": kind, "seed": seed, "success": False, "identified": True, "design_failed": why}
+            for seed in designs.members(kind, run.learning_seeds(0))]
+
+
+def _validate(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy | None,
+              rig_seed: int) -> list[dict[str, Any]]:
+    """Every member on the rig: nominal first, then each rig scenario, in that order (a kind whose
+    surrogate could not be identified fails on every learning seed)."""
     run = cfg.run
+    if policy is None:
+        return [{"kind": kind, "seed": seed, "success": False, "identified": False}
+                for seed in run.learning_seeds(0)]
     out = []
-    for j, seed in enumerate(run.learning_seeds(0)):
-        if surrogate is None or tables is None:
-            out.append({"kind": kind, "seed": seed, "success": False, "identified": False})
-            continue
-        nominal = _one_run(cfg, rig, kind, lr, surrogate, tables[j], seed, rig_seed,
-                           Scenario(setpoint=run.target))
+    for j, seed in enumerate(policy.members):
+        nominal = _one_run(cfg, rig, kind, policy, j, seed, rig_seed, Scenario(setpoint=run.target))
         row = {"kind": kind, "seed": seed, "identified": True, **_scores(nominal, run.target, run),
                "start_x": float(nominal.x[0]), "risk": _risk(cfg, rig, nominal),
                "scenarios": {}}
         for sid in cfg.scenarios:
             sc = rig_scenario(sid)
-            got = _one_run(cfg, rig, kind, lr, surrogate, tables[j], seed, rig_seed, sc)
+            got = _one_run(cfg, rig, kind, policy, j, seed, rig_seed, sc)
             row["scenarios"][sid] = _scores(got, sc.setpoint, run, brief=True)
         out.append(row)
     return out
 
 
-def _one_run(cfg: RigsConfig, rig: Rig, kind: str, lr: QConfig, surrogate: StepModel, table: np.ndarray,
-             seed: int, rig_seed: int, sc: Scenario) -> RigRun:
-    """One validation run of ``table`` on the rig under ``sc`` (its noise stream named by rig, kind, seed)."""
+def _one_run(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy, member: int, seed: int, rig_seed: int,
+             sc: Scenario) -> RigRun:
+    """One validation run of member ``member`` on the rig under ``sc`` (its noise stream named by rig,
+    kind, seed): a Q-table through the compiled greedy loop, any other policy through its controller."""
+    from msd_bench.designs.qlearning import QPolicy
+
     rng = np.random.default_rng(noise_seed(seed, f"rig{rig_seed}/{kind}/{sc.id}"))
     load_step = round(sc.disturbance_time / rig.params.dt)
-    return run_on_rig(rig, table, lr, surrogate, sc.setpoint, cfg.run.validation_steps, rng,
-                      load=sc.disturbance, load_step=load_step, limits=cfg.run.supervisor_limits)
+    steps, limits = cfg.run.validation_steps, cfg.run.supervisor_limits
+    if isinstance(policy, QPolicy) and policy.observer is not None:
+        return run_on_rig(rig, policy.q[member], policy.learner, policy.observer, sc.setpoint, steps, rng,
+                          load=sc.disturbance, load_step=load_step, limits=limits)
+    return run_controller_on_rig(rig, policy.controller(member, sc.setpoint), sc.setpoint, steps, rng,
+                                 load=sc.disturbance, load_step=load_step, limits=limits)
 
 
 def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:
@@ -272,7 +283,8 @@ def kind_summary(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]], kind: str,
     per_rig = [rig_success(p, kind) for p in parts]
     rate = rate_summary([k for k, _ in per_rig], [n for _, n in per_rig], cfg.resamples, seed)
     row: dict[str, Any] = {"kind": kind, "label": agent_kind(kind).label, **rate}
-    measured = [o for p in parts for o in p["outcomes"] if o["kind"] == kind and o.get("identified")]
+    measured = [o for p in parts for o in p["outcomes"] if o["kind"] == kind and o.get("identified")
+                and "design_failed" not in o]
     row["measured_successes"] = sum(bool(o["success_measured"]) for o in measured)
     row["risk"] = summarise(o.get("risk") for o in measured)
     row["scenarios"] = {}

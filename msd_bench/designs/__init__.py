@@ -17,6 +17,7 @@ from msd_bench.core.errors import ConfigError
 from msd_bench.designs.protocol import (
     Controller,
     Design,
+    Drive,
     Facts,
     FloatArray,
     KindSpec,
@@ -40,26 +41,37 @@ if TYPE_CHECKING:  # numba-compiled modules load only when a policy is made or r
     from msd_bench.core.physics.model import StepModel
     from msd_bench.core.physics.plant import PlantParams
 
-__all__ = ["AGENT_KINDS", "DESIGNS", "PLANT", "AgentKind", "Controller", "Design", "Facts", "KindSpec",
+__all__ = ["AGENT_KINDS", "DESIGNS", "PLANT", "AgentKind", "Controller", "Design", "Drive", "Facts",
+           "KindSpec",
            "Policy", "Request", "Settings", "Stepwise", "agent_kind", "budget_note", "design", "load",
-           "make", "nominal_runs", "register", "request", "stepwise", "unregister"]
+           "make", "members", "nominal_runs", "register", "request", "stepwise", "unregister"]
 
 
-def request(kind: str, model: StepModel | None, settings: Settings, seeds: Sequence[int]) -> Request:
-    """The request for ``kind`` (an unknown kind is one ConfigError line)."""
+def request(kind: str, model: StepModel | None, settings: Settings, seeds: Sequence[int],
+            drive: Drive | None = None) -> Request:
+    """The request for ``kind`` (an unknown kind is one ConfigError line); ``drive``: what it is told of
+    the drive (None: nothing)."""
     if not seeds:
         raise ConfigError(f"{kind}: need at least one learning seed")
-    return Request(agent_kind(kind).spec, model, settings, tuple(int(s) for s in seeds))
+    return Request(agent_kind(kind).spec, model, settings, tuple(int(s) for s in seeds), drive)
 
 
-def make(kind: str, model: StepModel | None, settings: Settings, seeds: Sequence[int]) -> Policy:
+def make(kind: str, model: StepModel | None, settings: Settings, seeds: Sequence[int],
+         drive: Drive | None = None) -> Policy:
     """Design or train ``kind`` in-process on ``model`` (the surrogate, or the plant's own model)."""
-    return agent_kind(kind).design.make(request(kind, model, settings, seeds))
+    return agent_kind(kind).design.make(request(kind, model, settings, seeds, drive))
 
 
-def stepwise(kind: str, model: StepModel | None, settings: Settings, seeds: Sequence[int]) -> Stepwise | None:
+def stepwise(kind: str, model: StepModel | None, settings: Settings, seeds: Sequence[int],
+             drive: Drive | None = None) -> Stepwise | None:
     """Training of ``kind`` over topics (None: the design is made in-process only)."""
-    return agent_kind(kind).design.stepwise(request(kind, model, settings, seeds))
+    return agent_kind(kind).design.stepwise(request(kind, model, settings, seeds, drive))
+
+
+def members(kind: str, seeds: Sequence[int]) -> list[int]:
+    """The members a policy of ``kind`` has for learning ``seeds``: one per seed, or a deterministic
+    design's one (what a run counts as n when the policy could not even be made)."""
+    return list(seeds)[:1] if agent_kind(kind).design.deterministic else list(seeds)
 
 
 def budget_note(kind: str, settings: Settings) -> str:

@@ -84,6 +84,23 @@ class KindSpec(NamedTuple):
 
 
 @dataclass(frozen=True)
+class Drive:
+    """What a design may know of the drive between its commands and the applied force.
+
+    Why part of the request: a rig's (or a foreign node's) records show a dead time
+    and a lag between the commanded force and the effort; whether a design is told
+    them is the protocol's business, not a caller's per design. Measured from the
+    broad record's commands and effort
+    (:func:`msd_bench.core.rigs.actuation.effort_agreement`).
+    """
+
+    delay_samples: int
+    """Dead time, samples."""
+    lag_s: float
+    """First-order lag's time constant, s."""
+
+
+@dataclass(frozen=True)
 class Request:
     """Everything a design is given to make a policy."""
 
@@ -96,6 +113,8 @@ class Request:
     """The run's budgets and actuator."""
     seeds: tuple[int, ...]
     """Learning seeds (a deterministic design keeps the first one as its member's name)."""
+    drive: Drive | None = None
+    """The drive its records show (None: told nothing, the design assumes an ideal drive)."""
 
 
 @dataclass(frozen=True)

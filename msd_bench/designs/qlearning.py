@@ -212,9 +212,11 @@ class QDesign:
         return self.offers(surfaces)
 
     def config(self, req: Request) -> QConfig:
-        """The learner at this request's budget (Dyna-Q: the plant budget)."""
+        """The learner at this request's budget (Dyna-Q: the plant budget), told the drive's delay when
+        the request carries one (:func:`for_actuator`: only a model observer uses it)."""
         s = req.settings
-        return learner(req.spec, self.learner_name, s, s.plant_episodes if self.planning else s.episodes)
+        qc = learner(req.spec, self.learner_name, s, s.plant_episodes if self.planning else s.episodes)
+        return qc if req.drive is None else for_actuator(qc, req.drive.delay_samples)
 
     def budget_note(self, s: Settings) -> str:
         """What a reader must know about the row's budget ('' when it is the paper's)."""

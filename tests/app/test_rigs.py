@@ -133,7 +133,9 @@ def test_a_design_run_says_so(tmp_path: Path) -> None:
 def test_the_robust_agent_told_no_delay_trains_as_on_the_ideal_plant() -> None:
     """``--robust-actuator none``: the rig's delay is still measured and reported, but the observer is
     told none, so the robust learner is the ideal plant's; a rig with a delay changes the learner."""
-    from msd_bench.app.rigs import _learner, rig_task
+    from msd_bench import designs
+    from msd_bench.app.job import agent_params
+    from msd_bench.app.rigs import rig_task
     from msd_bench.cli import build_parser
     from msd_bench.commands.rigs import rigs_config
     from msd_bench.designs.qlearning import learner_config
@@ -146,4 +148,31 @@ def test_the_robust_agent_told_no_delay_trains_as_on_the_ideal_plant() -> None:
     assert got["actuator"]["told_robust_agent"] == 0
     run = cfg.run
     plain = learner_config("glm+robust", run.episodes, run.steps, run.plant.F, run.shaping)
-    assert _learner(run, "glm+robust", 0) == plain and _learner(run, "glm+robust", 2).obs_delay == 2
+    settings = designs.protocol.settings_from(agent_params(run))
+
+    def told(drive: designs.Drive | None) -> object:  # what the Q design makes of the request's drive
+        return designs.agent_kind("glm+robust").design.config(  # type: ignore[attr-defined]
+            designs.request("glm+robust", None, settings, [0], drive))
+
+    assert told(None) == plain and told(designs.Drive(2, 0.04)).obs_delay == 2  # type: ignore[attr-defined]
+
+
+def test_every_design_runs_on_the_rigs(tmp_path: Path) -> None:
+    """Baselines (PID, LQR, MPC) go through ``designs.make`` and their controllers through each rig's own
+    loop, as Q-tables do: one deterministic member each, validated nominally and under the scenarios."""
+    out = tmp_path / "baselines"
+    agents = "glm+pid,greybox+lqr,plm+mpc"
+    assert cli_main([*RIGS, "--agents", agents, "--seeds", "2", "--out", str(out)]) == 0
+    doc = json.loads((out / "rigs.json").read_text())
+    assert [k["kind"] for k in doc["kinds"]] == agents.split(",")
+    for rig in doc["rigs"]:
+        rows = rig["outcomes"]
+        assert [o["kind"] for o in rows] == agents.split(",")  # deterministic: one member each
+        for o in rows:  # run on the rig, or its design could not be made on this rig's surrogate (why)
+            if "design_failed" in o:
+                assert not o["success"] and o["design_failed"] == rig["design_failed"][o["kind"]]
+                continue
+            assert o["identified"] and set(o["scenarios"]) == {"setpoint=-0.5", "disturbance=1@1"}
+            assert o["sse"] > 0 and o["start_x"] != 0.0 and isinstance(o["success"], bool)
+    ran = {o["kind"] for r in doc["rigs"] for o in r["outcomes"] if "design_failed" not in o}
+    assert ran == set(agents.split(","))  # every baseline really ran through a rig

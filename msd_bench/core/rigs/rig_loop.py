@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numba
 import numpy as np
@@ -163,3 +163,51 @@ def run_on_rig(rig: Rig, q: FloatArray, cfg: QConfig, observer: StepModel, targe
         observer.kernel, float(rig.x), float(rig.v), drain_samples(rig), lim, limits is not None)
     rig.reset(x_end, v_end)  # hand the drained state back: the next rest starts from it
     return RigRun(x, y, u, f, before, r if limits is not None else None, abort)
+
+
+class StepController(Protocol):
+    """Any stepwise controller (a design's :class:`~msd_bench.designs.protocol.Controller`)."""
+
+    def reset(self) -> None:
+        """Back to rest: the next measurement starts a new run."""
+
+    def act(self, y: float) -> float:
+        """The force for the measured position ``y``, m."""
+
+
+def run_controller_on_rig(rig: Rig, controller: StepController, target: float, steps: int,
+                          rng: np.random.Generator, load: float = 0.0, load_step: int = 0,
+                          rest_config: RestConfig | None = None, limits: Limits | None = None) -> RigRun:
+    """:func:`run_on_rig` for any stepwise controller (a baseline's PID, LQR or MPC), one sample at a time.
+
+    Why a second loop: :func:`rig_greedy` is compiled around a Q-table; a design that is not one
+    runs through its stepwise face, sample by sample through the same compiled rig
+    :func:`~msd_bench.core.rigs.rig.transition` and supervisor step, with the same noise draw,
+    rest and drain, so a rig treats every design alike.
+    """
+    before = rest(rig, rest_config)
+    noise = rig.imperfections.sensor_noise * rng.standard_normal(steps)
+    c = conditions(rig, target, load, load_step)
+    model = plant_model(rig.params).kernel
+    lim = limits if limits is not None else SupervisorOptions().limits(rig.params)
+    xs, ys, us, fs = np.empty(steps), np.empty(steps), np.empty(steps), np.empty(steps)
+    rs = np.zeros(steps, dtype=np.int64)
+    st = np.zeros(STATE_SIZE)
+    state = np.array([rig.x, rig.v, 0.0, 0.0])
+    act = np.zeros(c.delay + 2)
+    x = float(rig.x)
+    y = float(sense(x, noise[0], c.quant))
+    controller.reset()
+    for k in range(steps):
+        u = float(controller.act(y))
+        xs[k], ys[k], us[k] = x, y, u
+        cmd = float(kernels.saturate(u, model.force_limit))
+        if limits is not None:
+            cmd, rs[k] = filter_step(lim, st, y, c.target, cmd)
+        nxt = noise[k + 1] if k + 1 < steps else 0.0
+        fs[k], x, y = transition(model, state, act, k, cmd, nxt, c.delay, c.lag,
+                                 c.load if k >= c.load_step else 0.0, c.friction, c.quant)
+    for j in range(drain_samples(rig)):
+        transition(model, state, act, steps + j, 0.0, 0.0, c.delay, c.lag, 0.0, c.friction, c.quant)
+    rig.reset(float(state[0]), float(state[1]))
+    return RigRun(xs, ys, us, fs, before, rs if limits is not None else None, int(st[S_ABORT]))

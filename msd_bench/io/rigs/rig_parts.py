@@ -53,8 +53,8 @@ def check_outcome(path: Path, i: int, row: Any, kinds: Sequence[str], scenarios:
         raise _fail(path, f"{where}.seed", "must be a whole number")
     _flag(path, f"{where}.success", row.get("success"))
     _flag(path, f"{where}.identified", row.get("identified"))
-    if not row["identified"]:
-        return
+    if not row["identified"] or isinstance(row.get("design_failed"), str):
+        return  # no surrogate, or its design could not be made on it: a failure with no run
     _flag(path, f"{where}.success_measured", row.get("success_measured"))
     _number(path, f"{where}.start_x", row.get("start_x"))
     cells = _mapping(path, f"{where}.scenarios", row.get("scenarios"))
