@@ -47,6 +47,7 @@ from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, RecordServers, paper_plan, record_experiments
 from msd_bench.graph.supervise import Supervision, agent_remaps
 from msd_bench.graph.supervise import check as check_supervision
+from msd_bench.io.bags.drive_file import read_drive
 from msd_bench.io.storage.atomic import TEMP_PREFIX, write_text_atomic
 from msd_bench.io.storage.paths import OutputError, writable_dir
 from msd_msgs_py.contract import PLANT_NAMESPACE, surrogate_namespace
@@ -255,6 +256,9 @@ def agent_placement(cfg: BenchConfig, kind: str) -> dict[str, Any]:
         "pooled": not cfg.realtime and not cfg.supervision.validation}  # a pooled endpoint is not remapped
     if cfg.plant_ns is not None:
         place["reset"] = False
+        drive = read_drive(cfg.run_dir / "models")  # what the node's own bags show (identifier_node)
+        if drive is not None:
+            place["drive_delay"], place["drive_lag"] = drive
         if kind in cfg.scenario_kinds and cfg.node_scenarios:
             place["scenarios"] = ";".join(cfg.node_scenarios)
     model = kinds.model_file(kind)  # on-plant Q-learning: "plant", the plant's own model

@@ -50,7 +50,7 @@ from msd_bench.core.evaluation.robustness import cell
 from msd_bench.core.evaluation.scenarios import Scenario
 from msd_bench.core.physics.model import StepModel, check_rate
 from msd_bench.core.rigs.rest import RestConfig
-from msd_bench.designs import Controller, Policy, Settings, Stepwise
+from msd_bench.designs import Controller, Drive, Policy, Settings, Stepwise
 from msd_bench.designs.kinds import facts_record, made_on_plant, stepwise_namespace, stepwise_training
 from msd_bench.designs.protocol import StepwiseLearner, settings_from
 from msd_bench.io.bags.bag_writer import write_experiment
@@ -113,6 +113,11 @@ class AgentNodeConfig:
     scenarios: str = ""
     """Scenarios validated on the node besides the nominal run, separated by ``;`` (a scenario has
     commas): ``setpoint=`` / ``disturbance=`` items only."""
+    drive_delay: int = field(default=-1, metadata={"range": (-1, 100_000)})
+    """Dead time of the plant's drive, samples, as its bags show it, told to the design (``-1``: told
+    nothing; :attr:`msd_bench.designs.protocol.Request.drive`)."""
+    drive_lag: float = field(default=0.0, metadata={"range": (0.0, 1e3)})
+    """The drive's lag, s (with ``drive_delay``)."""
     pooled: bool = False
     """Lock-step only, in a served process: take the plant's (and surrogate's) endpoints from the
     process's pool, matched already by an earlier job (:mod:`msd_bench.nodes.endpoints`)."""
@@ -140,6 +145,10 @@ class AgentNodeConfig:
     def scenario_ids(self) -> list[str]:
         """The ``scenarios`` one by one."""
         return [t.strip() for t in self.scenarios.split(";") if t.strip()]
+
+    def drive(self) -> Drive | None:
+        """What the design is told of the drive (None: nothing)."""
+        return None if self.drive_delay < 0 else Drive(self.drive_delay, self.drive_lag)
 
     def settings(self) -> Settings:
         """What the kind's design takes from this node's budgets (the fields its job set)."""
@@ -261,11 +270,11 @@ class AgentNode(Node):
         cfg = self.config
         over = None
         if cfg.via_ros or self.model is None:  # a design made in one go (a baseline) ignores via_ros
-            over = designs.stepwise(cfg.kind, self.model, cfg.settings(), cfg.seeds)
+            over = designs.stepwise(cfg.kind, self.model, cfg.settings(), cfg.seeds, cfg.drive())
             if over is None and self.model is None:
                 raise ConfigError(f"{cfg.kind} learns nothing over topics: give its model_path")
         if over is None:
-            self._trained(designs.make(cfg.kind, self.model, cfg.settings(), cfg.seeds))
+            self._trained(designs.make(cfg.kind, self.model, cfg.settings(), cfg.seeds, cfg.drive()))
             return
         self._train_over(over, stepwise_namespace(over, cfg.plant_ns, cfg.surrogate_ns))
 
@@ -345,7 +354,9 @@ class AgentNode(Node):
     def _finish(self) -> None:
         cfg = self.config
         facts = self.policy.facts if self.policy is not None else None
+        drive = cfg.drive()
         doc = {"kind": cfg.kind, "agent": agent_kind(cfg.kind).agent, "config": _jsonable_config(cfg),
+               "drive_told": None if drive is None else asdict(drive),  # what its design knew
                "training": self._training, **facts_record(facts),
                "per_seed": self.per_seed,
                "on_node_scenarios": {sid: cell(c["sse"], c["mae"]) for sid, c in self.robust.items()},

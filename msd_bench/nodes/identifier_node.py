@@ -40,6 +40,7 @@ from msd_bench.io.bags.bag_records import (
     roles_from_dir,
     stamp_interval,
 )
+from msd_bench.io.bags.drive_file import broad_drive, write_drive
 from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.atomic import write_text_atomic
 from msd_bench.io.storage.paths import writable_dir
@@ -135,6 +136,7 @@ def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERF
     roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace, cfg.dt) if cfg.bags_dir else explicit
     records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace, cfg.dt, iface=iface,
                            force_limit=cfg.force, sources=sources, force_input=cfg.force_input)
+    written(lambda: write_drive(out, broad_drive(roles, sources)), out)  # before any model: see drive_file
     parameters = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()}
     parameters["interface"] = iface.as_dict()
     parameters["inputs"] = [s.as_dict() for s in sources]

@@ -79,7 +79,7 @@ def test_ros_training_is_bit_identical_and_validation_matches_core(ctx, executor
         assert params["seed"] == seed
         assert agent.per_seed[i]["sse"] == compute(x_ref[i], 1.0, 0.01, 100).sse
     doc = json.loads((tmp_path / "result.json").read_text())
-    assert doc["training"] == "ros" and len(doc["per_seed"]) == 2
+    assert doc["training"] == "ros" and len(doc["per_seed"]) == 2 and doc["drive_told"] is None
     arrays, meta = artifacts.load_qtables(tmp_path / "qtables.npz")
     assert np.array_equal(arrays["q"], reference.q)
     assert meta["provenance"]["sources"][0]["sha256"] == artifacts.sha256_path(glm_path)

@@ -233,7 +233,8 @@ def _played_experiment(r: BagRole, iface: PlantInterface, namespace: str, timing
                                             force_input=force_input, samples=r.samples,
                                             played=None if cut is None else cut.rows)
     if cut is not None and iface.effort_is_commanded:  # a measured effort was checked when rebuilt
-        confirm_by_effort(r.path, cut, exp.u, timing.dt)
+        confirmed = confirm_by_effort(r.path, cut, exp.u, timing.dt)
+        src = replace(src, agreement=confirmed.agreement)  # the drive the bag shows, on either face
     if r.params is not None and cut is None:
         exp = align_to_played(exp, r.params, force_limit, r.path)  # no commands in the bag: by its effort
     return exp, src

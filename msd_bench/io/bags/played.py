@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.rigs.actuation import effort_agreement, held_commands
+from msd_bench.core.rigs.actuation import EffortAgreement, effort_agreement, held_commands
 from msd_bench.io.bags.bag_error import BagError
 from msd_bench.io.bags.bag_interface import MIN_AGREEMENT, _command_rows
 from msd_bench.io.bags.bag_meta import shown
@@ -82,6 +82,9 @@ class PlayedCut:
     """The command topic the cut was found from (``commands``)."""
     held: np.ndarray | None = field(default=None, compare=False, repr=False)
     """The commands held at each sample of the cut (``commands``)."""
+    agreement: EffortAgreement | None = field(default=None, compare=False)
+    """The actuator fitted between the held commands and the effort (:func:`confirm_by_effort`): what
+    the records show of the drive (delay, lag), which a design may be told."""
 
     @property
     def rows(self) -> slice:
@@ -184,7 +187,7 @@ def confirm_by_effort(path: Path, cut: PlayedCut, effort: np.ndarray, dt: float)
         raise BagError(f"bag {path}: over the cut from the commands on {cut.topic} the recorded effort does "
                        f"not follow them (fit {agreement.fit_percent:.1f} % < {MIN_AGREEMENT:.0f} %): the "
                        f"played samples cannot be located")
-    return replace(cut, match=float(agreement.fit_percent))
+    return replace(cut, match=float(agreement.fit_percent), agreement=agreement)
 
 
 def locate_from_effort(path: Path, effort: np.ndarray, played: np.ndarray) -> PlayedCut | None:
