@@ -161,8 +161,10 @@ def _part_kinds(doc: dict[str, Any], path: Path) -> dict[str, dict[str, Any]]:
         seeds, rows = entry.get("seeds"), entry.get("per_seed")
         if not isinstance(seeds, list) or not all(is_int(x) for x in seeds):
             raise RunDirError(f"{path}: {where}.seeds must be a list of integers")
-        if not isinstance(rows, list) or len(rows) != len(seeds):
-            raise RunDirError(f"{path}: {where}.per_seed must be a list of one row per seed")
+        if not isinstance(rows, list) or not 1 <= len(rows) <= len(seeds):
+            # one row per member: a learned kind's per seed, a deterministic design's one nominal run
+            raise RunDirError(f"{path}: {where}.per_seed must be a list of one row per member "
+                              f"(1..{len(seeds)} for {len(seeds)} seed(s))")
         for i, row in enumerate(rows):
             seed_row(row, f"{where}.per_seed[{i}]", path, RunDirError)
         if not isinstance(entry.get("cells"), dict):

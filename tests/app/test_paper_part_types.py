@@ -29,12 +29,21 @@ def test_a_well_formed_part_is_read() -> None:
     assert _part_kinds(copy.deepcopy(PART), Path("parts/id0.json")) == PART["kinds"]
 
 
+def test_a_deterministic_kind_has_one_row_for_all_its_seeds() -> None:
+    """A baseline is one nominal run per identified model whatever the seeds (its copies are not n)."""
+    doc = copy.deepcopy(PART)
+    entry = doc["kinds"]["glm"]
+    entry["seeds"] = [*entry["seeds"], max(entry["seeds"]) + 1]
+    assert len(entry["per_seed"]) < len(entry["seeds"])
+    assert _part_kinds(doc, Path("parts/id0.json"))["glm"]["per_seed"] == entry["per_seed"]
+
+
 @pytest.mark.parametrize(("path", "value", "said"), [
     (("kinds", "glm", "per_seed", 0, "ts"), "4.0", "kinds['glm'].per_seed[0].ts must be a number or null"),
     (("kinds", "glm", "per_seed", 0, "seed"), 0.5, "kinds['glm'].per_seed[0].seed must be an integer"),
     (("kinds", "glm", "per_seed", 0, "success"), "yes", "kinds['glm'].per_seed[0].success must be true or"),
     (("kinds", "glm", "seeds"), ["0"], "kinds['glm'].seeds must be a list of integers"),
-    (("kinds", "glm", "per_seed"), [], "kinds['glm'].per_seed must be a list of one row per seed"),
+    (("kinds", "glm", "per_seed"), [], "kinds['glm'].per_seed must be a list of one row per member"),
     (("kinds", "glm", "cells"), [], "kinds['glm'].cells must be an object"),
     (("kinds", "glm"), "x", "kinds['glm'] must be an object"),
     (("kinds",), [], "kinds must be an object"),
