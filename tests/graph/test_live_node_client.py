@@ -4,7 +4,8 @@ which Lichtblick and older Foxglove apps speak) from npm, under Node from Debian
 ``tests/node_client/watch.mjs`` connects ``FoxgloveClient`` to a real ``bench.py --live`` run,
 subscribes to the plant's joint states and decodes them with the protobuf schema the server
 advertises; every row must be a row of the same stamp in the bags the run recorded. The layout's
-channels must be among those advertised. docs/live.md §Foxglove's own client says what it proves.
+channels must be among those advertised. docs/live.md §Connect (its part on Foxglove's own client)
+says what it proves.
 Tier ``node`` (``.ci/run`` installs Node and the client); skipped with one line without them.
 """
 
