@@ -89,6 +89,9 @@ class BenchConfig:
     that talks to it (docs/ros2-control.md §Parameters)."""
     live_port: int | None = None
     """Serve the live view on this port of 127.0.0.1 (``--live [PORT]``, 0: a free one; None: off)."""
+    live_wait_s: float = 0.0
+    """With ``live_port``: wait up to this long for a viewer to subscribe before the first stage
+    (``--live-wait``), so a short emulated run is not over before Foxglove has connected."""
     supervision: Supervision = field(default_factory=Supervision)
     """Which stages run behind the safety supervisor, with which options (docs/supervisor.md)."""
     timings: dict[str, float] = field(default_factory=dict, compare=False)

@@ -22,6 +22,7 @@ view starts: a run without ``--live`` loads none of it.
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -132,11 +133,24 @@ class PlantWatch:
         self._ctx.shutdown()
 
 
+def _await_viewer(live: LiveServer, wait_s: float, say: Callable[[str], None] | None) -> None:
+    """Block until a viewer subscribes to the plant's rows or ``wait_s`` passes; say which."""
+    deadline = time.monotonic() + wait_s
+    while not live.watched and time.monotonic() < deadline:
+        time.sleep(0.05)
+    if say is not None:
+        say("a viewer subscribed; starting" if live.watched else
+            f"no viewer subscribed within --live-wait {wait_s:g} s; starting anyway")
+
+
 @contextmanager
 def live_view(port: int | None, namespace: str, iface: PlantInterface,
-              say: Callable[[str], None] | None = None) -> Iterator[LiveServer | None]:
+              say: Callable[[str], None] | None = None, wait_s: float = 0.0) -> Iterator[LiveServer | None]:
     """Serve the live view on ``port`` (None: no live view) for the ``with`` block: the run's lifetime.
 
+    With ``wait_s`` > 0 the block starts only once a viewer subscribes to the plant's rows, or after
+    ``wait_s`` seconds without one (said in a line): an emulated record of a few seconds would be
+    over before a viewer started by hand, or a script, has connected.
     A port in use is a one-line :class:`msd_bench.io.reports.live_server.LiveError` before any stage starts.
     """
     if port is None:
@@ -149,6 +163,8 @@ def live_view(port: int | None, namespace: str, iface: PlantInterface,
         _ACTIVE.append(live)
         if say is not None:
             say(f"live view on {live.url} (Foxglove/Lichtblick: docs/live.md)")
+        if wait_s > 0.0:
+            _await_viewer(live, wait_s, say)
         yield live
     finally:
         _ACTIVE.clear()

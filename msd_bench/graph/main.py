@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import importlib
+import math
 import os
 import sys
 import threading
@@ -88,6 +89,9 @@ def parse(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--live", nargs="?", type=int, const=DEFAULT_PORT, metavar="PORT",
                    help=f"serve a live view (Foxglove WebSocket) on ws://127.0.0.1:PORT for the run "
                         f"(default port {DEFAULT_PORT}; 0 picks a free one; docs/live.md)")
+    p.add_argument("--live-wait", type=float, default=0.0, metavar="SECONDS",
+                   help="with --live: before the first stage, wait up to SECONDS for a viewer to "
+                        "subscribe to the plant's rows (an emulated run can end in seconds)")
     add_cli_options(p)
     supervise_options(p)
     return p.parse_args(argv)
@@ -133,6 +137,16 @@ def _plant_ns_fields(args: argparse.Namespace, run: RunConfig) -> tuple[RunConfi
                                        "scenario_kinds": kinds, "left_out": dropped}
 
 
+def live_wait(args: argparse.Namespace) -> float:
+    """``--live-wait``'s seconds, refused in one line without ``--live`` or when not a finite number >= 0."""
+    wait = float(args.live_wait)
+    if not (math.isfinite(wait) and wait >= 0.0):
+        raise ConfigError(f"--live-wait {args.live_wait}: give seconds, a finite number >= 0")
+    if wait > 0.0 and args.live is None:
+        raise ConfigError("--live-wait needs --live")
+    return wait
+
+
 def config(args: argparse.Namespace) -> BenchConfig:
     """The run's configuration from the options."""
     # relative paths mean the caller's directory (children run in the repository)
@@ -148,6 +162,7 @@ def config(args: argparse.Namespace) -> BenchConfig:
         run_dir=Path(run_dir), run=run, realtime=args.realtime or args.plant_ns is not None,
         via_ros=args.via_ros, bags=args.bags.absolute() if args.bags else None,
         stages=stages or tuple(args.stages.split(",")), interface=from_cli(args), live_port=args.live,
+        live_wait_s=live_wait(args),
         supervision=supervision(args), **extra)
 
 
@@ -358,7 +373,8 @@ def main(argv: list[str] | None = None) -> int:
         lock = use_domain(args)  # held for the whole run
         try:
             cfg = config(args)
-            with live_view(cfg.live_port, cfg.namespace, cfg.interface, say):  # the run's lifetime
+            with live_view(cfg.live_port, cfg.namespace, cfg.interface, say,
+                           wait_s=cfg.live_wait_s):  # the run's lifetime
                 return run(cfg)
         finally:
             if lock is not None:

@@ -386,3 +386,43 @@ def test_the_rig_serves_its_own_measured_rows() -> None:
     shared = [r for r in live_rows if r[0] in dds]
     assert all((pos, eff) == dds[stamp] for stamp, pos, _vel, eff in shared), shared
     assert len({eff for *_, eff in shared}) > 1 or len({pos for _, pos, *_ in shared}) > 1  # not a still rig
+
+
+# --- --live-wait -------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["--live-wait", "5"], "--live-wait needs --live"),
+    (["--live", "0", "--live-wait", "-1"], "--live-wait -1.0: give seconds"),
+    (["--live", "0", "--live-wait", "nan"], "--live-wait nan: give seconds"),
+])
+def test_live_wait_is_refused_in_one_line_without_live_or_as_no_duration(argv: list[str], said: str) -> None:
+    from msd_bench.core.errors import ConfigError
+    from msd_bench.graph.main import config, parse
+
+    with pytest.raises(ConfigError) as err:
+        config(parse(["--out", "/nonexistent/run", *argv]))
+    assert str(err.value).startswith(said)
+
+
+class _Viewer:
+    """A live server whose viewer subscribes after ``polls`` looks (or never, with None)."""
+
+    def __init__(self, polls: int | None) -> None:
+        self.polls, self.looks = polls, 0
+
+    @property
+    def watched(self) -> bool:
+        self.looks += 1
+        return self.polls is not None and self.looks > self.polls
+
+
+def test_live_wait_starts_once_a_viewer_subscribes_and_says_so_when_none_does() -> None:
+    from msd_bench.graph.live import _await_viewer
+
+    lines: list[str] = []
+    viewer = _Viewer(polls=3)
+    _await_viewer(viewer, 60.0, lines.append)  # type: ignore[arg-type]
+    assert viewer.looks >= 4 and lines == ["a viewer subscribed; starting"]
+    lines.clear()
+    _await_viewer(_Viewer(polls=None), 0.2, lines.append)  # type: ignore[arg-type]
+    assert lines == ["no viewer subscribed within --live-wait 0.2 s; starting anyway"]

@@ -57,12 +57,12 @@ def test_the_reference_client_reads_a_bench_runs_rows_and_the_layouts_channels(n
                                                                               tmp_path: Path) -> None:
     out = tmp_path / "run"
     argv = ["launch_scripts/bench.py", "--live", "0", "--stages", "record", "--agents", "glm",
-            "--samples", "1500", "--val-samples", "500", "--out", str(out)]
+            "--samples", "1500", "--val-samples", "500", "--live-wait", "240", "--out", str(out)]
     bench = subprocess.Popen([sys.executable, *argv], cwd=ROOT, stderr=subprocess.PIPE, text=True,
                              stdout=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
     assert bench.stderr is not None
     url = None
-    for line in bench.stderr:  # the server is up before the run starts
+    for line in bench.stderr:  # the server is up before the run; the run waits for a subscriber
         if m := re.search(r"live view on (ws://127\.0\.0\.1:\d+)", line):
             url = m.group(1)
             break
