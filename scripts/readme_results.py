@@ -816,6 +816,14 @@ def _resid_cell(r: dict[str, Any] | None) -> str:
     return f"{white} / {indep}"
 
 
+def _integrator_note(row: dict[str, Any]) -> str:
+    """A grey-box kind's chosen kernel, e.g. ``; rk4 chosen at omega dt 0.70``."""
+    choice = row.get("integrator_choice")
+    if not isinstance(choice, dict):
+        return ""
+    return f"; {choice['chosen']} chosen at ω·dt {choice['omega_dt']:.2f}"
+
+
 def view_silverbox(doc: dict[str, Any], name: str) -> str:
     """``scripts/silverbox.py``: each kind's free-run RMSE (mV) on the three test sets, its held-out
     validation RMSE and fit time, then the published results on the same protocol."""
@@ -829,8 +837,8 @@ def view_silverbox(doc: dict[str, Any], name: str) -> str:
             continue
         cells = " | ".join(_mv_cell(row["rmse_mv"][key]) for key, _ in SILVERBOX_SETS)
         val = _mv_cell(row["validation_rmse_mv"])
-        lines.append(f"| {row['label']} (`{row['kind']}`) | {cells} | {val} | {row['fit_seconds']:.1f} | "
-                     f"{_resid_cell(row.get('resid_multisine'))} |")
+        lines.append(f"| {row['label']} (`{row['kind']}`{_integrator_note(row)}) | {cells} | {val} | "
+                     f"{row['fit_seconds']:.1f} | {_resid_cell(row.get('resid_multisine'))} |")
     for pub in sb["published"]:
         cells = " | ".join(f"{pub['rmse_mv'][key]:g}" for key, _ in SILVERBOX_SETS)
         lines.append(f"| published: {pub['method']} ({pub['source']}) | {cells} | | | |")

@@ -70,7 +70,7 @@ def run_kind(kind: str, est: IOData, val: IOData, u: np.ndarray, y: np.ndarray,
     u_est = est.experiments[0].u
     # Stroke and force limit only clip: set wide of the training range (no test set consulted).
     req = FitRequest(Records({}, {}, est, val), seed=0, stroke=8.0 * float(np.max(np.abs(y_est))),
-                     force=4.0 * float(np.max(np.abs(u_est))))
+                     force=4.0 * float(np.max(np.abs(u_est))), dt=est.dt, units=("V", "V"))
     t0 = time.perf_counter()
     try:
         model = fit_model(kind, req)
@@ -89,6 +89,10 @@ def run_kind(kind: str, est: IOData, val: IOData, u: np.ndarray, y: np.ndarray,
                               "independence_pass": res.independence_pass,
                               "auto_outside": int(np.sum(np.abs(res.auto) > res.band)),
                               "cross_outside": int(np.sum(np.abs(res.cross) > res.band))}
+    choice = model.info.get("integrator_choice")
+    if isinstance(choice, dict):  # greybox, greybox-rig: which kernel the fast resonance chose
+        row["integrator_choice"] = {k: choice[k] for k in ("chosen", "omega_dt", "euler_limit", "train_rms")
+                                    if k in choice}
     if kind == "greybox-rk4":
         row["model"] = {k: model.info[k] for k in ("structure", "input_lead", "integrator", "parameters",
                                                    "stderr", "fixed")}

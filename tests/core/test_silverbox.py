@@ -50,6 +50,24 @@ def test_rk4_greybox_on_a_slice_reaches_about_a_millivolt() -> None:
     assert model.info["parameters"]["k3"] > 0 and model.info["parameters"]["k2"] < 0  # hardening, asymmetric
 
 
+def test_the_grey_box_kinds_choose_rk4_on_the_silverboxs_fast_resonance() -> None:
+    from msd_bench.core.identification.integrator_choice import EULER_OMEGA_DT
+    from msd_bench.core.identification.model_kinds import FitRequest, fit_model
+    from msd_bench.core.identification.records import Records
+    from msd_bench.core.physics import kernels
+
+    u, y = _record()
+    est, _ = protocol.estimation_and_validation(protocol.SILVERBOX, u, y)
+    e = est.experiments[0]
+    train = IOData((Experiment(e.u[:3000], e.y[:3000]),), est.dt)
+    model = fit_model("greybox", FitRequest(Records({}, {}, train, train), 0, stroke=2.0, force=1.0,
+                                            dt=est.dt, units=("V", "V")))
+    choice = model.info["integrator_choice"]
+    assert choice["omega_dt"] > EULER_OMEGA_DT  # ~0.7: 69 Hz sampled at 610 Hz
+    assert choice["chosen"] == "rk4" and choice["train_rms"]["rk4"] < choice["train_rms"]["euler"] / 5
+    assert model.kind == kernels.KIND_RK4 and model.name == "greybox" and model.dt == est.dt
+
+
 def test_a_short_record_is_one_line() -> None:
     with pytest.raises(InvalidInputError, match="shorter than its training range"):
         protocol.estimation_and_validation(protocol.SILVERBOX, np.zeros(1000), np.zeros(1000))

@@ -129,16 +129,22 @@ def _nlarx_fitter(form: str) -> Fitter:
 def _fit_greybox(req: FitRequest) -> StepModel:
     from msd_bench.core.identification import identify
     from msd_bench.core.identification.greybox import GreyboxConfig
+    from msd_bench.core.identification.integrator_choice import with_integrator_choice
 
     cfg = GreyboxConfig(stroke=req.stroke, force=req.force)
-    return identify.identify_greybox(req.records.broad_train, cfg)
+    train = req.records.broad_train
+    return with_integrator_choice("greybox", train, lambda: identify.identify_greybox(train, cfg),
+                                  req.stroke, req.force)
 
 
 def _fit_greybox_rig(req: FitRequest) -> StepModel:
     from msd_bench.core.identification import greybox_rig
+    from msd_bench.core.identification.integrator_choice import with_integrator_choice
 
     cfg = greybox_rig.GreyboxRigConfig(stroke=req.stroke, force=req.force)
-    return greybox_rig.identify_greybox_rig(req.records.broad_train, cfg)
+    train = req.records.broad_train
+    return with_integrator_choice("greybox-rig", train, lambda: greybox_rig.identify_greybox_rig(train, cfg),
+                                  req.stroke, req.force)
 
 
 def _fit_greybox_rk4(req: FitRequest) -> StepModel:
