@@ -666,7 +666,32 @@ def view_rig_realtime(doc: dict[str, Any], name: str) -> str:
     for r in doc["rigs"]:
         line = r["line"].split(": ", 1)[-1]
         lines.append(f"| {r['rig']} | {line} | {_rt_fits(r['real_time'])} | {_rt_fits(r['in_process'])} |")
+    if any("drive_measured" in r["real_time"] for r in doc["rigs"]):
+        lines += ["", "| rig | drive measured, real time | told the robust agents, real time | "
+                  "drive measured and told, in-process |", "|---|---|---|---|"]
+        for r in doc["rigs"]:
+            rt, ip = r["real_time"], r["in_process"]
+            lines.append(f"| {r['rig']} | {_rt_drive(rt.get('drive_measured'))} | "
+                         f"{_rt_told(rt.get('drive_told'))} | {_rt_drive(ip.get('drive'))} |")
     return "\n".join(lines) + "\n"
+
+
+def _rt_drive(drive: Any) -> str:
+    """A measured drive as ``delay 2, lag 31 ms`` (— when the run showed none)."""
+    if not isinstance(drive, dict):
+        return "—"
+    told = drive.get("told_robust_agent")
+    extra = f" (told: delay {told})" if told is not None else ""
+    return f"delay {drive['delay_samples']}, lag {1000 * drive['lag_s']:.0f} ms{extra}"
+
+
+def _rt_told(told: Any) -> str:
+    """What each robust agent's result.json says its design was told."""
+    if not isinstance(told, dict):
+        return "—"
+    cells = [f"{k}: delay {d['delay_samples']}" for k, d in sorted(told.items())
+             if k.endswith("+robust") and isinstance(d, dict)]
+    return "; ".join(cells) or "nothing"
 
 
 def view_greybox_rig_floors(doc: dict[str, Any], name: str) -> str:

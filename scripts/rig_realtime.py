@@ -93,15 +93,24 @@ def real_time(rig: int, agents: str, out: Path) -> dict[str, Any]:
     table = json.loads((out / "report" / "table1.json").read_text())
     fits = json.loads((out / "models" / "fits.json").read_text())
     return {"completed": True, "seconds": seconds, "supervisor": table["run"].get("supervisor"),
+            "drive_measured": _json_or_none(out / "models" / "drive.json", "drive"),
+            "drive_told": {a["kind"]: _json_or_none(out / "agents" / a["kind"] / "result.json", "drive_told")
+                           for a in table["agents"]},
             "fits": {kind: f.get("sim_fit") for kind, f in fits.items()},
             "kinds": {a["kind"]: {"n": a["n"], "n_success": a["n_success"]} for a in table["agents"]}}
 
 
+def _json_or_none(path: Path, key: str) -> Any:
+    """``path``'s ``key`` (None when the file is absent): what a run wrote about the drive."""
+    return json.loads(path.read_text()).get(key) if path.is_file() else None
+
+
 def in_process(rig: int, agents: str, out: Path) -> dict[str, Any]:
-    """``msd-bench rigs`` on the same one rig, at the same size, with the robust agent told no actuator
-    delay: ``bench.py`` does not tell it one (docs/rigs.md §The robust agent told the drive's delay)."""
+    """``msd-bench rigs`` on the same one rig, at the same size, with the robust agent told the drive
+    measured from the rig's broad record, as ``bench.py --plant-ns`` tells it from its own bags
+    (docs/rigs.md §The robust agent told the drive's delay)."""
     argv = [sys.executable, "-m", "msd_bench.cli", "rigs", "--first-rig", str(rig), "--rigs", "1", *SIZE,
-            "--agents", agents, "--robust-actuator", "none", "--out", str(out)]
+            "--agents", agents, "--robust-actuator", "measured", "--out", str(out)]
     started = time.monotonic()
     proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True, timeout=BENCH_TIMEOUT_S)
     seconds = round(time.monotonic() - started, 1)
@@ -117,7 +126,7 @@ def in_process(rig: int, agents: str, out: Path) -> dict[str, Any]:
         k["n_success"] += int(bool(o.get("success_measured")))
         k["n_success_true"] += int(bool(o.get("success")))
     fits = {kind: f.get("fit_sim_percent") for kind, f in entry["fits"].items()}
-    return {"completed": True, "seconds": seconds, "fits": fits, "kinds": kinds}
+    return {"completed": True, "seconds": seconds, "drive": entry["actuator"], "fits": fits, "kinds": kinds}
 
 
 def provenance(argv: list[str] | None) -> dict[str, Any]:
