@@ -25,33 +25,13 @@ from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.learning.q_kernels import encode, greedy, observe, observer_state
 from msd_bench.core.learning.qconfig import Learner
 from msd_bench.core.physics.kernels import RIG_STATE_SIZE, Kernel
-from msd_bench.core.rigs.rig import actuate, actuator_state, advance_rig, sense, transition
+from msd_bench.core.rigs.rig import Conditions, actuate, actuator_state, advance_rig, sense, transition
 from msd_bench.core.safety.supervisor import S_ABORT, STATE_SIZE, Limits, filter_step
 
 __all__ = ["Conditions", "SupervisedRuns", "actuate", "actuator_state", "greedy_under", "nominal", "quantise",
            "supervised_runs", "transition"]
 
 FloatArray = NDArray[np.float64]
-
-
-class Conditions(NamedTuple):
-    """A scenario as the compiled loop reads it (plant multipliers are already in the model)."""
-
-    target: float
-    """Set-point, m."""
-    quant: float
-    """Sensor quantisation step, m (0 = none)."""
-    delay: int
-    """Actuator delay, samples."""
-    load: float
-    """Force added after saturation from ``load_step`` on, N (an ARX-type model takes it on its input)."""
-    load_step: int
-    """First sample the load acts on."""
-    friction: float
-    """Coulomb friction, N (plant kind only)."""
-    lag: float = 0.0
-    """Time constant of the actuator's first-order lag in *samples* (τ/dt; 0 = none), after the
-    delay (:func:`msd_bench.core.rigs.rig.actuate`)."""
 
 
 def nominal(target: float) -> Conditions:

@@ -106,6 +106,31 @@ class RigImperfections:
                               f"(a sample is published before the next one is acquired)")
 
 
+class Conditions(NamedTuple):
+    """What a compiled closed loop runs against besides the model: a scenario on the emulated plant
+    (plant multipliers are already in the model) or a rig with its own imperfections and a set-point.
+
+    One type for both (the rig loop had a second tuple of the same seven fields in another order):
+    :func:`msd_bench.core.rigs.rig_loop.conditions` fills it from a rig.
+    """
+
+    target: float
+    """Set-point, m."""
+    quant: float
+    """Sensor quantisation step, m (0 = none)."""
+    delay: int
+    """Actuator delay, samples."""
+    load: float
+    """Force added after saturation from ``load_step`` on, N (an ARX-type model takes it on its input)."""
+    load_step: int
+    """First sample the load acts on."""
+    friction: float
+    """Coulomb friction, N (plant kind only)."""
+    lag: float = 0.0
+    """Time constant of the actuator's first-order lag in *samples* (τ/dt; 0 = none), after the
+    delay (:func:`msd_bench.core.rigs.rig.actuate`)."""
+
+
 @numba.njit(cache=True)
 def actuate(act: FloatArray, k: int, u: float, delay: int, lag: float) -> float:
     """The force over sample ``k`` for the command ``u`` held at ``k``; ``act`` is the drive's state.

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple, Protocol
+from typing import Protocol
 
 import numba
 import numpy as np
@@ -31,7 +31,7 @@ from msd_bench.core.physics import kernels
 from msd_bench.core.physics.kernels import Kernel
 from msd_bench.core.physics.model import StepModel, plant_model
 from msd_bench.core.rigs.rest import RestConfig
-from msd_bench.core.rigs.rig import Rig, lag_samples, sense, transition
+from msd_bench.core.rigs.rig import Conditions, Rig, lag_samples, sense, transition
 from msd_bench.core.rigs.rig_play import RestOutcome, rest
 from msd_bench.core.safety.supervisor import S_ABORT, STATE_SIZE, Limits, SupervisorOptions, filter_step
 
@@ -42,32 +42,12 @@ DRAIN_FORCE = 1e-9
 """Force (N) below which the lag's output counts as gone when the commands in flight are drained."""
 
 
-class RigConditions(NamedTuple):
-    """A rig and a scenario as the compiled loop reads them."""
-
-    target: float
-    """Set-point, m."""
-    quant: float
-    """Encoder resolution, m (0 = none)."""
-    delay: int
-    """Actuator dead time, samples."""
-    lag: float
-    """Actuator time constant in samples (tau/dt; 0 = no lag), as :func:`msd_bench.core.rigs.rig.actuate`
-    reads it."""
-    friction: float
-    """Coulomb friction, N."""
-    load: float
-    """Force added from ``load_step`` on (a scenario's load), N."""
-    load_step: int
-    """First sample the load acts on."""
-
-
-def conditions(rig: Rig, target: float, load: float = 0.0, load_step: int = 0) -> RigConditions:
+def conditions(rig: Rig, target: float, load: float = 0.0, load_step: int = 0) -> Conditions:
     """The compiled loop's view of ``rig`` at set-point ``target`` under an optional load."""
     imp = rig.imperfections
-    return RigConditions(float(target), float(imp.sensor_quant), int(imp.delay_samples),
-                         lag_samples(imp.actuator_tau, rig.params.dt), float(imp.friction), float(load),
-                         int(load_step))
+    return Conditions(target=float(target), quant=float(imp.sensor_quant), delay=int(imp.delay_samples),
+                      load=float(load), load_step=int(load_step), friction=float(imp.friction),
+                      lag=lag_samples(imp.actuator_tau, rig.params.dt))
 
 
 def drain_samples(rig: Rig) -> int:
@@ -80,7 +60,7 @@ def drain_samples(rig: Rig) -> int:
 
 
 @numba.njit(cache=True)
-def rig_greedy(model: Kernel, lr: Learner, q: FloatArray, c: RigConditions, noise: FloatArray, obs: Kernel,
+def rig_greedy(model: Kernel, lr: Learner, q: FloatArray, c: Conditions, noise: FloatArray, obs: Kernel,
                x0: float, v0: float, drain: int, lim: Limits,
                supervised: bool) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, IntArray, int,
                                           float, float]:
