@@ -86,6 +86,15 @@ def commit() -> str:
     return head + ("+dirty" if dirty else "")
 
 
+def provenance(script: str, argv: list[str] | None) -> dict[str, Any]:
+    """Command, commit and machine of a results script, taken before it runs (the commit is the code
+    that ran); ``argv`` None means this process's own arguments."""
+    import shlex
+
+    shown = shlex.join(sys.argv[1:] if argv is None else argv)
+    return {"command": f"scripts/{script} {shown}", "commit": commit(), "machine": machine()}
+
+
 def outputs(out: Path) -> dict[str, Any]:
     """The JSON a command wrote, without per-seed rows (they stay in the run's own files)."""
     found: dict[str, Any] = {}

@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shlex
 import subprocess
 import sys
 import tempfile
@@ -39,6 +38,9 @@ from msd_bench.core.rigs.population import HELD_OUT_RIGS, check_seed, draw  # no
 from msd_bench.graph import launch  # noqa: E402
 from msd_bench.graph.domains import claim_domain  # noqa: E402
 from msd_bench.io.storage.atomic import write_text_atomic  # noqa: E402
+
+sys.path.insert(0, str(REPO / "scripts"))
+from make_results import provenance  # noqa: E402
 
 SIZE = ("--samples", "600", "--val-samples", "400", "--seeds", "2", "--validation-steps", "1000")
 """The reduced size of both runs: the README's short records, two learning seeds, 10 s validation runs
@@ -129,20 +131,12 @@ def in_process(rig: int, agents: str, out: Path) -> dict[str, Any]:
     return {"completed": True, "seconds": seconds, "drive": entry["actuator"], "fits": fits, "kinds": kinds}
 
 
-def provenance(argv: list[str] | None) -> dict[str, Any]:
-    """Command, commit and machine, taken before the runs (the commit is the code that ran)."""
-    sys.path.insert(0, str(REPO / "scripts"))
-    from make_results import commit, machine
-
-    shown = shlex.join(sys.argv[1:] if argv is None else argv)
-    return {"command": f"scripts/rig_realtime.py {shown}", "commit": commit(), "machine": machine()}
-
-
 def main(argv: list[str] | None = None) -> int:
     try:
         args = parse(argv)
-        doc: dict[str, Any] = {**provenance(argv), "load_at_start": round(os.getloadavg()[0], 2),
-                               "size": list(SIZE), "agents": args.agents.split(","), "rigs": []}
+        doc: dict[str, Any] = {**provenance("rig_realtime.py", argv),
+                               "load_at_start": round(os.getloadavg()[0], 2), "size": list(SIZE),
+                               "agents": args.agents.split(","), "rigs": []}
         started = time.monotonic()
         with tempfile.TemporaryDirectory(prefix="rig-realtime-") as tmp:
             work = args.work or Path(tmp)

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
 import subprocess
 import sys
 import tempfile
@@ -32,6 +31,9 @@ sys.path.insert(0, str(REPO))
 
 from msd_bench.core.errors import ConfigError, MsdBenchError  # noqa: E402
 from msd_bench.io.storage.atomic import write_text_atomic  # noqa: E402
+
+sys.path.insert(0, str(REPO / "scripts"))
+from make_results import provenance  # noqa: E402
 
 STORED = REPO / "docs" / "results" / "rigs_heldout100.json"
 BASELINES = "glm+pid,glm+pid-continuous,greybox+lqr,plm+mpc"
@@ -116,20 +118,11 @@ def run_sweep(argv: list[str]) -> None:
         raise ConfigError(f"msd-bench rigs failed ({proc.returncode}): {last[0]}")
 
 
-def provenance(argv: list[str] | None) -> dict[str, Any]:
-    """Command, commit and machine, taken before the sweep (the commit is the code that ran)."""
-    sys.path.insert(0, str(REPO / "scripts"))
-    from make_results import commit, machine
-
-    shown = shlex.join(sys.argv[1:] if argv is None else argv)
-    return {"command": f"scripts/rigs_baselines.py {shown}", "commit": commit(), "machine": machine()}
-
-
 def main(argv: list[str] | None = None) -> int:
     try:
         args = parse(argv)
         stored = json.loads(args.stored.read_text())
-        doc = provenance(argv)
+        doc = provenance("rigs_baselines.py", argv)
         with tempfile.TemporaryDirectory(prefix="rigs-baselines-") as tmp:
             out = args.sweep or Path(tmp) / "sweep"
             if not (out / "rigs.json").is_file():  # a finished sweep is read as it is
