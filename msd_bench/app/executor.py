@@ -381,7 +381,8 @@ class RayExecutor:
             kw: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False,
                                   "configure_logging": False,
                                   "runtime_env": {"env_vars": dict(SINGLE_THREAD)}}
-            if options.ray_address is None:  # a cluster of our own: this machine's loopback only
+            if options.ray_address is None:  # a cluster of our own on this machine (its ports are open on
+                # every interface: Ray 2.60 ignores the loopback hint for its servers; docs/cluster.md)
                 kw.update(num_cpus=options.worker_count(), _node_ip_address="127.0.0.1")
             start_ray(ray, options.ray_address, kw)
         self.remote = ray.remote(num_cpus=1, max_retries=0)(_remote_call)
