@@ -3,7 +3,9 @@
 A 100-rig x 4-seed x 8-kind run's ``rigs.json`` is about 3.5 MB, over the repository's 2 MiB per
 file; the per-run scenario cells (``rigs[*].outcomes[*].scenarios``) are most of it, and every kind's
 scenario cells pooled over all rigs (``kinds[*].scenarios``) stay, so every generated view renders
-the same from the trimmed file. The file records that it was trimmed (``trimmed``):
+the same from the trimmed file. The file records that it was trimmed (``trimmed``) and, when the
+source sits in its run directory, the options the sweep ran with (the manifest's ``config``, as
+``run_config``), which ``rigs.json`` itself does not hold:
 
     python scripts/trim_rigs.py runs/rigs-heldout-100/rigs.json docs/results/rigs_heldout100.json
 """
@@ -28,6 +30,19 @@ def trimmed(doc: dict[str, Any]) -> dict[str, Any]:
     return {**doc, "rigs": rigs, "trimmed": {"dropped": DROPPED}}
 
 
+def run_config(source: Path) -> dict[str, Any] | None:
+    """The options of the ``msd-bench rigs`` run that wrote ``source`` (its run directory's manifest), or
+    None when the source is not in one."""
+    try:
+        manifest = json.loads((source.parent / "manifest.json").read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(manifest, dict) or manifest.get("command") != "rigs":
+        return None
+    config = manifest.get("config")
+    return config if isinstance(config, dict) else None
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("source", type=Path, help="a rigs.json written by msd-bench rigs")
@@ -42,7 +57,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"trim_rigs: error: {args.source} is not a rigs.json (schema {doc.get('schema')!r})",
               file=sys.stderr)
         return 2
-    write_text_atomic(args.out, json.dumps(trimmed(doc), separators=(",", ":")) + "\n")
+    small = trimmed(doc)
+    config = run_config(args.source)
+    if config is not None:
+        small["run_config"] = config
+    write_text_atomic(args.out, json.dumps(small, separators=(",", ":")) + "\n")
     return 0
 
 

@@ -39,3 +39,18 @@ def test_a_file_that_is_not_a_rigs_json_is_one_line(tmp_path: Path, capsys: pyte
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith("trim_rigs: error: ") and message in err
     assert not (tmp_path / "out.json").exists()
+
+
+def test_the_sweep_options_come_along_from_its_run_directory(tmp_path: Path) -> None:
+    """rigs.json does not hold the sweep's options; its run directory's manifest does."""
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "rigs.json").write_text(SOURCE.read_text())
+    out = tmp_path / "small.json"
+    assert trim_rigs.main([str(run / "rigs.json"), str(out)]) == 0
+    assert "run_config" not in json.loads(out.read_text())  # no manifest: nothing invented
+    config = {"run": {"agents": ["glm+pid"], "seeds": 4}, "robust_actuator": "measured"}
+    (run / "manifest.json").write_text(json.dumps({"schema": "msd-bench/run", "command": "rigs",
+                                                   "config": config}))
+    assert trim_rigs.main([str(run / "rigs.json"), str(out)]) == 0
+    assert json.loads(out.read_text())["run_config"] == config
