@@ -74,3 +74,21 @@ def test_an_existing_result_is_never_overwritten(tmp_path: Path) -> None:
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "exists" in proc.stderr and out.read_text() == "theirs"
     assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_the_committed_table_holds_both_sweeps_rows_unchanged() -> None:
+    """docs/results/rigs_heldout100_baselines.json: its learned rows are rigs_heldout100.json's, its
+    baselines' rows the committed baselines sweep's, key for key (nothing re-derived or retyped)."""
+    import json
+
+    results = REPO / "docs" / "results"
+    doc = json.loads((results / "rigs_heldout100_baselines.json").read_text())
+    sources = {"learned": results / "rigs_heldout100.json",
+               "baselines": results / "rigs_heldout100_baselines_sweep.json"}
+    for sweep, path in sources.items():
+        source = json.loads(path.read_text())
+        rows = [k for k in doc["kinds"] if k["sweep"] == sweep]
+        assert [k["kind"] for k in rows] == source["agents"]
+        for row, kind in zip(rows, source["kinds"], strict=True):
+            assert {key: row[key] for key in rb.KIND_KEYS} == {key: kind[key] for key in rb.KIND_KEYS}
+        assert source["rigs_run"] == doc["rigs_run"]
