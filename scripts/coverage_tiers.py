@@ -105,7 +105,8 @@ def run_tier(name: str, pytest_args: list[str]) -> dict[str, Any]:
     code = subprocess.run(cmd, cwd=REPO, env=env, check=False).returncode
     seconds = round(time.monotonic() - start, 1)
     percent = _combine(where, rc)
-    meta = {"marker": TIERS[name], "exit": code, "seconds": seconds, "line_percent": percent,
+    meta = {"marker": TIERS[name], "commit": commit(), "exit": code, "seconds": seconds,
+            "line_percent": percent,
             **_counts(where / "junit.xml")}
     (where / "tier.json").write_text(json.dumps(meta, indent=1))
     print(f"coverage_tiers: {name}: {percent:.2f} % of lines, pytest exit {code}, {seconds} s", flush=True)
@@ -177,7 +178,8 @@ def main(argv: list[str] | None = None) -> int:
            "tiers": tiers, "missing": missing, "full": full}
     write_text_atomic(OUT, json.dumps(doc, indent=1) + "\n")
     default = tiers["default"] or {}
-    print(f"coverage_tiers: default {default['line_percent']:.2f} %, full suite "
+    print(f"coverage_tiers: default {default['line_percent']:.2f} %, "
+          f"{'full suite' if not missing else 'tiers but ' + ', '.join(missing)} "
           f"{full['line_percent']:.2f} % -> {OUT.relative_to(REPO)}")
     return 0
 
