@@ -186,7 +186,7 @@ def view_peers(doc: dict[str, Any], name: str) -> str:
     return "\n".join([*lines, "", note, "", src]) + "\n"
 
 
-PERFORMANCE_FLOORS: tuple[tuple[str, str, str, float | None, str], ...] = (
+PERFORMANCE_FLOORS: tuple[tuple[str, str, str | None, float | None, str], ...] = (
     ("bench_bench", "seconds", "<=", 90.0, "`bench.py` default run, seconds"),
     ("bench_bench", "bench_over_inprocess", "<=", 4.0, "`bench.py` over the same kinds in-process"),
     ("bench_bench", "round_trip_bound_s", None, None,
@@ -906,6 +906,34 @@ def view_silverbox(doc: dict[str, Any], name: str) -> str:
     return "\n".join([*lines, "", note, "", src]) + "\n"
 
 
+def _minutes(seconds: float) -> str:
+    return f"{seconds / 60:.1f} min"
+
+
+def view_coverage(doc: dict[str, Any], name: str) -> str:
+    """Each test tier's size, wall time and line coverage of the package under coverage.py, then
+    the full suite's (the tiers' union) and how far the default tier falls short of it."""
+    lines = ["| tier | marker expression | tests (failed, skipped) | wall time under coverage | "
+             "line coverage |", "|---|---|---|---|---|"]
+    for tier, t in doc["tiers"].items():
+        failed = t["failures"] + t["errors"]
+        lines.append(f"| {tier} | `{t['marker']}` | {t['tests']} ({failed}, {t['skipped']}) | "
+                     f"{_minutes(t['seconds'])} | {t['line_percent']:.1f} % |")
+    full, default = doc["full"], doc["tiers"]["default"]["line_percent"]
+    missing = doc.get("missing", [])
+    union = "every tier" if not missing else "every tier but " + ", ".join(missing) + ": not measured"
+    lines.append(f"| **full suite** ({union}) | — | {sum(t['tests'] for t in doc['tiers'].values())} | "
+                 f"{_minutes(sum(t['seconds'] for t in doc['tiers'].values()))} | "
+                 f"{full['line_percent']:.1f} % |")
+    note = (f"Lines of `{doc['package']}`: {full['statements']:,} statements, {full['missed']:,} "
+            f"never run by any tier. The default tier covers {default:.1f} %, "
+            f"{full['line_percent'] - default:.1f} points below the "
+            f"{'full suite' if not missing else 'union of the measured tiers'}. Subprocesses (node "
+            "processes, bench.py, the commands) are measured; "
+            "numba-compiled loops and processes killed by SIGKILL are not, in either number.")
+    return "\n".join([*lines, "", note, "", _source(doc, name)]) + "\n"
+
+
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency,
     "peers": view_peers, "fits": view_fits, "stoploop": view_stoploop, "performance": view_performance,
@@ -917,7 +945,8 @@ VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "deeprl": view_deeprl, "deeprl_efficiency": view_deeprl_efficiency, "rig_realtime": view_rig_realtime,
     "greybox_rig_floors": view_greybox_rig_floors,
     "rigs_kinds": view_rigs_kinds, "rigs_floors": view_rigs_floors, "rigs_beside": view_rigs_beside,
-    "identification_speed": view_identification_speed, "silverbox": view_silverbox}
+    "identification_speed": view_identification_speed, "silverbox": view_silverbox,
+    "coverage": view_coverage}
 
 
 def render(readme: str, results_dir: Path) -> str:

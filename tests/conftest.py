@@ -33,7 +33,8 @@ def _reads_realtime_runs(item: pytest.Item) -> bool:
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """The tests that read the real-time runs go last (stable otherwise): the runs start with the
     session and take about 320 s of real time (three runs, the PLM route among them), which the
-    rest of the suite spends working."""
+    rest of the selected tests spend working. They are the realtime tier (docs/testing.md §Tiers),
+    not in the default ``make test``."""
     items.sort(key=_reads_realtime_runs)
 
 

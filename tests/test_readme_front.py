@@ -17,8 +17,10 @@ README = REPO / "README.md"
 FIRST_SCREEN = 40
 
 COMMANDS = ["make bench   # sets up .venv if needed, then runs: python launch_scripts/bench.py",
-            "make test    # sets up .venv if needed, then runs the whole test suite (pytest)"]
-"""The two commands as the README has always given them (they must stay true: see the Makefile test)."""
+            "make test    # sets up .venv if needed, then runs the default test tier (pytest; every tier: "
+            "docs/testing.md)"]
+"""The two commands as the README gives them (they must stay true: see the Makefile test); ``make
+test`` runs the default tier, the opt-in tiers are CI's (docs/testing.md §Tiers)."""
 
 NEXT = ["docs/paper.md", "docs/bench.md", "docs/own-bags.md", "docs/extending.md", "docs/results.md"]
 """Where to go next: in-process runs, the main job, a rig and your own bags, extending, every result."""

@@ -203,3 +203,15 @@ def test_identification_speed_view_totals_and_judges_the_target():
     assert "target of 5 s is met" in text and "2.50 s (met)" in text
     doc["new"]["total_seconds"] = 6.2
     assert "target of 5 s is **not met**" in readme_results.view_identification_speed(doc, "idspeed")
+
+
+def test_coverage_view_lists_every_tier_and_the_default_tiers_shortfall():
+    tier = {"marker": "m", "exit": 0, "tests": 10, "failures": 1, "errors": 0, "skipped": 2}
+    doc = {"command": "python scripts/coverage_tiers.py", "commit": "abc", "machine": {"cpu": "c", "cores": 2},
+           "package": "msd_bench", "full": {"line_percent": 90.25, "statements": 1000, "missed": 97},
+           "tiers": {"default": {**tier, "seconds": 600, "line_percent": 88.0},
+                     "slow": {**tier, "seconds": 60, "line_percent": 40.0}}}
+    text = readme_results.view_coverage(doc, "coverage")
+    assert "| default | `m` | 10 (1, 2) | 10.0 min | 88.0 % |" in text
+    assert "| **full suite** (every tier) | — | 20 | 11.0 min | 90.2 % |" in text
+    assert "covers 88.0 %, 2.2 points below the full suite" in text and "97 never run" in text

@@ -33,6 +33,7 @@ def test_local_pool_runs_every_task_single_threaded() -> None:
     assert got == {f"t{i}": {"x": i, "square": i * i, "omp": "1"} for i in range(5)}
 
 
+@pytest.mark.usefixtures("ray_cluster")
 def test_local_and_ray_give_the_same_results() -> None:
     jobs = [Task(f"t{i}", tasks.square, (i,)) for i in range(4)]
     local, _ = _collect(jobs, ExecutorOptions(workers=2))
@@ -41,7 +42,10 @@ def test_local_and_ray_give_the_same_results() -> None:
 
 
 @pytest.mark.parametrize("kind", ["local", "ray"])
-def test_a_task_whose_worker_dies_is_retried_and_said(kind: str, tmp_path: Path) -> None:
+def test_a_task_whose_worker_dies_is_retried_and_said(kind: str, tmp_path: Path,
+                                                       request: pytest.FixtureRequest) -> None:
+    if kind == "ray":
+        request.getfixturevalue("ray_cluster")
     jobs = [Task("dies", tasks.die_first, (str(tmp_path / "marker"), 7)), Task("fine", tasks.square, (3,))]
     got, log = _collect(jobs, ExecutorOptions(kind=kind, workers=2))
     assert got["dies"] == 7 and got["fine"]["square"] == 9
@@ -55,7 +59,10 @@ def test_a_worker_that_always_dies_fails_the_sweep_in_one_line() -> None:
 
 
 @pytest.mark.parametrize("kind", ["local", "ray"])
-def test_the_projects_error_in_a_task_fails_the_sweep_with_that_line(kind: str) -> None:
+def test_the_projects_error_in_a_task_fails_the_sweep_with_that_line(kind: str,
+                                                                     request: pytest.FixtureRequest) -> None:
+    if kind == "ray":
+        request.getfixturevalue("ray_cluster")
     with pytest.raises(ConfigError, match=r"^task input 5 is not allowed$"):
         _collect([Task("bad", tasks.refuse, (5,))], ExecutorOptions(kind=kind, workers=1))
 
@@ -110,6 +117,7 @@ class _FakeRay:
 
     def __init__(self, init_error: BaseException | None = None, ready_after: int = 0) -> None:
         self.init_error, self.polls, self.ready_after, self.shut = init_error, 0, ready_after, False
+        self.address: str | None = None
         services = type("services", (), {})()
         services.get_node = self._get_node
         self._private = type("private", (), {"services": services})()
@@ -121,6 +129,7 @@ class _FakeRay:
         return "node"
 
     def init(self, address: str | None = None, **_: Any) -> None:
+        self.address = address
         if self.init_error is not None:
             raise self.init_error
         assert self._private.services.get_node() == "node"  # Ray's own poll, once: it waits inside
@@ -135,6 +144,7 @@ def test_a_slow_local_node_start_is_waited_for_within_the_patience() -> None:
     ray = _FakeRay(ready_after=2)  # Ray's single poll would have raised; the patient one polls again
     start_ray(ray, None, {})
     assert ray.polls == 3 and not ray.shut
+    assert ray.address == "local"  # a cluster of our own, never one a stale /tmp/ray file names
     assert ray._private.services.get_node.__func__ is _FakeRay._get_node
 
 

@@ -15,6 +15,7 @@ EFFICIENCY = ["efficiency", "--seeds", "1", "--id-seeds", "2", "--agents", "glm+
               "--episodes", "2"]
 
 
+@pytest.mark.usefixtures("ray_cluster")
 def test_efficiency_on_ray_writes_the_json_of_the_local_pool(tmp_path: Path,
                                                               capsys: pytest.CaptureFixture[str]) -> None:
     assert cli_main([*EFFICIENCY, "--workers", "2", "--out", str(tmp_path / "local")]) == 0
@@ -47,6 +48,7 @@ def _without_run_facts(doc: dict[str, Any]) -> dict[str, Any]:
     return {**doc, "run": run}
 
 
+@pytest.mark.usefixtures("ray_cluster")
 def test_paper_on_ray_writes_the_tables_of_the_local_pool(tmp_path: Path,
                                                           capsys: pytest.CaptureFixture[str]) -> None:
     assert cli_main([*PAPER, "--workers", "2", "--out", str(tmp_path / "local")]) == 0

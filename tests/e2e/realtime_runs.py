@@ -13,9 +13,11 @@ the supervisor (bench.py's default with ``--plant-ns``), the PLM run opts out
 (``--no-supervisor``).
 
 The suite starts them with the session (:class:`BackgroundPair`, from the root
-conftest) and runs the tests that read them last, so the rest of the suite runs
-meanwhile instead of waiting 200 s. They run on a domain of their own, claimed
-like a bench run's: the suite's own nodes never see them, nor they the suite's.
+conftest) and runs the tests that read them last, so the rest of the selected tests
+run meanwhile instead of waiting 200 s. The tests that read them are marked
+``realtime``: an opt-in tier, outside the default ``make test`` (docs/testing.md §Tiers).
+They run on a domain of their own, claimed like a bench run's: the suite's own nodes never
+see them, nor they the suite's.
 """
 
 from __future__ import annotations

@@ -22,7 +22,7 @@ from msd_bench.io.bags.reader import bag_info, read_experiment
 from msd_msgs_py.interface import MSD_INTERFACE
 from tests.e2e.realtime_runs import PLANT_NS, PLM_LOOK, PLM_NS, R2C_FACE, REPO, Run
 
-pytestmark = pytest.mark.e2e
+pytestmark = [pytest.mark.e2e, pytest.mark.realtime]
 NS = PLANT_NS
 
 

@@ -19,7 +19,7 @@ from msd_bench.io.bags.reader import bag_info
 from msd_msgs_py.interface import make
 from tests.e2e.realtime_runs import R2C_NS, Run
 
-pytestmark = pytest.mark.e2e
+pytestmark = [pytest.mark.e2e, pytest.mark.realtime]
 NS = R2C_NS
 
 

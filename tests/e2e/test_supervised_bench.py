@@ -26,6 +26,7 @@ def validation_runs(result: Path) -> int:
     return len(doc["per_seed"]) + sum(c["n"] for c in doc["on_node_scenarios"].values())
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize(("name", "ns"), [("plant", PLANT_NS), ("r2c", R2C_NS)])
 def test_validation_runs_behind_the_supervisor_and_its_counts_reach_the_report(
         realtime_runs: dict[str, Run], name: str, ns: str) -> None:
@@ -55,6 +56,7 @@ def test_validation_runs_behind_the_supervisor_and_its_counts_reach_the_report(
     assert (out / "jobs" / "supervisor.json").is_file()  # the options it held the run to
 
 
+@pytest.mark.realtime
 def test_no_supervisor_runs_without_it_and_says_so(realtime_runs: dict[str, Run]) -> None:
     run = realtime_runs["plm"]
     out, proc = run.out, run.proc

@@ -1,6 +1,7 @@
 """The fuzz tier: property-based tests over every reader of user-supplied files.
 
-Two Hypothesis profiles. ``default`` runs in the ordinary suite: few examples,
+Two Hypothesis profiles. ``default`` runs in the ordinary suite: few examples (20 in
+a newcomer's ``make test``; ``.ci/run`` sets ``MSD_FUZZ_EXAMPLES=100`` for its run of the same tier),
 derandomised (the same cases every run, so a red run is reproducible and never
 load- or luck-dependent), no deadline (a loaded machine is slow, not wrong), no
 example database written into the checkout. ``long`` is what
@@ -15,7 +16,7 @@ from hypothesis import HealthCheck, settings
 
 settings.register_profile(
     "default",
-    max_examples=int(os.environ.get("MSD_FUZZ_EXAMPLES", "40")),
+    max_examples=int(os.environ.get("MSD_FUZZ_EXAMPLES", "20")),
     derandomize=True,
     deadline=None,
     database=None,

@@ -33,7 +33,7 @@ KINDS = ("glm", "plm", "nlarx-paper", "nlarx-improved", "greybox")
 NAMESPACES = (PLANT_NAMESPACE, *(surrogate_namespace(k) for k in KINDS))
 
 
-@pytest.fixture(scope="module", params=["lock-step", "real-time"])
+@pytest.fixture(scope="module", params=["lock-step", pytest.param("real-time", marks=pytest.mark.realtime)])
 def graph(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """The plant and one surrogate per kind, started as ``bench.py`` starts them."""
     realtime = request.param == "real-time"

@@ -46,6 +46,7 @@ def test_the_rig_emulator_with_the_ros2_control_face_passes() -> None:
     assert next(c for c in clauses if c.name == "reset").figure.startswith("unsupported")
 
 
+@pytest.mark.realtime
 def test_a_wrong_joint_and_a_wrong_joint_order_fail_their_clauses() -> None:
     ns = _ns()
     with r2c_rig(ns):
