@@ -207,7 +207,8 @@ def test_identification_speed_view_totals_and_judges_the_target():
 
 def test_coverage_view_lists_every_tier_and_the_default_tiers_shortfall():
     tier = {"marker": "m", "exit": 0, "tests": 10, "failures": 1, "errors": 0, "skipped": 2}
-    doc = {"command": "python scripts/coverage_tiers.py", "commit": "abc", "machine": {"cpu": "c", "cores": 2},
+    doc = {"command": "python scripts/coverage_tiers.py", "commit": "abc",
+           "machine": {"cpu": "c", "cores": 2},
            "package": "msd_bench", "full": {"line_percent": 90.25, "statements": 1000, "missed": 97},
            "tiers": {"default": {**tier, "seconds": 600, "line_percent": 88.0},
                      "slow": {**tier, "seconds": 60, "line_percent": 40.0}}}
