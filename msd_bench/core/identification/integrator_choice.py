@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 from msd_bench.core.identification.data import IOData
@@ -38,7 +39,7 @@ def omega_dt(train: IOData) -> float:
     return float(linear_start(train).wn * train.dt)
 
 
-def with_integrator_choice(kind: str, train: IOData, euler_fit: Callable[[], StepModel],
+def with_integrator_choice(train: IOData, euler_fit: Callable[[], StepModel],
                            stroke: float, force: float) -> StepModel:
     """The Euler-kernel fit of ``kind``, or the rk4 fit when the resonance is fast and rk4 fits better."""
     wdt = omega_dt(train)
@@ -53,7 +54,7 @@ def with_integrator_choice(kind: str, train: IOData, euler_fit: Callable[[], Ste
                 reason="omega dt above the Euler limit: the lower free-run RMS on the training record")
     winner = rk4 if chosen == "rk4" else euler
     seconds = float(euler.info.get("fit_seconds", 0.0)) + float(rk4.info.get("fit_seconds", 0.0))
-    return _noted(winner, fact, fit_seconds=seconds, kind=kind)
+    return _noted(winner, fact, fit_seconds=seconds)
 
 
 def _train_rms(model: StepModel) -> float:
@@ -61,12 +62,10 @@ def _train_rms(model: StepModel) -> float:
     return float(rms) if isinstance(rms, (int, float)) and math.isfinite(rms) else math.inf
 
 
-def _noted(model: StepModel, fact: dict[str, Any], fit_seconds: float | None = None,
-           kind: str | None = None) -> StepModel:
-    """``model`` with the choice in its info (and the summed fit time when two fits ran)."""
-    from dataclasses import replace
-
+def _noted(model: StepModel, fact: dict[str, Any], fit_seconds: float | None = None) -> StepModel:
+    """``model`` with the choice in its info (and the summed fit time when two fits ran); the kind's
+    name is :func:`~msd_bench.core.identification.model_kinds.fit_model`'s to set."""
     info = {**model.info, "integrator_choice": fact}
     if fit_seconds is not None:
         info["fit_seconds"] = fit_seconds
-    return replace(model, info=info, name=kind or model.name)
+    return replace(model, info=info)

@@ -133,7 +133,7 @@ def _fit_greybox(req: FitRequest) -> StepModel:
 
     cfg = GreyboxConfig(stroke=req.stroke, force=req.force)
     train = req.records.broad_train
-    return with_integrator_choice("greybox", train, lambda: identify.identify_greybox(train, cfg),
+    return with_integrator_choice(train, lambda: identify.identify_greybox(train, cfg),
                                   req.stroke, req.force)
 
 
@@ -143,7 +143,7 @@ def _fit_greybox_rig(req: FitRequest) -> StepModel:
 
     cfg = greybox_rig.GreyboxRigConfig(stroke=req.stroke, force=req.force)
     train = req.records.broad_train
-    return with_integrator_choice("greybox-rig", train, lambda: greybox_rig.identify_greybox_rig(train, cfg),
+    return with_integrator_choice(train, lambda: greybox_rig.identify_greybox_rig(train, cfg),
                                   req.stroke, req.force)
 
 
