@@ -51,12 +51,13 @@ def test_bags_hold_the_face_and_identify_from_the_applied_force(run) -> None:  #
     assert len(exp) >= 600  # the played samples at least (real time records a little more)
     assert src.source == "applied" and src.agreement is not None
     # the rig's dead time of one sample, seen in log time: publish jitter and transport let a command
-    # overtake a row now and then, so the effective dead time may read one more and the fit stays
-    # below an offline bag's (docs/ros2-control.md §Force). How far below depends on the machine's
-    # load (about 90 % on a quiet machine, 75 % seen in CI beside other real-time runs), so the test
-    # holds the reader's own acceptance, not a figure of a quiet machine; a wrong joint or a wrong
-    # cut reads far below it and is refused (tests/io/test_bag_interface.py).
-    assert src.agreement.delay_samples in (1, 2) and src.agreement.fit_percent >= MIN_AGREEMENT
+    # overtake a row, or a row lag a command, so the effective dead time reads one sample or a few
+    # (3 seen in CI beside other real-time runs) and the fit stays below an offline bag's
+    # (docs/ros2-control.md §Force). Both depend on the machine's load, so the test holds the
+    # reader's own acceptance, not a figure of a quiet machine; the exact dead time is asserted on
+    # offline bags, and a wrong joint or a wrong cut reads far below the acceptance and is refused
+    # (tests/io/test_bag_interface.py).
+    assert src.agreement.fit_percent >= MIN_AGREEMENT
     inputs = json.loads((out / "models" / "inputs.json").read_text())
     assert {b["source"] for b in inputs["bags"]} == {"applied"}
     fits = json.loads((out / "models" / "fits.json").read_text())

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import gymnasium
 import numpy as np
 import pytest
@@ -44,10 +42,9 @@ def test_ros_episode_equals_the_in_process_one(lockstep_plant: str) -> None:
 
 
 def test_empty_namespace_fails_in_one_line() -> None:
-    t0 = time.monotonic()
     with pytest.raises(RosBackendError, match="no plant-like node") as exc:
         gymnasium.make("MsdBench-v0", ros_namespace="/nobody_here", ros_timeout=0.5)
-    assert "\n" not in str(exc.value) and time.monotonic() - t0 < 10.0
+    assert "\n" not in str(exc.value) and "(waited 1.5 s)" in str(exc.value)  # 3 × ros_timeout to match
 
 
 def test_real_time_node_episodes_start_from_rest(realtime_plant: str) -> None:
@@ -70,9 +67,7 @@ def test_a_noisy_rig_without_reset_comes_to_rest_as_the_bench_judges_it(rig_emul
     """2 mm of sensor noise never looks still sample to sample; the bench's spread-and-drift rule does."""
     env = gymnasium.make("MsdBench-v0", ros_namespace=rig_emulator, ros_lockstep=False,
                          episode_steps=20, target=1.0)
-    t0 = time.monotonic()
-    obs, _ = env.reset(seed=0)
-    assert time.monotonic() - t0 < 20.0  # still within the rest window's few seconds, not the timeout
+    obs, _ = env.reset(seed=0)  # raises past the rest timeout: returning means the rule judged it still
     assert abs(obs[0]) < 0.05  # where friction let the mass stop, read as a mean (not one noisy sample)
     rows = [env.step(4) for _ in range(20)]
     assert rows[-1][3] is True
