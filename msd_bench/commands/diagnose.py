@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from msd_bench.commands.sample_range import sample_range
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.identification import diagnostics, identify
 from msd_bench.core.identification.data import Experiment
@@ -85,20 +86,8 @@ def read_record(args: argparse.Namespace, model: StepModel) -> Experiment:
         u, y, dt = exp.u, exp.y, model.dt if args.dt is None else float(args.dt)
     if not math.isclose(dt, model.dt, rel_tol=1e-9):
         raise InvalidInputError(f"record sampled at dt={dt} s, model {model.name!r} at {model.dt} s")
-    a, b = _range(args.range, u.size)
+    a, b = sample_range(args.range, "range", u.size)
     return Experiment(u[a:b], y[a:b], path.name)
-
-
-def _range(text: str, n: int) -> tuple[int, int]:
-    if not text:
-        return 0, n
-    try:
-        a, b = (int(v) if v else d for v, d in zip(text.split(":"), (0, n), strict=True))
-    except ValueError:
-        raise InvalidInputError(f"--range must be A:B (whole samples), got {text!r}") from None
-    if not 0 <= a < b <= n:
-        raise InvalidInputError(f"--range {text} is outside the record's {n} samples")
-    return a, b
 
 
 def _compare(args: argparse.Namespace) -> int:

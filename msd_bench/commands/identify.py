@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from msd_bench.commands.sample_range import sample_range
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.identification.data import IOData
 from msd_bench.core.identification.model_kinds import MODEL_KINDS, check_models, needs_bias_records
@@ -107,7 +108,7 @@ def _from_file(args: argparse.Namespace, fmt: str, path: Path, models: tuple[str
     if not (np.isfinite(args.ts) and args.ts > 0):
         raise IdentifyError(f"--ts must be finite and > 0, got {args.ts}")
     u, y = read_signals(path, fmt, args.u, args.y)
-    train, val = (_range(getattr(args, o), o, u.size) for o in ("train", "validation"))
+    train, val = (sample_range(getattr(args, o), o, u.size, min_samples=3) for o in ("train", "validation"))
     units = _units(args.units)
     stroke = args.stroke if args.stroke is not None else 4 * float(np.max(np.abs(y)))
     force = args.force if args.force is not None else 2 * float(np.max(np.abs(u)))
@@ -157,17 +158,6 @@ def _summary(fits: dict[str, Any], failed: dict[str, str], out: Path) -> None:
     if failed:
         print(f"{len(failed)} kind(s) failed ({', '.join(failed)}); the others and fits.json are in {out}",
               flush=True)
-
-
-def _range(text: str, opt: str, n: int) -> tuple[int, int]:
-    """``A:B`` as sample indices with 0 <= A < B <= n (B excluded), or a one-line error."""
-    try:
-        a, b = (int(v) for v in text.split(":"))
-    except ValueError:
-        raise IdentifyError(f"--{opt} must be A:B (sample indices), got {text!r}") from None
-    if not 0 <= a < b <= n or b - a < 3:
-        raise IdentifyError(f"--{opt} {a}:{b} is out of bounds: the record has {n} samples (0:{n})")
-    return a, b
 
 
 def _units(text: str) -> tuple[str, str]:

@@ -102,7 +102,7 @@ def test_commands_on_model_files(tmp_path: Path, fitted: StepModel,
 
 @pytest.mark.parametrize(("extra", "match"), [
     (["--u", "nope"], "no column 'nope'"),
-    (["--range", "10:5"], "outside the record"),
+    (["--range", "10:5"], "--range 10:5 is out of bounds"),
     (["--range", "a:b"], "--range must be A:B"),
     (["--dt", "0.02"], "record sampled at dt=0.02"),
     (["--png", "EXISTS"], "exists"),
