@@ -78,7 +78,7 @@ MAY_IMPORT: dict[str, frozenset[str]] = {
     "graph": frozenset({"app", "designs", "io", "msgs", "core", *_BASE}),
     "commands": frozenset({"nodes", "app", "designs", "io", "msgs", "msgs.ros", "core", *_BASE}),
     "nodes": frozenset({"app", "designs", "io", "msgs", "msgs.ros", "core", *_BASE}),
-    "app": frozenset({"designs", "io", "core", *_BASE}),
+    "app": frozenset({"designs", "io", "msgs", "core", *_BASE}),
     "designs": frozenset({"gym", "io", "core", *_BASE}),
     "gym": frozenset({"io", "msgs", "msgs.ros", "core", *_BASE}),
     "io": frozenset({"msgs", "core", *_BASE}),

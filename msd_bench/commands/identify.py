@@ -127,8 +127,8 @@ def _from_file(args: argparse.Namespace, fmt: str, path: Path, models: tuple[str
 
 
 def _from_bags(args: argparse.Namespace, models: tuple[str, ...]) -> dict[str, str]:
+    from msd_bench.app.bag_identification import IdentifierConfig, identify_from_bags
     from msd_bench.core.errors import IdentificationError
-    from msd_bench.nodes.identifier_node import IdentifierConfig, identify_from_bags
 
     bias = tuple(b.strip() for b in args.bias_bags.split(",") if b.strip())
     cfg = IdentifierConfig(bags_dir=args.bags or "", broad_bag=args.broad_bag or "",

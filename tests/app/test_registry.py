@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from msd_bench.app.agents import AGENT_KINDS, agent_kind, learner_config, learner_from_meta
+from msd_bench.app.bag_identification import IdentifierConfig
 from msd_bench.app.config import RunConfig
 from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.identification.data import Experiment, IOData
@@ -35,7 +36,6 @@ from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.artifacts import ArtifactError
 from msd_bench.io.storage.run_output import FigureData, qtable_meta, write_figures
 from msd_bench.nodes.agent_node import AgentNodeConfig
-from msd_bench.nodes.identifier_node import IdentifierConfig
 
 PINNED = Path(__file__).resolve().parents[1] / "data" / "pinned"
 REPO = Path(__file__).resolve().parents[2]

@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from msd_bench.app.bag_identification import IdentifierConfig, identify_from_bags
 from msd_bench.graph import launch
 from msd_bench.io.bags.bag_error import BagError
 from msd_bench.io.bags.reader import write_experiment
-from msd_bench.nodes.identifier_node import IdentifierConfig, identify_from_bags
 
 REPO = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.e2e

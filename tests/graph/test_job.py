@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from msd_bench.app.agents import agent_kind
+from msd_bench.app.bag_identification import IdentifierConfig
 from msd_bench.app.config import RunConfig
 from msd_bench.app.job import (
     JOB_VERSION,
@@ -36,7 +37,6 @@ from msd_bench.graph.bench import (
 )
 from msd_bench.nodes.agent_node import AgentNodeConfig
 from msd_bench.nodes.excitation_node import ExcitationNodeConfig
-from msd_bench.nodes.identifier_node import IdentifierConfig
 from msd_bench.nodes.params import config_from_job
 from msd_bench.nodes.recorder_node import RecorderConfig
 from msd_bench.nodes.surrogate_node import SurrogateConfig

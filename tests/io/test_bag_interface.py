@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from msd_bench.app.bag_identification import IdentifierConfig, identify_from_bags
 from msd_bench.core.identification import excitation as exc
 from msd_bench.core.identification.model_kinds import MODEL_KINDS
 from msd_bench.core.identification.plm import PLM_BIASES
@@ -24,7 +25,6 @@ from msd_bench.core.rigs.actuation import held_commands
 from msd_bench.io.bags.bag_error import BagError
 from msd_bench.io.bags.bag_interface import read_interface_experiment
 from msd_bench.io.bags.bag_writer import write_experiment, write_interface_experiment
-from msd_bench.nodes.identifier_node import IdentifierConfig, identify_from_bags
 from msd_msgs_py.interface import make
 
 DT_NS = 10_000_000

@@ -7,12 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from msd_bench.app.bag_identification import IdentifierConfig, identify_from_bags
 from msd_bench.core.errors import IdentificationError
 from msd_bench.core.identification import excitation as exc
 from msd_bench.core.physics.plant import PlantParams, simulate
 from msd_bench.io.bags.bag_error import BagError
 from msd_bench.io.bags.bag_writer import write_experiment
-from msd_bench.nodes.identifier_node import IdentifierConfig, identify_from_bags
 
 DT_NS = 10_000_000
 

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from msd_bench.app.bag_identification import IdentifierConfig, identify_from_bags
 from msd_bench.app.pipeline import identify_surrogates
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.identification.excitation import MultilevelConfig, PrbsConfig, multilevel, prbs
@@ -17,7 +18,7 @@ from msd_bench.core.identification.records import Records
 from msd_bench.core.physics.plant import PlantParams, simulate
 from msd_bench.io.bags.reader import BagError, write_experiment
 from msd_bench.io.storage import artifacts
-from msd_bench.nodes.identifier_node import IdentifierConfig, IdentifierNode, identify_from_bags
+from msd_bench.nodes.identifier_node import IdentifierNode
 from tests.nodes.conftest import spin_until
 
 P = PlantParams()
