@@ -149,6 +149,8 @@ def _code_tasks() -> dict[str, list[str]]:
                                    figures=True),
         "efficiency": efficiency.efficiency_tasks(efficiency.efficiency_config(
             _parse("efficiency", "--out", "x", "--agents", every))),
+        "efficiency --rigs": efficiency.rig_efficiency_tasks(efficiency.rig_efficiency_config(
+            _parse("efficiency", "--out", "x", "--rigs", "2", "--record-samples", "300,1000"))),
         "rigs": rigs.rigs_tasks(rigs.rigs_config(_parse("rigs", "--out", "x"))),
     }
 

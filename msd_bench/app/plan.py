@@ -74,12 +74,17 @@ def real_samples(plan: list[PlannedExperiment], records: str) -> int:
     """
     total = 0
     for e in plan:
-        wanted = (e.role == VALIDATION and e.bias is None) or (
-            e.role == TRAIN and (e.bias is None) == (records == "broad"))
-        if wanted:
+        if consumed_by(e, records):
             settle = e.signal.settle if isinstance(e.signal, PrbsConfig) else 0
             total += e.signal.n_samples + settle
     return total
+
+
+def consumed_by(e: PlannedExperiment, records: str) -> bool:
+    """Whether a model kind trained on ``records`` (``broad`` or ``bias``) uses experiment ``e``:
+    its training records, and the broad validation record every kind is scored on."""
+    return (e.role == VALIDATION and e.bias is None) or (
+        e.role == TRAIN and (e.bias is None) == (records == "broad"))
 
 
 def bias_name(bias: float) -> str:

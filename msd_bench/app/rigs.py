@@ -43,6 +43,7 @@ from msd_bench.core.evaluation.results import SUCCESS_SSE
 from msd_bench.core.evaluation.risk import trace_risk
 from msd_bench.core.evaluation.risk_table import summarise
 from msd_bench.core.evaluation.scenarios import Scenario, noise_seed, parse
+from msd_bench.core.identification.excitation import PrbsConfig
 from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.physics.model import StepModel
 from msd_bench.core.rigs import population
@@ -83,6 +84,9 @@ class RigsConfig:
     """Scenario ids run on every rig after the nominal validation (set-points and loads only)."""
     resamples: int = DEFAULT_RESAMPLES
     """Bootstrap resamples of the over-rigs interval."""
+    settle: int = PrbsConfig.settle
+    """Samples at the bias force before each PRBS record (the paper's 1,000; the data-efficiency
+    sweep on rigs shortens them with the records, :func:`msd_bench.app.efficiency.settle_for`)."""
     actuator: str = "measured"
     """``measured``: the robust agent's observer assumes the actuator delay fitted between the broad
     record's commands and effort; ``none``: it assumes none (:data:`ACTUATOR_CHOICES`)."""
@@ -144,7 +148,7 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
     drawn = population.draw(seed)
     rig = Rig(drawn.params, drawn.imperfections, seed=seed)  # the sensor's noise stream is the rig's own
     run = cfg.run
-    played = play_plan(rig, paper_plan(run.id_first_seed, run.samples, run.val_samples))
+    played = play_plan(rig, paper_plan(run.id_first_seed, run.samples, run.val_samples, cfg.settle))
     records = records_of(played, drawn.params.dt)
     drive = measured_actuator(played, drawn.params.dt)
     told = Drive(drive.delay_samples, drive.time_constant_s) if cfg.actuator == "measured" else None

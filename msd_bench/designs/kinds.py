@@ -49,6 +49,10 @@ EFFICIENCY_SURROGATE: tuple[str, ...] = ("plm+improved", "nlarx-improved+improve
                                          "glm+improved")
 """The surrogate route of the data-efficiency curve (one line each)."""
 
+RIG_EFFICIENCY: tuple[str, ...] = ("plm+robust", "nlarx-improved+robust", "greybox+robust")
+"""The data-efficiency curve on rigs (``msd-bench efficiency --rigs``): the robust agent, told each rig's
+drive, on the surrogates of ``msd-bench rigs``."""
+
 EFFICIENCY_PLANT: tuple[str, ...] = ("plant+improved", "plant", "dyna-q")
 """The on-plant route of the data-efficiency curve (one line each)."""
 

@@ -1,0 +1,153 @@
+"""The data-efficiency curve on a population of rigs: success against the real samples each route used.
+
+:mod:`msd_bench.app.efficiency` draws the curve on the ideal plant. Here every
+point is the whole method on each rig of a population (:func:`msd_bench.app.rigs.rig_task`):
+the paper's plan at one record length played through the rig (rest without
+reset before every experiment), every model kind identified from those records
+only, each agent made on its surrogate (the robust agent told the drive the
+broad record shows) and validated through the rig at the nominal set-point.
+
+What a point charges, per rig, is what a rig owner would spend: the kind's
+training records with their settle segments, the broad validation record every
+kind is scored on, and the samples the rig took to come to rest before each of
+those experiments (a rig without reset waits for its mass; the ideal plant's
+curve has no such cost). The x of a point is the mean over its rigs (rests
+differ from rig to rig; the JSON keeps the spread), its rate pools every
+(rig, learning seed) run, and its interval is the bootstrap over rigs
+(:mod:`msd_bench.core.rigs.rig_stats`: runs on one rig share its records), the
+Wilson interval beside it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from msd_bench.app.agents import agent_kind
+from msd_bench.app.efficiency import RECORD_SAMPLES, settle_for, validation_samples
+from msd_bench.app.plan import consumed_by, paper_plan
+from msd_bench.app.rigs import RigsConfig, rig_success, rig_task
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.evaluation.results import SUCCESS_SSE
+from msd_bench.core.identification.model_kinds import model_kind
+from msd_bench.core.rigs.rig_stats import rate_summary
+
+FAMILIES = ("default",)
+"""Rig families a curve can be drawn on: the default population (``core/rigs/population.py``)."""
+
+
+@dataclass(frozen=True)
+class RigEfficiencyConfig:
+    """What the curve on rigs sweeps: every record length on every rig of ``rigs``."""
+
+    rigs: RigsConfig
+    """The population run each point repeats (agents, learning seeds, rig set); its record lengths,
+    settle segments and scenarios are the sweep's: each point validates at the nominal set-point."""
+    record_samples: tuple[int, ...] = RECORD_SAMPLES
+    """Samples per identification record at each point."""
+    family: str = "default"
+    """The rig family (:data:`FAMILIES`)."""
+
+    def __post_init__(self) -> None:
+        if self.family not in FAMILIES:
+            raise ConfigError(f"--family must be one of {', '.join(FAMILIES)}, got {self.family!r}")
+        if not self.record_samples or min(self.record_samples) < 100:
+            raise ConfigError("record samples must be >= 100")
+        if len(set(self.record_samples)) != len(self.record_samples):
+            raise ConfigError(f"record samples repeat: {list(self.record_samples)}")
+
+    def at_length(self, n: int) -> RigsConfig:
+        """The population run of the point at record length ``n`` (nominal validation only)."""
+        run = replace(self.rigs.run, samples=n, val_samples=validation_samples(n))
+        return replace(self.rigs, run=run, settle=settle_for(n), scenarios=())
+
+
+def tasks(cfg: RigEfficiencyConfig) -> list[tuple[str, int, int]]:
+    """``(task id, record length, rig seed)``: every rig at every length, shortest records first."""
+    return [(f"n{n}-rig{seed}", n, seed) for n in cfg.record_samples for seed in cfg.rigs.rig_seeds()]
+
+
+def rig_point(cfg: RigEfficiencyConfig, n: int, seed: int) -> dict[str, Any]:
+    """One rig at record length ``n``: each kind's runs, and the real samples each kind was charged."""
+    pcfg = cfg.at_length(n)
+    part = rig_task(pcfg, seed)
+    run = pcfg.run
+    plan = paper_plan(run.id_first_seed, run.samples, run.val_samples, pcfg.settle)
+    rests = part["rests"]["before_experiments"]
+    charged = {kind: _charged(plan, rests, model_kind(agent_kind(kind).surrogate).records)
+               for kind in run.agents}
+    outcomes = [{k: o[k] for k in ("kind", "seed", "success", "sse", "identified") if k in o}
+                for o in part["outcomes"]]
+    return {"rig": seed, "record_samples": n, "charged": charged, "outcomes": outcomes,
+            "identification_failed": part["identification_failed"], "design_failed": part["design_failed"],
+            "actuator": part["actuator"], "seconds": part["seconds"]["total"]}
+
+
+def _charged(plan: Sequence[Any], rests: Sequence[int], records: str) -> int:
+    """Real samples a kind trained on ``records`` used on one rig: its experiments and their rests."""
+    if len(rests) != len(plan):
+        raise ConfigError(f"{len(rests)} rests for {len(plan)} experiments")
+    total = 0
+    for e, rest in zip(plan, rests, strict=True):
+        if consumed_by(e, records):
+            settle = getattr(e.signal, "settle", 0)
+            total += int(e.signal.n_samples) + int(settle) + int(rest)
+    return total
+
+
+Parts = Mapping[str, Mapping[str, Any]]
+"""Task results keyed by task id."""
+
+
+def lines(cfg: RigEfficiencyConfig, parts: Parts) -> list[dict[str, Any]]:
+    """Each kind's points: pooled success with both intervals against its mean charged samples."""
+    methods = []
+    for kind in cfg.rigs.run.agents:
+        points = []
+        for n in cfg.record_samples:
+            got = [parts[tid] for tid, m, _ in tasks(cfg) if m == n]
+            points.append(_point(kind, n, got, cfg))
+        methods.append({"name": kind, "label": agent_kind(kind).label, "points": points})
+    return methods
+
+
+def _point(kind: str, n: int, got: Sequence[Mapping[str, Any]], cfg: RigEfficiencyConfig) -> dict[str, Any]:
+    per_rig = [rig_success(g, kind) for g in got]
+    rate = rate_summary([k for k, _ in per_rig], [m for _, m in per_rig], cfg.rigs.resamples,
+                        cfg.rigs.first_rig)
+    charged = np.array([g["charged"][kind] for g in got], dtype=float)
+    failed = sorted({g["rig"] for g in got
+                     if agent_kind(kind).surrogate in g["identification_failed"]})
+    return {"record_samples": n, "real_samples": round(float(charged.mean())),
+            "real_samples_range": [int(charged.min()), int(charged.max())],
+            "n": rate["n"], "n_success": rate["successes"], "ci95": rate["bootstrap95"],
+            "wilson95": rate["wilson95"], "bootstrap95": rate["bootstrap95"], "rigs": rate["rigs"],
+            "identification_failed_rigs": failed}
+
+
+def document(cfg: RigEfficiencyConfig, parts: Parts) -> dict[str, Any]:
+    """``efficiency.json`` of a rig population (``methods`` as the ideal plant's curve has them)."""
+    rigs = cfg.rigs
+    seconds = [float(p["seconds"]) for p in parts.values()]
+    return {
+        "schema": "msd-bench/efficiency", "schema_version": 1, "on": "rigs", "family": cfg.family,
+        "rig_set": "design" if rigs.design else "held-out", "rigs_run": rigs.rig_seeds(),
+        "learning_seeds": rigs.run.learning_seeds(0), "success_sse_percent": SUCCESS_SSE,
+        "judged_on": "true position at the nominal set-point",
+        "robust_told": rigs.actuator,
+        "interval": "ci95 is the bootstrap over rigs; wilson95 treats every run as independent",
+        "bootstrap": {"resamples": rigs.resamples, "seed": rigs.first_rig, "level": 0.95, "over": "rigs"},
+        "methods": lines(cfg, parts),
+        "seconds": {"total": sum(seconds), "per_task_max": max(seconds, default=0.0)},
+    }
+
+
+def rig_efficiency(cfg: RigEfficiencyConfig) -> dict[str, Any]:
+    """The document computed in this process, task after task (the command spreads the tasks)."""
+    return document(cfg, {tid: rig_point(cfg, n, seed) for tid, n, seed in tasks(cfg)})
+
+
+__all__ = ["FAMILIES", "RigEfficiencyConfig", "document", "lines", "rig_efficiency", "rig_point", "tasks"]
