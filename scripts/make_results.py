@@ -43,6 +43,9 @@ COMMANDS: dict[str, list[str]] = {
     "table1_noisy_id": [*PAPER, "--seeds", "2", "--id-seeds", "3", "--record-noise", "0.002", "--agents",
                         "greybox,nlarx-improved,plm"],
     "efficiency": [sys.executable, "-m", "msd_bench.cli", "efficiency"],
+    "rigs_efficiency": [sys.executable, "-m", "msd_bench.cli", "efficiency", "--rigs", "100",
+                        "--first-rig", "1000", "--seeds", "4",
+                        "--agents", "plm+robust,nlarx-improved+robust,greybox+robust"],
     "table1_baselines": [*PAPER, "--seeds", "3", "--id-seeds", "3", "--agents",
                          "glm+pid,glm+pid-continuous,greybox+lqr,plm+mpc,plm+robust,greybox+robust"],
 }
@@ -95,8 +98,9 @@ def provenance(script: str, argv: list[str] | None) -> dict[str, Any]:
     return {"command": f"scripts/{script} {shown}", "commit": commit(), "machine": machine()}
 
 
-def outputs(out: Path) -> dict[str, Any]:
-    """The JSON a command wrote, without per-seed rows (they stay in the run's own files)."""
+def outputs(out: Path, name: str = "efficiency") -> dict[str, Any]:
+    """The JSON a command wrote, without per-seed rows (they stay in the run's own files); its
+    efficiency figure, if any, is stored as ``<name>.png``."""
     found: dict[str, Any] = {}
     for key in ("table1", "robustness", "efficiency"):
         if (out / f"{key}.json").is_file():
@@ -109,7 +113,7 @@ def outputs(out: Path) -> dict[str, Any]:
             cell.pop("mae", None)
             cell.pop("risks", None)  # per-run risk records: the cell's summary stays
     if (out / "efficiency.png").is_file():
-        shutil.copyfile(out / "efficiency.png", RESULTS / "efficiency.png")
+        shutil.copyfile(out / "efficiency.png", RESULTS / f"{name}.png")
     return found
 
 
@@ -130,7 +134,7 @@ def run(name: str) -> Path:
             "machine": machine(),
             "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
             "seconds": round(seconds, 1),
-            **outputs(out),
+            **outputs(out, name),
         }
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / f"{name}.json"
