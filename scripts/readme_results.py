@@ -120,6 +120,36 @@ def view_efficiency(doc: dict[str, Any], name: str) -> str:
     return "\n".join([*lines, "", *notes, "", _source(doc, name)]) + "\n"
 
 
+def view_rigs_efficiency(doc: dict[str, Any], name: str) -> str:
+    """The curve on rigs: per route and record length, the real samples a rig owner spent (mean over
+    the rigs, and their range) and the success pooled over (rig, seed) runs with both intervals; then
+    the fewest real samples at which a route first reaches 90 % and 95 %."""
+    eff = doc["efficiency"]
+    lines = ["| route | record samples | real samples per rig (mean; range) | successes/n (rate) | "
+             "bootstrap over rigs 95 % | Wilson 95 % | identification failed on |",
+             "|---|---|---|---|---|---|---|"]
+    for m in eff["methods"]:
+        for p in sorted(m["points"], key=lambda p: p["record_samples"]):
+            lo, hi = p["real_samples_range"]
+            failed = len(p["identification_failed_rigs"])
+            lines.append(
+                f"| {m['label']} | {p['record_samples']:,} | {p['real_samples']:,} ({lo:,}–{hi:,}) | "
+                f"{p['n_success']}/{p['n']} ({100 * p['n_success'] / p['n']:.0f} %) | "
+                f"{100 * p['bootstrap95'][0]:.0f}–{100 * p['bootstrap95'][1]:.0f} % | "
+                f"{100 * p['wilson95'][0]:.0f}–{100 * p['wilson95'][1]:.0f} % | "
+                f"{f'{failed} rigs' if failed else '—'} |")
+    notes = []
+    for rate in (0.90, 0.95):
+        firsts = [(at, m["label"]) for m in eff["methods"] if (at := reaches(m["points"], rate)) is not None]
+        said = (f"first reached by {min(firsts)[1]} at {min(firsts)[0]:,} real samples per rig" if firsts
+                else "reached by no route of the sweep")
+        notes.append(f"- {100 * rate:.0f} % success: {said}.")
+    rigs = eff["rigs_run"]
+    head = (f"{len(rigs)} {eff['rig_set']} rigs ({rigs[0]}–{rigs[-1]}) of the {eff['family']} family × "
+            f"{len(eff['learning_seeds'])} learning seeds; success judged on the {eff['judged_on']}.")
+    return "\n".join([head, "", *lines, "", *notes, "", _source(doc, name)]) + "\n"
+
+
 def view_json(doc: dict[str, Any], name: str) -> str:
     """A benchmark's own ``table`` rows (a list of flat objects) as a Markdown table."""
     rows = doc["table"]
@@ -946,7 +976,7 @@ VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "greybox_rig_floors": view_greybox_rig_floors,
     "rigs_kinds": view_rigs_kinds, "rigs_floors": view_rigs_floors, "rigs_beside": view_rigs_beside,
     "identification_speed": view_identification_speed, "silverbox": view_silverbox,
-    "coverage": view_coverage}
+    "coverage": view_coverage, "rigs_efficiency": view_rigs_efficiency}
 
 
 def render(readme: str, results_dir: Path) -> str:
