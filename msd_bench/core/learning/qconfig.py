@@ -248,7 +248,7 @@ class QConfig:
         return np.array([-f, -f / 2, 0.0, f / 2, f])
 
 
-def improved_config(scales: Scales = Scales.DEFAULT, **overrides: object) -> QConfig:
+def improved_config(scales: Scales = Scales.DEFAULT, /, **overrides: object) -> QConfig:
     """Our improved agent (not the paper's): lead-error grid and α = 0.1; fields overridable (in paper
     units), the whole on a rig of ``scales``."""
     fields: dict[str, object] = {"state": "improved", "alpha": 0.1}
