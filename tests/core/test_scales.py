@@ -129,3 +129,14 @@ def test_the_reward_counts_paper_metres() -> None:
     from msd_bench.core.learning.q_kernels import reward
 
     assert reward(lr, 0.5 * 0.05, 0.25 * 0.05) == pytest.approx(reward(lr0, 0.5, 0.25))
+
+
+def test_a_run_config_on_a_rig_keeps_its_seconds_and_fractions() -> None:
+    from msd_bench.app.config import RunConfig
+
+    cfg = RunConfig()
+    assert cfg.scaled(Scales.DEFAULT) is cfg and cfg.scenario_suite(Scales.DEFAULT) == cfg.scenario_suite()
+    rig = cfg.scaled(Scales.of(20.0, 10.0, 0.004))  # 250 Hz, a 20 m stroke
+    assert (rig.steps, rig.validation_steps, rig.window, rig.samples) == (7500, 7500, 1250, 30_000)
+    assert rig.target == pytest.approx(4.0)
+    assert [s.setpoint for s in cfg.scenario_suite(Scales(length=4.0))][:2] == pytest.approx([4.0, -6.0])
