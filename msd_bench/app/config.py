@@ -7,7 +7,7 @@ directory, stages, real-time mode). Budgets default to the paper's.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 from msd_bench.app.agents import DEFAULT_AGENTS, SHAPINGS, check_agents, surrogates_of
@@ -18,6 +18,7 @@ if TYPE_CHECKING:  # the supervisor is compiled: loaded only when a run is valid
     from msd_bench.core.safety.supervisor import Limits
 from msd_bench.core.evaluation.scenarios import Scenario, suite
 from msd_bench.core.physics.sensor import SensorModel
+from msd_bench.core.rigs.scales import Scales
 from msd_bench.designs.kinds import split_by_model
 
 _POSITIVE = ("seeds", "id_seeds", "episodes", "steps", "dyna_episodes", "samples", "val_samples",
@@ -93,9 +94,23 @@ class RunConfig:
         if self.shaping not in SHAPINGS:
             raise ConfigError(f"shaping must be one of {', '.join(SHAPINGS)}, got {self.shaping!r}")
 
-    def scenario_suite(self) -> list[Scenario]:
-        """The standard scenarios plus this run's extra ones, each once."""
-        return suite(self.scenarios)
+    def scenario_suite(self, scales: Scales = Scales.DEFAULT) -> list[Scenario]:
+        """The standard scenarios plus this run's extra ones, each once (on a rig of ``scales``: the
+        standard ones scaled to it, the extra ones in its units)."""
+        return suite(self.scenarios, scales)
+
+    def scaled(self, scales: Scales) -> RunConfig:
+        """These budgets, stated in paper samples and metres, on a rig of ``scales``
+        (docs/decisions.md §Scales): episodes, records, validation runs and the SSE window last the
+        same seconds, the set-point is the same fraction of the stroke, the record sensor's noise
+        and step scale with it. Itself on the paper's plant, bit for bit."""
+        if scales.is_default:
+            return self
+        n = scales.samples
+        return replace(self, steps=n(self.steps), samples=n(self.samples), val_samples=n(self.val_samples),
+                       validation_steps=n(self.validation_steps), window=n(self.window),
+                       target=scales.metres(self.target), record_noise=scales.metres(self.record_noise),
+                       record_quant=scales.metres(self.record_quant))
 
     @property
     def sensor(self) -> SensorModel | None:

@@ -10,10 +10,14 @@ validation twins of each with other seeds.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, TypeVar
 
 from msd_bench.core.identification.excitation import MultilevelConfig, PrbsConfig
 from msd_bench.core.identification.operating_points import PLM_BIASES
+
+if TYPE_CHECKING:  # the scales import the plant (numba): not before bench.py's first node starts
+    from msd_bench.core.rigs.scales import Scales
 
 TRAIN, VALIDATION = "train", "validation"
 
@@ -49,21 +53,35 @@ def record_seeds(id_seed: int) -> tuple[int, int]:
 
 
 def paper_plan(id_seed: int, samples: int = 12_000, val_samples: int = 4_000,
-               settle: int = PrbsConfig.settle) -> list[PlannedExperiment]:
+               settle: int = PrbsConfig.settle, scales: Scales | None = None) -> list[PlannedExperiment]:
     """Training experiments then their validation twins, for identification seed ``id_seed``.
 
     ``settle`` samples at the bias force precede each PRBS record (dropped for
     identification, but real samples all the same: the data-efficiency curve
-    counts them).
+    counts them). On a rig of ``scales`` (docs/decisions.md §Scales) the bias forces, the PRBS
+    amplitude and the multilevel alphabet are the paper's relative to its force limit, the PRBS
+    bit and the multilevel dwells the paper's seconds; ``samples``, ``val_samples`` and ``settle``
+    are the caller's, in rig samples. Experiments keep the paper's names (``bias_p10`` is the
+    paper's +10 N on any rig); their ``bias`` is the rig's force.
     """
     plan: list[PlannedExperiment] = []
     for role, prefix, n, base in ((TRAIN, "", samples, record_seeds(id_seed)[0]),
                                   (VALIDATION, "val_", val_samples, record_seeds(id_seed)[1])):
         for i, bias in enumerate(PLM_BIASES):
-            plan.append(PlannedExperiment(f"{prefix}{bias_name(bias)}", role, bias,
-                                          PrbsConfig(bias=bias, n_samples=n, settle=settle), base + i))
-        plan.append(PlannedExperiment(f"{prefix}broad", role, None, MultilevelConfig(n_samples=n), base + 7))
+            prbs = _on(PrbsConfig(bias=bias), scales)
+            plan.append(PlannedExperiment(f"{prefix}{bias_name(bias)}", role, prbs.bias,
+                                          replace(prbs, n_samples=n, settle=settle), base + i))
+        broad = replace(_on(MultilevelConfig(), scales), n_samples=n)
+        plan.append(PlannedExperiment(f"{prefix}broad", role, None, broad, base + 7))
     return plan
+
+
+_Signal = TypeVar("_Signal", PrbsConfig, MultilevelConfig)
+
+
+def _on(cfg: _Signal, scales: Scales | None) -> _Signal:
+    """``cfg`` on a rig of ``scales``; itself when there are none (the paper's plant)."""
+    return cfg if scales is None else cfg.scaled(scales)
 
 
 def real_samples(plan: list[PlannedExperiment], records: str) -> int:

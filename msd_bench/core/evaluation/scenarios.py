@@ -31,6 +31,7 @@ from dataclasses import dataclass, replace
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.rigs.scales import Scales
 
 _MULTIPLIERS = {"mass": "m", "damping": "c", "spring": "k", "hardening": "h"}
 _KEYS = ("setpoint", "noise", "quant", "delay", "lag", "disturbance", "friction", *_MULTIPLIERS)
@@ -74,17 +75,33 @@ class Scenario:
         return replace(nominal, **{field: getattr(nominal, field) * getattr(self, key)
                                    for key, field in _MULTIPLIERS.items()})
 
+    def scaled(self, scales: Scales) -> Scenario:
+        """This paper condition on a rig of ``scales`` (docs/decisions.md §Scales), under the same id:
+        set-point, noise and quantisation relative to the stroke, load and friction to the force
+        limit, the delay the same seconds; lag and load time are seconds already. Itself on the
+        paper's plant, bit for bit."""
+        if scales.is_default:
+            return self
+        m, n = scales.metres, scales.newtons
+        return replace(self, setpoint=m(self.setpoint), noise=m(self.noise), quant=m(self.quant),
+                       disturbance=n(self.disturbance), friction=n(self.friction),
+                       delay=scales.samples(self.delay) if self.delay else 0)
+
     @property
     def has_sensor(self) -> bool:
         """Whether the agent sees anything but the true position."""
         return self.noise > 0.0 or self.quant > 0.0
 
 
-def parse(text: str) -> Scenario:
-    """A :class:`Scenario` from ``key=value,...`` (``nominal`` alone is the paper's condition)."""
+def parse(text: str, scales: Scales = Scales.DEFAULT) -> Scenario:
+    """A :class:`Scenario` from ``key=value,...`` (``nominal`` alone is the paper's condition).
+
+    Values are in the rig's units (a rig of ``scales``); ``nominal`` is the paper's unit step
+    scaled to its stroke, and a set-point must lie within its half-stroke.
+    """
     text = text.strip()
     if text == "nominal":
-        return Scenario()
+        return Scenario().scaled(scales)
     if not text:
         raise ConfigError("empty scenario; write e.g. noise=0.005,delay=1 or nominal")
     values: dict[str, object] = {"id": text}
@@ -95,11 +112,13 @@ def parse(text: str) -> Scenario:
                               f"{', '.join(_KEYS)}")
         if key in values:
             raise ConfigError(f"scenario {text!r}: {key} given twice")
-        values.update(_value(text, key, raw))
+        values.update(_value(text, key, raw, scales))
+    if "setpoint" not in values:
+        values["setpoint"] = Scenario.setpoint * scales.length
     return Scenario(**values)  # type: ignore[arg-type]
 
 
-def _value(text: str, key: str, raw: str) -> dict[str, object]:
+def _value(text: str, key: str, raw: str, scales: Scales) -> dict[str, object]:
     """The typed, range-checked field(s) of one ``key=value`` item."""
     if key == "disturbance":
         force, at, when = raw.partition("@")
@@ -117,8 +136,10 @@ def _value(text: str, key: str, raw: str) -> dict[str, object]:
         return {"lag": value}
     if key == "setpoint":
         value = _number(text, key, raw)
-        if value == 0.0 or abs(value) > 2.5:
-            raise ConfigError(f"scenario {text!r}: setpoint must be non-zero and within the ±2.5 m stroke")
+        half = scales.metres(PlantParams().x_max)
+        if value == 0.0 or abs(value) > half:
+            raise ConfigError(f"scenario {text!r}: setpoint must be non-zero and within the "
+                              f"±{half:g} m stroke")
         return {"setpoint": value}
     low = 1e-9 if key in _MULTIPLIERS else 0.0
     return {key: _number(text, key, raw, low)}
@@ -148,10 +169,14 @@ the imperfection the rest of the set cannot stand in for: a pilot on eight popul
 success (46 and 48 of 48 instead of 38 and 40), and the lag was what it missed."""
 
 
-def suite(extra: tuple[str, ...] = ()) -> list[Scenario]:
-    """The standard scenarios plus ``extra`` (ids as written), each once."""
+def suite(extra: tuple[str, ...] = (), scales: Scales = Scales.DEFAULT) -> list[Scenario]:
+    """The standard scenarios plus ``extra`` (ids as written), each once.
+
+    On a rig of ``scales`` the standard ones are the paper's conditions scaled to it
+    (:meth:`Scenario.scaled`, same ids); ``extra`` ones are written in the rig's units.
+    """
     ids = list(dict.fromkeys((*STANDARD, *extra)))
-    return [parse(s) for s in ids]
+    return [parse(s).scaled(scales) if s in STANDARD else parse(s, scales) for s in ids]
 
 
 def noise_seed(learning_seed: int, scenario_id: str) -> int:

@@ -19,12 +19,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
+
+if TYPE_CHECKING:  # the scales import the plant (numba); the plan reads these configs before any node starts
+    from msd_bench.core.rigs.scales import Scales
 
 FloatArray = NDArray[np.float64]
 
@@ -67,6 +71,16 @@ class PrbsConfig:
                  f"register_bits must be one of {sorted(_LFSR_TAPS)}, got {self.register_bits!r:.60}")
         _total(self.settle + self.n_samples, "settle + n_samples")
 
+    def scaled(self, scales: Scales) -> PrbsConfig:
+        """This signal, stated on the paper's plant, on a rig of ``scales`` (docs/decisions.md §Scales):
+        bias and amplitude relative to the force limit, record, bit and settle lengths in seconds.
+        Unchanged, bit for bit, on the paper's plant."""
+        if scales.is_default:
+            return self
+        return replace(self, bias=scales.newtons(self.bias), amplitude=scales.newtons(self.amplitude),
+                       n_samples=scales.samples(self.n_samples), hold=scales.samples(self.hold),
+                       settle=scales.samples(self.settle))
+
 
 @dataclass(frozen=True)
 class MultilevelConfig:
@@ -88,6 +102,15 @@ class MultilevelConfig:
         _count("max_dwell", self.max_dwell, 1)
         _require(self.min_dwell <= self.max_dwell, "need 1 <= min_dwell <= max_dwell")
 
+    def scaled(self, scales: Scales) -> MultilevelConfig:
+        """This signal on a rig of ``scales``: levels relative to the force limit, lengths and dwell
+        limits in seconds (docs/decisions.md §Scales). Unchanged, bit for bit, on the paper's plant."""
+        if scales.is_default:
+            return self
+        return replace(self, levels=tuple(scales.newtons(v) for v in self.levels),
+                       n_samples=scales.samples(self.n_samples), min_dwell=scales.samples(self.min_dwell),
+                       max_dwell=scales.samples(self.max_dwell))
+
 
 @dataclass(frozen=True)
 class StepsConfig:
@@ -102,6 +125,14 @@ class StepsConfig:
         object.__setattr__(self, "levels", _levels(self.levels, 1))
         _count("dwell", self.dwell, 1)
         _total(len(self.levels) * self.dwell, "len(levels) * dwell")
+
+    def scaled(self, scales: Scales) -> StepsConfig:
+        """This staircase on a rig of ``scales``: levels relative to the force limit, the dwell in
+        seconds (docs/decisions.md §Scales). Unchanged, bit for bit, on the paper's plant."""
+        if scales.is_default:
+            return self
+        return replace(self, levels=tuple(scales.newtons(v) for v in self.levels),
+                       dwell=scales.samples(self.dwell))
 
 
 def prbs_bits(n_bits: int, register_bits: int, seed: int) -> NDArray[np.int8]:

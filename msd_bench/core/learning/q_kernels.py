@@ -62,8 +62,12 @@ def encode(enc: Encoding, e: float, dx: float, target: float) -> int:
 
 @numba.njit(cache=True)
 def reward(lr: Learner, err: float, err_prev: float) -> float:
-    """``g / (1 + E_k) - ζ (E_k - E_{k-1}) / E_max`` with ``E = |e|`` (paper eq. 19)."""
-    return lr.g / (1.0 + err) - lr.zeta * (err - err_prev) / lr.e_max
+    """``g / (1 + E_k) - ζ (E_k - E_{k-1}) / E_max`` with ``E = |e|`` (paper eq. 19).
+
+    E in the closeness term is in paper metres (E / ``length_unit``, exactly E on the paper's plant),
+    so a rig of another stroke is rewarded for the same fraction of it (docs/decisions.md §Scales).
+    """
+    return lr.g / (1.0 + err / lr.length_unit) - lr.zeta * (err - err_prev) / lr.e_max
 
 
 @numba.njit(cache=True)

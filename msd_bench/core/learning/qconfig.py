@@ -30,13 +30,14 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
+from msd_bench.core.rigs.scales import Scales
 
 FloatArray = NDArray[np.float64]
 
@@ -146,6 +147,10 @@ class QConfig:
     """Training on the surrogate: each episode draws a sensor noise σ uniformly in [0, train_noise] m."""
     train_delay: int = 0
     """Training on the surrogate: each episode draws an actuator delay in {0, …, train_delay} samples."""
+    length_unit: float = 1.0
+    """Metres of the rig per paper metre (:attr:`Scales.length`): the reward's closeness term g/(1+E) counts
+    E in paper metres, E / length_unit, so it rewards the same fraction of the stroke on every rig
+    (docs/decisions.md §Scales). Set by :meth:`QConfig.scaled`; exactly 1.0 on the paper's plant."""
     select_every: int = 0
     """Keep, instead of the final table, the best of the tables taken every ``select_every`` episodes over
     the second half of training, judged by greedy rehearsals on the model trained on
@@ -156,7 +161,7 @@ class QConfig:
         _require(0.0 < self.alpha <= 1.0, f"alpha must be in (0, 1], got {self.alpha}")
         _require(0.0 <= self.gamma < 1.0, f"gamma must be in [0, 1), got {self.gamma}")
         _require(0.0 <= self.epsilon <= 1.0, f"epsilon must be in [0, 1], got {self.epsilon}")
-        for name in ("reward_gain", "g", "e_max", "force"):
+        for name in ("reward_gain", "g", "e_max", "force", "length_unit"):
             value = getattr(self, name)
             _require(math.isfinite(value) and value > 0, f"{name} must be finite and > 0")
         for name in ("zeta", "eta", "direction_tol", "lead_steps"):
@@ -216,17 +221,39 @@ class QConfig:
             return ()
         return tuple(range(self.episodes, self.episodes // 2 - 1, -self.select_every))
 
+    def scaled(self, scales: Scales) -> QConfig:
+        """This config, stated on the paper's plant, on a rig of ``scales`` (docs/decisions.md §Scales).
+
+        Lengths (error clip, error edges, training targets, the still tolerance per sample)
+        scale with the stroke, the force alphabet with the force limit; durations stay in
+        seconds: the episode and the lead horizon become ``scales.samples`` of their paper
+        counts. Every factor is 1.0 on the paper's plant, so there the config is unchanged, bit
+        for bit. Delays (``obs_delay``, ``train_delay``) are in rig samples already and are kept.
+        """
+        if scales.is_default:
+            return self
+        m = scales.metres
+        return replace(
+            self, e_max=m(self.e_max), error_edges=tuple(m(e) for e in self.error_edges),
+            reference_edges=tuple(m(e) for e in self.reference_edges),
+            target_low=m(self.target_low), target_high=m(self.target_high),
+            direction_tol=scales.per_sample(m(self.direction_tol)), force=scales.newtons(self.force),
+            steps=scales.samples(self.steps), lead_steps=self.lead_steps / scales.time,
+            train_noise=m(self.train_noise), obs_bias_gain=scales.newtons(self.obs_bias_gain) / scales.length,
+            length_unit=self.length_unit * scales.length)
+
     def actions(self) -> FloatArray:
         """The force alphabet {-F, -F/2, 0, F/2, F} in N."""
         f = self.force
         return np.array([-f, -f / 2, 0.0, f / 2, f])
 
 
-def improved_config(**overrides: object) -> QConfig:
-    """Our improved agent (not the paper's): lead-error grid and α = 0.1; fields overridable."""
+def improved_config(scales: Scales = Scales.DEFAULT, /, **overrides: object) -> QConfig:
+    """Our improved agent (not the paper's): lead-error grid and α = 0.1; fields overridable (in paper
+    units), the whole on a rig of ``scales``."""
     fields: dict[str, object] = {"state": "improved", "alpha": 0.1}
     fields.update(overrides)
-    return QConfig(**fields)  # type: ignore[arg-type]
+    return QConfig(**fields).scaled(scales)  # type: ignore[arg-type]
 
 
 class Encoding(NamedTuple):
@@ -299,6 +326,8 @@ class Learner(NamedTuple):
     """Actuator delay the model observer assumes, samples."""
     obs_bias_gain: float
     """Model observer's gain on its force-bias state, N per m of innovation (0 = no bias state)."""
+    length_unit: float
+    """Rig metres per paper metre: the closeness term counts E / length_unit."""
 
 
 def encoding(cfg: QConfig) -> Encoding:
@@ -324,7 +353,7 @@ def packed(cfg: QConfig) -> Learner:
                    _phi_table(_error_side(cfg, enc), actions, cfg.shaping), actions, cfg.observed,
                    OBSERVERS.index(cfg.observer), cfg.obs_gain, cfg.obs_velocity_gain, cfg.train_noise,
                    cfg.train_delay, cfg.obs_velocity_share,
-                   cfg.obs_drift_gain, cfg.obs_delay, cfg.obs_bias_gain)
+                   cfg.obs_drift_gain, cfg.obs_delay, cfg.obs_bias_gain, cfg.length_unit)
 
 
 def _error_side(cfg: QConfig, enc: Encoding) -> NDArray[np.int64]:
