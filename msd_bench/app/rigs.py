@@ -33,16 +33,17 @@ from typing import Any
 import numpy as np
 
 from msd_bench import designs
+from msd_bench.app import rig_refine, rig_routes
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.app.job import agent_params
 from msd_bench.app.plan import paper_plan
-from msd_bench.app.scoring import metric_row
+from msd_bench.app.rig_scores import rig_scenario, scores
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
 from msd_bench.core.evaluation.risk import trace_risk
 from msd_bench.core.evaluation.risk_table import summarise
-from msd_bench.core.evaluation.scenarios import Scenario, noise_seed, parse
+from msd_bench.core.evaluation.scenarios import Scenario, noise_seed
 from msd_bench.core.identification.excitation import PrbsConfig
 from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.physics.model import StepModel
@@ -59,13 +60,18 @@ RIG_SCENARIOS = ("setpoint=-1.5", "setpoint=-0.5", "setpoint=0.5", "setpoint=1.5
                  "disturbance=2@15", "disturbance=-2@15")
 """What a rig can be given besides the nominal set-point: the standard suite's set-points and loads (its
 noise, delay and parameter drifts are the rig's own here)."""
-RIG_KEYS = ("setpoint", "disturbance")
 DEFAULT_AGENTS = kinds.RIGS
 WORST = 10
 ACTUATOR_CHOICES = ("measured", "none")
+CEILING = tuple(rig_routes.ROUTES)
+"""The ceiling's rows (``--ceiling``): every route of :data:`msd_bench.app.rig_routes.ROUTES`."""
 """What the robust agent is told of a rig's drive: the delay its records show, or nothing (the agent as
 chosen on the ideal plant's surrogates): :func:`msd_bench.designs.qlearning.for_actuator`."""
 """Rigs listed with their parameters as the worst."""
+MAX_REFINE = 10
+"""The most refinement rounds a run may ask for."""
+MAX_REFINE_WEIGHT = 10
+"""The heaviest weight a closed-loop record may get in a refit."""
 
 
 @dataclass(frozen=True)
@@ -90,6 +96,14 @@ class RigsConfig:
     actuator: str = "measured"
     """``measured``: the robust agent's observer assumes the actuator delay fitted between the broad
     record's commands and effort; ``none``: it assumes none (:data:`ACTUATOR_CHOICES`)."""
+    ceiling: bool = False
+    """Also run the ceiling (:data:`CEILING`): the robust agent trained on each rig's own simulator,
+    validated after every agent kind (so theirs are the runs they would be without it)."""
+    refine: int = 0
+    """Refinement rounds on the rig per refinable kind (``app/rig_refine.py``), after every agent kind
+    and the ceiling were validated; 0: none (every other row is the run it would be without it)."""
+    refine_weight: int = 1
+    """How many times each closed-loop record enters a refit beside the open-loop broad record."""
 
     def __post_init__(self) -> None:
         if self.rigs < 1 or self.first_rig < 0:
@@ -98,6 +112,12 @@ class RigsConfig:
         if self.actuator not in ACTUATOR_CHOICES:
             raise ConfigError(f"--robust-actuator must be one of {', '.join(ACTUATOR_CHOICES)}, "
                               f"got {self.actuator!r}")
+        if not 0 <= self.refine <= MAX_REFINE or not 1 <= self.refine_weight <= MAX_REFINE_WEIGHT:
+            raise ConfigError(f"--refine must be in 0..{MAX_REFINE} and --refine-weight in "
+                              f"1..{MAX_REFINE_WEIGHT}, got {self.refine} and {self.refine_weight}")
+        if self.refine and not rig_refine.refined_kinds(self.run.agents):
+            raise ConfigError("--refine refits models fitted from the broad record: none of "
+                              f"{', '.join(self.run.agents)} is (plm is fitted per bias record)")
         if self.resamples < 100:
             raise ConfigError(f"--bootstrap must be >= 100 resamples, got {self.resamples}")
         if self.run.id_seeds != 1:
@@ -111,6 +131,11 @@ class RigsConfig:
         for sid in self.scenarios:
             rig_scenario(sid)
         self.check_rig_set()
+
+    def kinds(self) -> tuple[str, ...]:
+        """Every row the run reports: the agent kinds, then the ceiling when asked for."""
+        refined = rig_refine.refined_kinds(self.run.agents) if self.refine else []
+        return (*self.run.agents, *(CEILING if self.ceiling else ()), *refined)
 
     def rig_seeds(self) -> list[int]:
         """The rigs of the run."""
@@ -132,16 +157,6 @@ class RigsConfig:
                               f"{held.start}-{held.stop - 1}")
 
 
-def rig_scenario(sid: str) -> Scenario:
-    """A scenario a rig can be given: a set-point and/or a load, nothing the rig has of its own."""
-    sc = parse(sid)
-    keys = {item.partition("=")[0].strip() for item in sid.split(",")}
-    if sc.id == "nominal" or not keys <= set(RIG_KEYS):
-        raise ConfigError(f"rig scenario {sid!r}: only {' and '.join(RIG_KEYS)} can be given to a rig "
-                          "(its noise, delay, friction and parameters are its own)")
-    return sc
-
-
 def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
     """Everything one rig gives: its parameters, fits, every (kind, seed) outcome and the times taken."""
     t0 = time.perf_counter()
@@ -155,7 +170,7 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
     t_play = time.perf_counter()
     models, fits, failed = _identify(records, run, drawn.params, seed)
     t_id = time.perf_counter()
-    outcomes, t_train, not_made = [], 0.0, {}
+    outcomes, t_train, not_made, made = [], 0.0, {}, {}
     for kind in run.agents:
         surrogate = models.get(agent_kind(kind).surrogate)
         t = time.perf_counter()
@@ -165,7 +180,17 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
             not_made[kind] = f"rig {seed}: {why}"
             outcomes += _not_designed(run, kind, not_made[kind])
             continue
+        made[kind] = policy
         outcomes += _validate(cfg, rig, kind, policy, seed)
+    for name in CEILING if cfg.ceiling else ():
+        t = time.perf_counter()
+        ceiling = rig_routes.route(name).make(drawn, settings_from(agent_params(run)), run.learning_seeds(0))
+        t_train += time.perf_counter() - t
+        outcomes += _validate(cfg, rig, name, ceiling, seed)
+    t_refine = time.perf_counter()
+    if cfg.refine:
+        charged = sum(len(p.command) for p in played)
+        outcomes += _refine_all(cfg, rig, seed, made, records, told, charged)
     done = time.perf_counter()
     return {
         "rig": seed, "design": seed not in population.HELD_OUT_RIGS, "parameters": rig_parameters(drawn),
@@ -178,8 +203,25 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
                      "told_robust_agent": told.delay_samples if told is not None else 0},
         "outcomes": outcomes,
         "seconds": {"play": t_play - t0, "identify": t_id - t_play, "train": t_train,
-                    "validate": done - t_id - t_train, "total": done - t0},
+                    "validate": t_refine - t_id - t_train,
+                    **({"refine": done - t_refine} if cfg.refine else {}), "total": done - t0},
     }
+
+
+def _refine_all(cfg: RigsConfig, rig: Rig, seed: int, made: Mapping[str, Policy | None], records: Any,
+                told: Drive | None, charged: int) -> list[dict[str, Any]]:
+    """Every refinable kind refined on the rig (one whose open-loop policy could not be made fails
+    on every learning seed, as its open-loop row does)."""
+    out: list[dict[str, Any]] = []
+    for row in rig_refine.refined_kinds(cfg.run.agents):
+        kind = rig_refine.base_kind(row) or row
+        policy = made.get(kind)
+        if policy is None:
+            out += [{"kind": row, "seed": s, "success": False, "identified": False}
+                    for s in designs.members(kind, cfg.run.learning_seeds(0))]
+            continue
+        out += rig_refine.refine_kind(cfg, rig, seed, kind, policy, records, told, charged)
+    return out
 
 
 def rig_parameters(spec: population.RigSpec) -> dict[str, Any]:
@@ -230,13 +272,13 @@ def _validate(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy | None,
     out = []
     for j, seed in enumerate(policy.members):
         nominal = _one_run(cfg, rig, kind, policy, j, seed, rig_seed, Scenario(setpoint=run.target))
-        row = {"kind": kind, "seed": seed, "identified": True, **_scores(nominal, run.target, run),
+        row = {"kind": kind, "seed": seed, "identified": True, **scores(nominal, run.target, run),
                "start_x": float(nominal.x[0]), "risk": _risk(cfg, rig, nominal),
                "scenarios": {}}
         for sid in cfg.scenarios:
             sc = rig_scenario(sid)
             got = _one_run(cfg, rig, kind, policy, j, seed, rig_seed, sc)
-            row["scenarios"][sid] = _scores(got, sc.setpoint, run, brief=True)
+            row["scenarios"][sid] = scores(got, sc.setpoint, run, brief=True)
         out.append(row)
     return out
 
@@ -264,21 +306,18 @@ def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:
     return trace_risk(r.x, rig.params, lim, r.reason, r.abort).as_dict()
 
 
-def _scores(r: RigRun, target: float, run: RunConfig, brief: bool = False) -> dict[str, Any]:
-    """Metrics on the true position (success) and, beside them, on the measured one."""
-    true = metric_row(r.x, target, run.plant.dt, run.window)
-    seen = metric_row(r.y, target, run.plant.dt, run.window)
-    if brief:
-        return {"sse": true["sse"], "success": bool(true["sse"] < SUCCESS_SSE), "sse_measured": seen["sse"]}
-    return {"success": bool(true["sse"] < SUCCESS_SSE), **true,
-            "sse_measured": seen["sse"], "success_measured": bool(seen["sse"] < SUCCESS_SSE),
-            "rest_samples": r.rest.samples, "rest_still": r.rest.still}
-
-
 def rig_success(part: Mapping[str, Any], kind: str) -> tuple[int, int]:
     """(successes, runs) of ``kind`` on one rig's result."""
     rows = [o for o in part["outcomes"] if o["kind"] == kind]
     return sum(bool(o["success"]) for o in rows), len(rows)
+
+
+def kind_label(kind: str) -> str:
+    """A row's label: a rig route's (the ceiling) or the agent kind's."""
+    base = rig_refine.base_kind(kind)
+    if base is not None:
+        return f"{agent_kind(base).label}, refined on the rig"
+    return rig_routes.ROUTES[kind].label if kind in rig_routes.ROUTES else agent_kind(kind).label
 
 
 def kind_summary(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]], kind: str,
@@ -286,11 +325,13 @@ def kind_summary(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]], kind: str,
     """One kind's rate over (rig, seed) runs with both intervals, and its scenario cells."""
     per_rig = [rig_success(p, kind) for p in parts]
     rate = rate_summary([k for k, _ in per_rig], [n for _, n in per_rig], cfg.resamples, seed)
-    row: dict[str, Any] = {"kind": kind, "label": agent_kind(kind).label, **rate}
+    row: dict[str, Any] = {"kind": kind, "label": kind_label(kind), **rate}
     measured = [o for p in parts for o in p["outcomes"] if o["kind"] == kind and o.get("identified")
                 and "design_failed" not in o]
     row["measured_successes"] = sum(bool(o["success_measured"]) for o in measured)
     row["risk"] = summarise(o.get("risk") for o in measured)
+    if rig_refine.base_kind(kind) is not None:
+        row["refine"] = rig_refine.summary([o for p in parts for o in p["outcomes"] if o["kind"] == kind])
     row["scenarios"] = {}
     for sid in cfg.scenarios:
         cells = [[o for o in p["outcomes"] if o["kind"] == kind] for p in parts]
@@ -303,8 +344,8 @@ def worst_rigs(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]]) -> list[dict
     """The rigs with the lowest success over every kind's runs (ties: lower seed first), with parameters."""
     scored = []
     for p in parts:
-        k = sum(rig_success(p, kind)[0] for kind in cfg.run.agents)
-        n = sum(rig_success(p, kind)[1] for kind in cfg.run.agents)
+        k = sum(rig_success(p, kind)[0] for kind in cfg.kinds())
+        n = sum(rig_success(p, kind)[1] for kind in cfg.kinds())
         scored.append((k / n, p["rig"], k, n, p))
     scored.sort(key=lambda s: (s[0], s[1]))
     return [{"rig": rig, "successes": k, "runs": n, "parameters": p["parameters"],
@@ -330,9 +371,10 @@ def document(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]]) -> dict[str, A
                        "judged_on": "true position at the nominal set-point",
                        "supervisor": cfg.run.supervisor},
         "bootstrap": {"resamples": cfg.resamples, "seed": seed, "level": 0.95, "over": "rigs"},
-        "kinds": [kind_summary(cfg, parts, kind, seed) for kind in cfg.run.agents],
+        "kinds": [kind_summary(cfg, parts, kind, seed) for kind in cfg.kinds()],
         "worst": worst_rigs(cfg, parts),
         "rigs": list(parts),
         "seconds": {"per_rig_median": float(np.median(totals)), "per_rig_max": max(totals),
                     "total": sum(totals)},
+        **({"ceiling": [rig_routes.route(name).facts() for name in CEILING]} if cfg.ceiling else {}),
     }

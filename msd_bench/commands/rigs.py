@@ -59,6 +59,16 @@ def register(sub: Any) -> None:
                         f"{', '.join(ACTUATOR_CHOICES)}: the delay fitted between its broad record's "
                         "commands and effort (measured, the default) or none (the agent as chosen on "
                         "the ideal plant)")
+    p.add_argument("--ceiling", action="store_true",
+                   help="also run the ceiling: the robust agent trained on each rig's own simulator "
+                        "(its true plant, friction and drive) and on its true plant told its true delay, "
+                        "validated after every agent kind")
+    p.add_argument("--refine", type=int, default=0,
+                   help="refinement rounds on the rig per kind fitted from the broad record: try behind "
+                        "the supervisor, refit from the open-loop and closed-loop records, retrain, try "
+                        "again; keep the best measured try; a fresh validation is reported (0: none)")
+    p.add_argument("--refine-weight", type=int, default=1,
+                   help="times each closed-loop record enters a refit beside the broad record (1)")
     p.add_argument("--out", type=Path, required=True, help="output run directory (created)")
     add_executor_arguments(p)
     p.set_defaults(func=run)
@@ -71,7 +81,17 @@ def rigs_config(args: argparse.Namespace) -> RigsConfig:
     scenarios = tuple(s.strip() for s in str(args.rig_scenarios).split(";") if s.strip())
     return RigsConfig(run_config_from_args(args), rigs=args.rigs, first_rig=args.first_rig,
                       design=args.design, scenarios=scenarios, resamples=args.bootstrap,
-                      actuator=args.robust_actuator)
+                      actuator=args.robust_actuator, ceiling=args.ceiling,
+                      refine=args.refine, refine_weight=args.refine_weight)
+
+
+def routes_doc(cfg: RigsConfig) -> dict[str, Any]:
+    """What the manifest adds for the ceiling and refinement (nothing without them: a run directory
+    written before they existed resumes as it was)."""
+    extra: dict[str, Any] = {"ceiling": True} if cfg.ceiling else {}
+    if cfg.refine:
+        extra.update(refine=cfg.refine, refine_weight=cfg.refine_weight)
+    return extra
 
 
 def task_id(seed: int) -> str:
@@ -92,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = rigs_config(args)
     options = executor_from_args(args)
     config = run_config_doc(cfg.run, rigs=cfg.rig_seeds(), design=cfg.design, scenarios=list(cfg.scenarios),
-                            resamples=cfg.resamples, robust_actuator=cfg.actuator)
+                            resamples=cfg.resamples, robust_actuator=cfg.actuator, **routes_doc(cfg))
     rd = RunDir.open(Path(args.out), "rigs", rigs_tasks(cfg), config)  # before work
     if rd.pending():
         _sweep(rd, cfg, options)
@@ -139,7 +159,7 @@ def _sweep(rd: RunDir, cfg: RigsConfig, options: ExecutorOptions) -> None:
             bar.update(task.id, done[0], len(tasks))
 
         run_sweep(rd, tasks, write_rig, options, bar.say, on_written=tick)
-    parts = [read_part(rd.root / f"rigs/{task_id(s)}.json", s, cfg.run.agents, cfg.scenarios)
+    parts = [read_part(rd.root / f"rigs/{task_id(s)}.json", s, cfg.kinds(), cfg.scenarios)
              for s in cfg.rig_seeds()]
     doc = jsonable(document(cfg, parts))
     doc["sweep"] = sweep_facts(options, time.monotonic() - started, len(tasks) - resumed)

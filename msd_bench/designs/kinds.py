@@ -45,6 +45,15 @@ RIGS: tuple[str, ...] = ("plm", "nlarx-improved", "greybox", "plm+robust", "nlar
                          "greybox+robust")
 """``msd-bench rigs``' default kinds: the paper agent and the robust agent on three surrogates."""
 
+RIG_SIMULATOR: str = "greybox-rig+robust"
+"""The kind whose design makes ``msd-bench rigs --ceiling``'s row on each rig's own simulator: the robust
+agent on a greybox-rig model, the one model kind whose kernel holds a rig's friction, lag and dead time
+(filled with the rig's drawn values instead of fitted ones: ``core/rigs/truth.py``)."""
+
+PLANT_SIMULATOR: str = "greybox+robust"
+"""The kind whose design makes ``--ceiling``'s row on each rig's true plant (the grey-box kernel filled
+with the rig's drawn parameters, no friction or drive): a perfect grey-box fit."""
+
 EFFICIENCY_SURROGATE: tuple[str, ...] = ("plm+improved", "nlarx-improved+improved", "greybox+improved",
                                          "glm+improved")
 """The surrogate route of the data-efficiency curve (one line each)."""
@@ -141,10 +150,12 @@ __all__ = [
     "EFFICIENCY_SURROGATE",
     "PLANT",
     "PLANT_NS",
+    "PLANT_SIMULATOR",
     "PLANT_NS_SCENARIO_KINDS",
     "QUICK_LOOK",
     "QUICK_LOOK_SCENARIO_KINDS",
     "RIGS",
+    "RIG_SIMULATOR",
     "facts_record",
     "learns_on_node",
     "made_on_plant",

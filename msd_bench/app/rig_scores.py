@@ -1,0 +1,43 @@
+"""What a run on a rig is scored by, and what a rig can be given: shared by every row of ``msd-bench rigs``.
+
+Why a module: the open-loop rows (``app/rigs.py``) and the refined ones
+(``app/rig_refine.py``) score and parse alike, and neither may import the other.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from msd_bench.app.scoring import metric_row
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.evaluation.results import SUCCESS_SSE
+from msd_bench.core.evaluation.scenarios import Scenario, parse
+
+if TYPE_CHECKING:
+    from msd_bench.app.config import RunConfig
+    from msd_bench.core.rigs.rig_loop import RigRun
+
+RIG_KEYS = ("setpoint", "disturbance")
+"""What a rig scenario may set."""
+
+
+def rig_scenario(sid: str) -> Scenario:
+    """A scenario a rig can be given: a set-point and/or a load, nothing the rig has of its own."""
+    sc = parse(sid)
+    keys = {item.partition("=")[0].strip() for item in sid.split(",")}
+    if sc.id == "nominal" or not keys <= set(RIG_KEYS):
+        raise ConfigError(f"rig scenario {sid!r}: only {' and '.join(RIG_KEYS)} can be given to a rig "
+                          "(its noise, delay, friction and parameters are its own)")
+    return sc
+
+
+
+def scores(r: RigRun, target: float, run: RunConfig, brief: bool = False) -> dict[str, Any]:
+    """Metrics on the true position (success) and, beside them, on the measured one."""
+    true = metric_row(r.x, target, run.plant.dt, run.window)
+    seen = metric_row(r.y, target, run.plant.dt, run.window)
+    if brief:
+        return {"sse": true["sse"], "success": bool(true["sse"] < SUCCESS_SSE), "sse_measured": seen["sse"]}
+    return {"success": bool(true["sse"] < SUCCESS_SSE), **true,
+            "sse_measured": seen["sse"], "success_measured": bool(seen["sse"] < SUCCESS_SSE),
+            "rest_samples": r.rest.samples, "rest_still": r.rest.still}

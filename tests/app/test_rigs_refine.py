@@ -1,0 +1,94 @@
+"""``msd-bench rigs --ceiling --refine R`` on one tiny rig: the new rows, what they charge, and that
+the rows a run had before stay its runs bit for bit."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from msd_bench.cli import main as cli_main
+
+TINY = ["rigs", "--rigs", "1", "--first-rig", "1012", "--seeds", "2", "--agents", "plm,greybox+robust",
+        "--episodes", "3", "--steps", "200", "--samples", "500", "--val-samples", "400",
+        "--validation-steps", "300", "--rig-scenarios", "setpoint=-0.5", "--bootstrap", "200",
+        "--workers", "1"]
+
+
+def _task(*extra: str) -> tuple[Any, dict[str, Any]]:
+    from msd_bench.app.rigs import rig_task
+    from msd_bench.cli import build_parser
+    from msd_bench.commands.rigs import rigs_config
+
+    cfg = rigs_config(build_parser().parse_args([*TINY, *extra, "--out", "unused"]))
+    return cfg, rig_task(cfg, 1012)
+
+
+Both = tuple[dict[str, Any], Any, dict[str, Any]]
+"""A run without the new rows, the configuration with them, and that run."""
+
+
+@pytest.fixture(scope="module")
+def both() -> Both:
+    plain = _task()[1]
+    cfg, more = _task("--ceiling", "--refine", "2")
+    return plain, cfg, more
+
+
+def test_the_rows_of_a_run_without_them_are_unchanged(both: Both) -> None:
+    plain, cfg, more = both
+    assert cfg.kinds() == ("plm", "greybox+robust", "truth+robust", "truth-plant+robust",
+                           "greybox+robust+refined")
+    old = [o for o in more["outcomes"] if o["kind"] in ("plm", "greybox+robust")]
+    # the ceiling and the refinement run after them, on their own streams (compared as text: NaN == NaN)
+    assert json.dumps(old) == json.dumps(plain["outcomes"])
+    assert {k: v for k, v in more.items() if k not in ("outcomes", "seconds")} == \
+        {k: v for k, v in plain.items() if k not in ("outcomes", "seconds")}
+
+
+def test_the_ceiling_and_the_refined_rows_charge_every_real_sample(both: Both) -> None:
+    _, cfg, more = both
+    for route in ("truth+robust", "truth-plant+robust"):
+        ceiling = [o for o in more["outcomes"] if o["kind"] == route]
+        assert [o["seed"] for o in ceiling] == [0, 1] and all(isinstance(o["success"], bool) for o in ceiling)
+    refined = [o for o in more["outcomes"] if o["kind"] == "greybox+robust+refined"]
+    assert [o["seed"] for o in refined] == [0, 1]
+    steps = cfg.run.validation_steps
+    for o in refined:
+        ref = o["refine"]
+        rounds = [r for r in ref["rounds"] if "samples" in r]
+        assert [r["round"] for r in ref["rounds"]] == [0, 1, 2] and len(rounds) == 3
+        assert all(r["risk"]["override_share"] >= 0 and r["risk"]["aborted"] is None for r in rounds)
+        assert ref["rounds"][0]["fit"] == {} and "fit_sim_percent" in ref["rounds"][1]["fit"]
+        best = min(rounds, key=lambda r: r["sse_measured"])  # the kept policy: the best *measured* try
+        assert ref["chosen_round"] == best["round"]
+        charged = ref["real_samples"]
+        assert charged["tries"] == 3 * steps and charged["fresh_validation"] == steps
+        assert charged["open_loop_records"] > 5 * 500  # the played records, settle segments included
+        assert charged["total"] == charged["open_loop_records"] + 4 * steps
+        assert o["risk"]["override_share"] >= 0 and set(o["scenarios"]) == {"setpoint=-0.5"}
+
+
+def test_the_summary_counts_each_round(tmp_path: Path) -> None:
+    out = tmp_path / "r"
+    args = [*TINY, "--agents", "glm+robust", "--seeds", "1", "--refine", "1", "--out", str(out)]
+    assert cli_main(args) == 0
+    doc = json.loads((out / "rigs.json").read_text())
+    row = doc["kinds"][-1]
+    assert row["kind"] == "glm+robust+refined" and row["label"] == "GLM (robust agent), refined on the rig"
+    assert [r["tries"] for r in row["refine"]["rounds"]] == [1, 1]
+    assert sum(r["kept"] for r in row["refine"]["rounds"]) == 1
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--refine", "-1"], "--refine must be in 0..10"),
+    (["--refine", "1", "--refine-weight", "0"], "--refine-weight in 1..10"),
+    (["--refine", "1", "--agents", "plm,plm+robust"], "--refine refits models fitted from the broad record"),
+])
+def test_bad_refine_options_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                         extra: list[str], message: str) -> None:
+    assert cli_main([*TINY, *extra, "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err and not (tmp_path / "x").exists()
