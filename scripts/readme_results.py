@@ -964,6 +964,87 @@ def view_coverage(doc: dict[str, Any], name: str) -> str:
     return "\n".join([*lines, "", note, "", _source(doc, name)]) + "\n"
 
 
+def _ceilings(doc: dict[str, Any]) -> list[dict[str, Any]]:
+    """The ceiling rows of a rigs.json run with ``--ceiling`` (its ``ceiling`` facts name them)."""
+    names = [c["kind"] for c in doc.get("ceiling", [])]
+    return [k for k in doc["kinds"] if k["kind"] in names]
+
+
+def _rate_cells(k: dict[str, Any]) -> str:
+    return (f"{100 * k['rate']:.1f} % ({k['successes']}/{k['n']}) | {_wilson_pct(k['wilson95'])} | "
+            f"{_wilson_pct(k['bootstrap95'])}")
+
+
+def view_rigs_ceiling(doc: dict[str, Any], name: str) -> str:
+    """A ``--ceiling`` sweep: each ceiling row, then every robust kind's open-loop success beside the
+    higher ceiling and the gap between them (what refinement has to close)."""
+    ceilings = _ceilings(doc)
+    top = max(ceilings, key=lambda k: k["rate"])
+    lines = ["| row | trained on | rate | Wilson 95 % | bootstrap over rigs 95 % "
+             "| gap to the higher ceiling (points) |", "|---|---|---|---|---|---|"]
+    for k in ceilings:
+        lines.append(f"| {k['label']} | the rig's truth (ceiling) | {_rate_cells(k)} | |")
+    for k in doc["kinds"]:
+        if k["kind"].endswith("+robust") and k not in ceilings:
+            lines.append(f"| {k['label']} | its open-loop records | {_rate_cells(k)} | "
+                         f"{100 * (top['rate'] - k['rate']):+.1f} |")
+    routes = "; ".join(f"{c['kind']}: {c['model']}" for c in doc["ceiling"])
+    rigs = doc["rigs_run"]
+    lines += ["", f"The ceilings ({routes}). {len(rigs)} {doc['rig_set']} rigs ({rigs[0]}–{rigs[-1]}) × "
+                  f"{len(doc['learning_seeds'])} learning seeds, the open-loop rows from the same sweep.",
+              "", f"_Generated from `docs/results/{name}.json`._"]
+    return "\n".join(lines) + "\n"
+
+
+def view_rigs_refine(doc: dict[str, Any], name: str) -> str:
+    """A ``--refine`` sweep: per refined kind its open-loop row, the refined row (a fresh validation of
+    the kept policy), the ceiling and whether half the gap closed; then per round the tries, their true
+    successes, aborts, overridden samples, stop contacts and how often the round was kept."""
+    kinds = {k["kind"]: k for k in doc["kinds"]}
+    ceilings = _ceilings(doc)
+    top = max(ceilings, key=lambda k: k["rate"]) if ceilings else None
+    lines = ["| kind | open loop | refined | bootstrap over rigs 95 % (refined) | ceiling | half the gap "
+             "closed | real samples per run (median) | stop contacts (refined) |",
+             "|---|---|---|---|---|---|---|---|"]
+    rounds = ["", "| refined kind | round | tries | true successes | aborts | overridden samples "
+                  "| stop contacts | kept |", "|---|---|---|---|---|---|---|---|"]
+    for k in doc["kinds"]:
+        ref = k.get("refine")
+        if ref is None:
+            continue
+        base = kinds[k["kind"].removesuffix("+refined")]
+        half = "—"
+        if top is not None:
+            need = base["rate"] + (top["rate"] - base["rate"]) / 2
+            half = f"{'yes' if k['rate'] >= need else '**no**'} (needs {100 * need:.1f} %)"
+        ceiling = f"{100 * top['rate']:.1f} %" if top is not None else "not run"
+        contacts = compact(summary_of(k))[0]
+        lines.append(f"| {base['label']} | {100 * base['rate']:.1f} % ({base['successes']}/{base['n']}) | "
+                     f"{100 * k['rate']:.1f} % ({k['successes']}/{k['n']}) | {_wilson_pct(k['bootstrap95'])} "
+                     f"| {ceiling} | {half} | {ref['real_samples_per_run']['median']:,.0f} | {contacts} |")
+        for r in ref["rounds"]:
+            rounds.append(f"| {base['label']} | {r['round']} | {r['tries']} | {r['successes']} | {r['aborts']} | "
+                          f"{r['overridden_samples']} | {r['contacts']} | {r['kept']} |")
+    cfg = doc.get("run_config", {})
+    rigs = doc["rigs_run"]
+    refined = [k for k in doc["kinds"] if "refine" in k]
+    if refined and top is not None:
+        best = max(refined, key=lambda k: k["rate"])
+        floor = min(0.97, top["rate"] - 0.01)
+        lines += ["", f"The best refined kind: {best['label']}, {100 * best['rate']:.1f} % "
+                      f"(bootstrap {_wilson_pct(best['bootstrap95'])}); its floor, 97 % or the ceiling less "
+                      f"one point if lower: {100 * floor:.1f} % — "
+                      f"{'holds' if best['rate'] >= floor else '**does not hold**'}."]
+    lines += rounds + ["", f"{len(rigs)} {doc['rig_set']} rigs ({rigs[0]}–{rigs[-1]}) × "
+                           f"{len(doc['learning_seeds'])} learning seeds; up to {cfg.get('refine', '?')} rounds, "
+                           f"each closed-loop record weighted {cfg.get('refine_weight', '?')}. Every try and "
+                           "the fresh run behind the supervisor; the ceiling is the higher of the sweep's own "
+                           "ceiling rows. Round 0 is the open-loop policy's try; the true successes of the "
+                           "tries are shown, never read by the choice (the measured record is).",
+              "", f"_Generated from `docs/results/{name}.json`._"]
+    return "\n".join(lines) + "\n"
+
+
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency,
     "peers": view_peers, "fits": view_fits, "stoploop": view_stoploop, "performance": view_performance,
@@ -975,6 +1056,7 @@ VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "deeprl": view_deeprl, "deeprl_efficiency": view_deeprl_efficiency, "rig_realtime": view_rig_realtime,
     "greybox_rig_floors": view_greybox_rig_floors,
     "rigs_kinds": view_rigs_kinds, "rigs_floors": view_rigs_floors, "rigs_beside": view_rigs_beside,
+    "rigs_ceiling": view_rigs_ceiling, "rigs_refine": view_rigs_refine,
     "identification_speed": view_identification_speed, "silverbox": view_silverbox,
     "coverage": view_coverage, "rigs_efficiency": view_rigs_efficiency}
 
