@@ -1023,8 +1023,8 @@ def view_rigs_refine(doc: dict[str, Any], name: str) -> str:
                      f"{100 * k['rate']:.1f} % ({k['successes']}/{k['n']}) | {_wilson_pct(k['bootstrap95'])} "
                      f"| {ceiling} | {half} | {ref['real_samples_per_run']['median']:,.0f} | {contacts} |")
         for r in ref["rounds"]:
-            rounds.append(f"| {base['label']} | {r['round']} | {r['tries']} | {r['successes']} | {r['aborts']} | "
-                          f"{r['overridden_samples']} | {r['contacts']} | {r['kept']} |")
+            rounds.append(f"| {base['label']} | {r['round']} | {r['tries']} | {r['successes']} | "
+                          f"{r['aborts']} | {r['overridden_samples']} | {r['contacts']} | {r['kept']} |")
     cfg = doc.get("run_config", {})
     rigs = doc["rigs_run"]
     refined = [k for k in doc["kinds"] if "refine" in k]
@@ -1035,12 +1035,12 @@ def view_rigs_refine(doc: dict[str, Any], name: str) -> str:
                       f"(bootstrap {_wilson_pct(best['bootstrap95'])}); its floor, 97 % or the ceiling less "
                       f"one point if lower: {100 * floor:.1f} % — "
                       f"{'holds' if best['rate'] >= floor else '**does not hold**'}."]
-    lines += rounds + ["", f"{len(rigs)} {doc['rig_set']} rigs ({rigs[0]}–{rigs[-1]}) × "
-                           f"{len(doc['learning_seeds'])} learning seeds; up to {cfg.get('refine', '?')} rounds, "
-                           f"each closed-loop record weighted {cfg.get('refine_weight', '?')}. Every try and "
-                           "the fresh run behind the supervisor; the ceiling is the higher of the sweep's own "
-                           "ceiling rows. Round 0 is the open-loop policy's try; the true successes of the "
-                           "tries are shown, never read by the choice (the measured record is).",
+    note = (f"{len(rigs)} {doc['rig_set']} rigs ({rigs[0]}–{rigs[-1]}) × {len(doc['learning_seeds'])} "
+            f"learning seeds; up to {cfg.get('refine', '?')} rounds, each closed-loop record weighted "
+            f"{cfg.get('refine_weight', '?')}. Every try and the fresh run behind the supervisor; the "
+            "ceiling is the higher of the sweep's own ceiling rows. Round 0 is the open-loop policy's try; "
+            "the true successes of the tries are shown, never read by the choice (the measured record is).")
+    lines += [*rounds, "", note,
               "", f"_Generated from `docs/results/{name}.json`._"]
     return "\n".join(lines) + "\n"
 
