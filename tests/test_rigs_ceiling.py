@@ -1,0 +1,52 @@
+"""The committed ceiling and refinement sweeps (docs/results/rigs_heldout100_ceiling.json,
+rigs_heldout100_refine2.json): the ceiling sweep's agent rows are the held-out sweep's, run for run,
+and every refined run charges what it tried and kept its best measured try."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+RESULTS = Path(__file__).resolve().parents[1] / "docs" / "results"
+SAME = ("kind", "seed", "success", "sse", "sse_measured", "start_x", "risk")
+"""What a run of the ceiling sweep must share with the held-out sweep's (every scored field)."""
+
+
+def _load(name: str) -> dict[str, Any]:
+    path = RESULTS / f"{name}.json"
+    if not path.is_file():
+        pytest.skip(f"{path.name} is not committed")
+    doc: dict[str, Any] = json.loads(path.read_text())
+    return doc
+
+
+def test_the_ceiling_sweep_reproduces_the_held_out_sweep_run_for_run() -> None:
+    """``--ceiling`` runs after every agent kind: their 3,200 runs are the committed held-out ones."""
+    ceiling, before = _load("rigs_heldout100_ceiling"), _load("rigs_heldout100")
+    assert ceiling["rigs_run"] == before["rigs_run"] and ceiling["agents"] == before["agents"]
+    routes = {c["kind"] for c in ceiling["ceiling"]}
+    for new, old in zip(ceiling["rigs"], before["rigs"], strict=True):
+        rows = [o for o in new["outcomes"] if o["kind"] not in routes]
+        assert json.dumps([{k: o.get(k) for k in SAME} for o in rows]) == \
+            json.dumps([{k: o.get(k) for k in SAME} for o in old["outcomes"]]), new["rig"]
+        assert {o["kind"] for o in new["outcomes"]} - set(before["agents"]) == routes
+
+
+def test_every_refined_run_charges_its_tries_and_keeps_its_best_measured_one() -> None:
+    doc = _load("rigs_heldout100_refine2")
+    steps = doc["validation"]["steps"]
+    refined = [o for r in doc["rigs"] for o in r["outcomes"] if "refine" in o]
+    assert len(refined) == sum(k["n"] for k in doc["kinds"] if "refine" in k) > 0
+    for o in refined:
+        ref = o["refine"]
+        tried = [r for r in ref["rounds"] if "samples" in r]
+        assert len(tried) <= doc["run_config"]["refine"] + 1 and ref["rounds"][0] in tried
+        ranked = min(tried, key=lambda r: (r["aborted"], r["sse_measured"], r["round"]))
+        assert ref["chosen_round"] == ranked["round"]
+        charged = ref["real_samples"]
+        assert charged["tries"] == steps * len(tried) and charged["fresh_validation"] == steps
+        parts = charged["open_loop_records"] + charged["tries"] + charged["fresh_validation"]
+        assert charged["total"] == parts
