@@ -23,11 +23,17 @@ from msd_bench.io.storage.atomic import write_text_atomic
 DROPPED = "rigs[*].outcomes[*].scenarios"
 
 
-def trimmed(doc: dict[str, Any]) -> dict[str, Any]:
-    """``doc`` without each run's scenario cells, saying so."""
-    rigs = [{**rig, "outcomes": [{k: v for k, v in o.items() if k != "scenarios"} for o in rig["outcomes"]]}
+def trimmed(doc: dict[str, Any], runs_of: list[str] | None = None) -> dict[str, Any]:
+    """``doc`` without each run's scenario cells, saying so; with ``runs_of``, the runs of those kinds
+    only (every kind's pooled row stays: a 100-rig sweep with the ceiling's rows is over 2 MiB even
+    without the cells)."""
+    rigs = [{**rig, "outcomes": [{k: v for k, v in o.items() if k != "scenarios"} for o in rig["outcomes"]
+                                 if runs_of is None or o["kind"] in runs_of]}
             for rig in doc["rigs"]]
-    return {**doc, "rigs": rigs, "trimmed": {"dropped": DROPPED}}
+    note: dict[str, Any] = {"dropped": DROPPED}
+    if runs_of is not None:
+        note["runs_of"] = runs_of
+    return {**doc, "rigs": rigs, "trimmed": note}
 
 
 def run_config(source: Path) -> dict[str, Any] | None:
@@ -47,6 +53,8 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("source", type=Path, help="a rigs.json written by msd-bench rigs")
     p.add_argument("out", type=Path, help="where the trimmed copy goes (written atomically)")
+    p.add_argument("--runs-of", default=None,
+                   help="comma-separated kinds whose runs are kept per rig (default: every kind's)")
     args = p.parse_args(argv)
     try:
         doc = json.loads(args.source.read_text())
@@ -57,7 +65,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"trim_rigs: error: {args.source} is not a rigs.json (schema {doc.get('schema')!r})",
               file=sys.stderr)
         return 2
-    small = trimmed(doc)
+    runs_of = None if args.runs_of is None else [k.strip() for k in args.runs_of.split(",") if k.strip()]
+    unknown = sorted(set(runs_of or []) - {k["kind"] for k in doc.get("kinds", [])})
+    if unknown:
+        print(f"trim_rigs: error: --runs-of {', '.join(unknown)}: not a kind of {args.source}",
+              file=sys.stderr)
+        return 2
+    small = trimmed(doc, runs_of)
     config = run_config(args.source)
     if config is not None:
         small["run_config"] = config

@@ -54,3 +54,16 @@ def test_the_sweep_options_come_along_from_its_run_directory(tmp_path: Path) -> 
                                                    "config": config}))
     assert trim_rigs.main([str(run / "rigs.json"), str(out)]) == 0
     assert json.loads(out.read_text())["run_config"] == config
+
+
+def test_runs_of_keeps_the_runs_of_those_kinds_and_every_pooled_row(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    whole = json.loads(SOURCE.read_text())
+    out = tmp_path / "some.json"
+    assert trim_rigs.main([str(SOURCE), str(out), "--runs-of", "plm+robust"]) == 0
+    small = json.loads(out.read_text())
+    assert {o["kind"] for rig in small["rigs"] for o in rig["outcomes"]} == {"plm+robust"}
+    assert small["kinds"] == whole["kinds"] and small["trimmed"]["runs_of"] == ["plm+robust"]
+    assert readme_results.VIEWS["rigs_kinds"](small, "x") == readme_results.VIEWS["rigs_kinds"](whole, "x")
+    assert trim_rigs.main([str(SOURCE), str(tmp_path / "no.json"), "--runs-of", "nope"]) == 2
+    assert "--runs-of nope: not a kind of" in capsys.readouterr().err and not (tmp_path / "no.json").exists()
