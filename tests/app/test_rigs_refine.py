@@ -71,15 +71,20 @@ def test_the_ceiling_and_the_refined_rows_charge_every_real_sample(both: Both) -
         assert o["risk"]["override_share"] >= 0 and set(o["scenarios"]) == {"setpoint=-0.5"}
 
 
-def test_the_summary_counts_each_round(tmp_path: Path) -> None:
-    out = tmp_path / "r"
-    args = [*TINY, "--agents", "glm+robust", "--seeds", "1", "--refine", "1", "--out", str(out)]
-    assert cli_main(args) == 0
-    doc = json.loads((out / "rigs.json").read_text())
+def test_the_summary_counts_each_round(both: Both) -> None:
+    from msd_bench.app.rigs import document
+
+    _, cfg, more = both
+    doc = document(cfg, [more])
     row = doc["kinds"][-1]
-    assert row["kind"] == "glm+robust+refined" and row["label"] == "GLM (robust agent), refined on the rig"
-    assert [r["tries"] for r in row["refine"]["rounds"]] == [1, 1]
-    assert sum(r["kept"] for r in row["refine"]["rounds"]) == 1
+    assert row["kind"] == "greybox+robust+refined"
+    assert row["label"] == "Grey-box (robust agent), refined on the rig"
+    rounds = row["refine"]["rounds"]
+    assert [r["tries"] for r in rounds] == [2, 2, 2] and sum(r["kept"] for r in rounds) == 2
+    runs = [o for o in more["outcomes"] if o["kind"] == row["kind"]]
+    assert [r["successes"] for r in rounds] == \
+        [sum(o["refine"]["rounds"][i]["success"] for o in runs) for i in range(3)]
+    assert [c["kind"] for c in doc["ceiling"]] == ["truth+robust", "truth-plant+robust"]
 
 
 @pytest.mark.parametrize(("extra", "message"), [
