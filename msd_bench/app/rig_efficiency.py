@@ -29,7 +29,8 @@ import numpy as np
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.efficiency import RECORD_SAMPLES, settle_for, validation_samples
 from msd_bench.app.plan import consumed_by, paper_plan
-from msd_bench.app.rigs import RigsConfig, rig_success, rig_task
+from msd_bench.app.rig_refine import base_kind
+from msd_bench.app.rigs import RigsConfig, kind_label, rig_success, rig_task
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
 from msd_bench.core.identification.model_kinds import model_kind
@@ -44,14 +45,17 @@ class RigEfficiencyConfig:
     """What the curve on rigs sweeps: every record length on every rig of ``rigs``."""
 
     rigs: RigsConfig
-    """The population run each point repeats (agents, learning seeds, rig set); its record lengths,
-    settle segments and scenarios are the sweep's: each point validates at the nominal set-point."""
+    """The population run each point repeats (agents, learning seeds, rig set, refinement rounds); its
+    record lengths, settle segments and scenarios are the sweep's: each point validates at the nominal
+    set-point."""
     record_samples: tuple[int, ...] = RECORD_SAMPLES
     """Samples per identification record at each point."""
     family: str = "default"
     """The rig family (:data:`FAMILIES`)."""
 
     def __post_init__(self) -> None:
+        if self.rigs.ceiling:
+            raise ConfigError("--ceiling is not a route of the curve (it spends no real samples to learn)")
         if self.family not in FAMILIES:
             raise ConfigError(f"--family must be one of {', '.join(FAMILIES)}, got {self.family!r}")
         if not self.record_samples or min(self.record_samples) < 100:
@@ -71,14 +75,22 @@ def tasks(cfg: RigEfficiencyConfig) -> list[tuple[str, int, int]]:
 
 
 def rig_point(cfg: RigEfficiencyConfig, n: int, seed: int) -> dict[str, Any]:
-    """One rig at record length ``n``: each kind's runs, and the real samples each kind was charged."""
+    """One rig at record length ``n``: each row's runs, and the real samples each row was charged (a
+    refined row: its kind's records and rests, then its tries on the rig and its fresh validation run,
+    averaged over its learning seeds)."""
     pcfg = cfg.at_length(n)
     part = rig_task(pcfg, seed)
     run = pcfg.run
     plan = paper_plan(run.id_first_seed, run.samples, run.val_samples, pcfg.settle)
     rests = part["rests"]["before_experiments"]
-    charged = {kind: _charged(plan, rests, model_kind(agent_kind(kind).surrogate).records)
-               for kind in run.agents}
+    charged: dict[str, float] = {
+        kind: _charged(plan, rests, model_kind(agent_kind(kind).surrogate).records) for kind in run.agents}
+    for row in pcfg.kinds():
+        base = base_kind(row)
+        if base is not None:  # the open-loop bill, then the tries and the fresh run (mean over seeds)
+            extra = [o["refine"]["real_samples"]["tries"] + o["refine"]["real_samples"]["fresh_validation"]
+                     for o in part["outcomes"] if o["kind"] == row and "refine" in o]
+            charged[row] = charged[base] + (float(np.mean(extra)) if extra else 0.0)
     outcomes = [{k: o[k] for k in ("kind", "seed", "success", "sse", "identified") if k in o}
                 for o in part["outcomes"]]
     return {"rig": seed, "record_samples": n, "charged": charged, "outcomes": outcomes,
@@ -105,12 +117,12 @@ Parts = Mapping[str, Mapping[str, Any]]
 def lines(cfg: RigEfficiencyConfig, parts: Parts) -> list[dict[str, Any]]:
     """Each kind's points: pooled success with both intervals against its mean charged samples."""
     methods = []
-    for kind in cfg.rigs.run.agents:
+    for row in cfg.rigs.kinds():
         points = []
         for n in cfg.record_samples:
             got = [parts[tid] for tid, m, _ in tasks(cfg) if m == n]
-            points.append(_point(kind, n, got, cfg))
-        methods.append({"name": kind, "label": agent_kind(kind).label, "points": points})
+            points.append(_point(row, n, got, cfg))
+        methods.append({"name": row, "label": kind_label(row), "points": points})
     return methods
 
 
@@ -119,8 +131,8 @@ def _point(kind: str, n: int, got: Sequence[Mapping[str, Any]], cfg: RigEfficien
     rate = rate_summary([k for k, _ in per_rig], [m for _, m in per_rig], cfg.rigs.resamples,
                         cfg.rigs.first_rig)
     charged = np.array([g["charged"][kind] for g in got], dtype=float)
-    failed = sorted({g["rig"] for g in got
-                     if agent_kind(kind).surrogate in g["identification_failed"]})
+    surrogate = agent_kind(base_kind(kind) or kind).surrogate
+    failed = sorted({g["rig"] for g in got if surrogate in g["identification_failed"]})
     return {"record_samples": n, "real_samples": round(float(charged.mean())),
             "real_samples_range": [int(charged.min()), int(charged.max())],
             "n": rate["n"], "n_success": rate["successes"], "ci95": rate["bootstrap95"],
@@ -137,7 +149,7 @@ def document(cfg: RigEfficiencyConfig, parts: Parts) -> dict[str, Any]:
         "rig_set": "design" if rigs.design else "held-out", "rigs_run": rigs.rig_seeds(),
         "learning_seeds": rigs.run.learning_seeds(0), "success_sse_percent": SUCCESS_SSE,
         "judged_on": "true position at the nominal set-point",
-        "robust_told": rigs.actuator,
+        "robust_told": rigs.actuator, "refine_rounds": rigs.refine,
         "interval": "ci95 is the bootstrap over rigs; wilson95 treats every run as independent",
         "bootstrap": {"resamples": rigs.resamples, "seed": rigs.first_rig, "level": 0.95, "over": "rigs"},
         "methods": lines(cfg, parts),

@@ -81,6 +81,9 @@ def _add_rig_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--design", action="store_true", help="run design rigs (seeds below the held-out range)")
     g.add_argument("--bootstrap", type=int, default=DEFAULT_RESAMPLES,
                    help=f"bootstrap-over-rigs resamples ({DEFAULT_RESAMPLES})")
+    g.add_argument("--refine", type=int, default=0,
+                   help="also the refined route: R rounds of re-identification from the closed-loop tries "
+                        "(as msd-bench rigs --refine; 0)")
 
 
 DEFAULT_BUDGETS = "10,30,100,300"
@@ -157,7 +160,7 @@ def rig_efficiency_config(args: argparse.Namespace) -> RigEfficiencyConfig:
         raise ConfigError("--budgets sets the on-plant route, which is drawn on the ideal plant only "
                           "(leave out --rigs and --family)")
     rigs = RigsConfig(run_config_from_args(filled), rigs=filled.rigs, first_rig=args.first_rig,
-                      design=args.design, scenarios=(), resamples=args.bootstrap)
+                      design=args.design, scenarios=(), resamples=args.bootstrap, refine=args.refine)
     return RigEfficiencyConfig(rigs, record_samples=_ints(args.record_samples, "--record-samples"),
                                family=filled.family)
 
@@ -174,7 +177,7 @@ def run(args: argparse.Namespace) -> int:
         rcfg = rig_efficiency_config(args)
         config = run_config_doc(rcfg.rigs.run, record_samples=list(rcfg.record_samples), family=rcfg.family,
                                 rigs=rcfg.rigs.rig_seeds(), design=rcfg.rigs.design,
-                                resamples=rcfg.rigs.resamples)
+                                resamples=rcfg.rigs.resamples, refine=rcfg.rigs.refine)
         tasks = _rig_tasks(rcfg)
         make_doc = _rig_document(rcfg)
     else:
@@ -194,7 +197,8 @@ def run(args: argparse.Namespace) -> int:
     if rd.pending():  # a run that died after its files but before the marker needs no new work
         _sweep(rd, tasks, make_doc, options)
     rd.mark_complete()
-    for line in eff.crossings(read_json_bounded(rd.root / "efficiency.json", RunDirError)["methods"]):
+    methods = read_json_bounded(rd.root / "efficiency.json", RunDirError)["methods"]
+    for line in ([] if on_rigs(args) else eff.crossings(methods)):  # on rigs: no on-plant reference
         print(line)
     print(f"report: {rd.root}", file=sys.stderr)
     return 0
@@ -207,7 +211,7 @@ def _refuse_rig_options(args: argparse.Namespace) -> None:
     from msd_bench.core.rigs.rig_stats import DEFAULT_RESAMPLES
 
     set_ = (("--design", args.design), ("--first-rig", args.first_rig != HELD_OUT_RIGS.start),
-            ("--bootstrap", args.bootstrap != DEFAULT_RESAMPLES))
+            ("--bootstrap", args.bootstrap != DEFAULT_RESAMPLES), ("--refine", args.refine != 0))
     given = [opt for opt, on in set_ if on]
     if given:
         raise ConfigError(f"{', '.join(given)} apply to the curve on rigs: add --rigs N or --family NAME")

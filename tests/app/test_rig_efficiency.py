@@ -64,8 +64,24 @@ def test_the_point_at_the_rigs_record_length_is_the_rigs_result(curve: dict[str,
             [(o["kind"], o["success"], o["sse"]) for o in rig["outcomes"]]
 
 
+def test_the_refined_route_is_charged_its_tries_and_its_fresh_run(tmp_path: Path) -> None:
+    out = tmp_path / "refined"
+    assert cli_main(["efficiency", "--rigs", "1", "--design", "--first-rig", "3", *SMALL, "--agents",
+                     "greybox+robust", "--refine", "1", "--bootstrap", "200", "--record-samples", "300",
+                     "--out", str(out)]) == 0
+    doc = json.loads((out / "efficiency.json").read_text())
+    assert [m["name"] for m in doc["methods"]] == ["greybox+robust", "greybox+robust+refined"]
+    assert doc["refine_rounds"] == 1 and doc["methods"][1]["label"].endswith("refined on the rig")
+    point = json.loads((out / "points" / "n300-rig3.json").read_text())
+    base, refined = point["charged"]["greybox+robust"], point["charged"]["greybox+robust+refined"]
+    # one round: the open-loop try, then (if the refit and retraining worked) the refined one, then the
+    # fresh validation run: 300 samples each
+    assert refined - base in (600, 900)
+
+
 @pytest.mark.parametrize(("extra", "line"), [
     (["--design"], "--design apply to the curve on rigs: add --rigs N or --family NAME"),
+    (["--refine", "1"], "--refine apply to the curve on rigs"),
     (["--rigs", "2", "--budgets", "10"], "--budgets sets the on-plant route"),
     (["--family", "stage"], "--family must be one of default, got 'stage'"),
     (["--rigs", "2", "--agents", "glm,plant"], "rigs trains on identified surrogates only, not plant"),
