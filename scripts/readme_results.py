@@ -129,11 +129,13 @@ def view_rigs_efficiency(doc: dict[str, Any], name: str) -> str:
              "bootstrap over rigs 95 % | Wilson 95 % | identification failed on |",
              "|---|---|---|---|---|---|---|"]
     for m in eff["methods"]:
-        for p in sorted(m["points"], key=lambda p: p["record_samples"]):
+        for p in sorted(m["points"], key=lambda p: p["real_samples"]):
             lo, hi = p["real_samples_range"]
             failed = len(p["identification_failed_rigs"])
+            n = p["record_samples"]
+            spent = f"{n:,}" if n is not None else f"— ({p['episodes']} episodes)"
             lines.append(
-                f"| {m['label']} | {p['record_samples']:,} | {p['real_samples']:,} ({lo:,}–{hi:,}) | "
+                f"| {m['label']} | {spent} | {p['real_samples']:,} ({lo:,}–{hi:,}) | "
                 f"{p['n_success']}/{p['n']} ({100 * p['n_success'] / p['n']:.0f} %) | "
                 f"{100 * p['bootstrap95'][0]:.0f}–{100 * p['bootstrap95'][1]:.0f} % | "
                 f"{100 * p['wilson95'][0]:.0f}–{100 * p['wilson95'][1]:.0f} % | "

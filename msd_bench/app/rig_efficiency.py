@@ -27,14 +27,20 @@ from typing import Any
 import numpy as np
 
 from msd_bench.app.agents import agent_kind
-from msd_bench.app.efficiency import RECORD_SAMPLES, settle_for, validation_samples
+from msd_bench.app.efficiency import EPISODES, RECORD_SAMPLES, settle_for, validation_samples
+from msd_bench.app.executor import task_name
+from msd_bench.app.job import agent_params
 from msd_bench.app.plan import consumed_by, paper_plan
 from msd_bench.app.rig_refine import base_kind
-from msd_bench.app.rigs import RigsConfig, kind_label, rig_success, rig_task
+from msd_bench.app.rigs import RigsConfig, kind_label, rig_success, rig_task, validate_on_rig
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
 from msd_bench.core.identification.model_kinds import model_kind
+from msd_bench.core.rigs import population
+from msd_bench.core.rigs.rig import Rig
 from msd_bench.core.rigs.rig_stats import rate_summary
+from msd_bench.designs import kinds
+from msd_bench.designs.protocol import settings_from
 
 FAMILIES = ("default",)
 """Rig families a curve can be drawn on: the default population (``core/rigs/population.py``)."""
@@ -52,12 +58,21 @@ class RigEfficiencyConfig:
     """Samples per identification record at each point."""
     family: str = "default"
     """The rig family (:data:`FAMILIES`)."""
+    plant_agents: tuple[str, ...] = ()
+    """On-plant learners trained on each rig itself (``plant``, ``dyna-q``, ...), one line each."""
+    episodes: tuple[int, ...] = EPISODES
+    """Their training budgets, in episodes: every training step is a real sample of the rig."""
 
     def __post_init__(self) -> None:
         if self.rigs.ceiling:
             raise ConfigError("--ceiling is not a route of the curve (it spends no real samples to learn)")
         if self.family not in FAMILIES:
             raise ConfigError(f"--family must be one of {', '.join(FAMILIES)}, got {self.family!r}")
+        on_model = kinds.split_by_model(self.plant_agents)[0]
+        if on_model:
+            raise ConfigError(f"on-plant learners must learn on the plant, not {', '.join(on_model)}")
+        if not self.episodes or min(self.episodes) < 1:
+            raise ConfigError("budgets must be >= 1 episode")
         if not self.record_samples or min(self.record_samples) < 100:
             raise ConfigError("record samples must be >= 100")
         if len(set(self.record_samples)) != len(self.record_samples):
@@ -70,8 +85,41 @@ class RigEfficiencyConfig:
 
 
 def tasks(cfg: RigEfficiencyConfig) -> list[tuple[str, int, int]]:
-    """``(task id, record length, rig seed)``: every rig at every length, shortest records first."""
+    """``(task id, record length, rig seed)``: every rig at every length, shortest records first (none
+    without a surrogate kind: a sweep of on-plant learners alone plays no records)."""
+    if not cfg.rigs.run.agents:
+        return []
     return [(f"n{n}-rig{seed}", n, seed) for n in cfg.record_samples for seed in cfg.rigs.rig_seeds()]
+
+
+def plant_tasks(cfg: RigEfficiencyConfig) -> list[tuple[str, int, str, int]]:
+    """``(task id, episodes, kind, rig seed)``: every on-plant learner at every budget on every rig."""
+    return [(f"plant-e{e}-{task_name(kind)}-rig{seed}", e, kind, seed)
+            for e in cfg.episodes for kind in cfg.plant_agents for seed in cfg.rigs.rig_seeds()]
+
+
+def rig_plant_point(cfg: RigEfficiencyConfig, episodes: int, kind: str, seed: int) -> dict[str, Any]:
+    """An on-plant learner trained on rig ``seed`` itself for ``episodes``, then validated there.
+
+    What it learns on is the rig's own simulator (:mod:`msd_bench.core.rigs.truth`: its plant,
+    friction, actuator lag and dead time, which reproduce the rig's true positions exactly), the
+    sensor left out as no model has it: a learner on a real rig would see its noise too, so this
+    is the route's best case. Every training step is charged as a real sample.
+    """
+    from msd_bench import designs
+    from msd_bench.core.rigs.truth import rig_model
+
+    drawn = population.draw(seed)
+    rig = Rig(drawn.params, drawn.imperfections, seed=seed)
+    run = replace(cfg.rigs.run, episodes=episodes, dyna_episodes=episodes)
+    pcfg = replace(cfg.rigs, run=run, scenarios=())
+    simulator = rig_model(drawn.params, drawn.imperfections)
+    policy = designs.make(kind, simulator, settings_from(agent_params(run)), run.learning_seeds(0), None)
+    rows = validate_on_rig(pcfg, rig, kind, policy, seed)
+    outcomes = [{k: o[k] for k in ("kind", "seed", "success", "sse", "identified") if k in o} for o in rows]
+    real = policy.facts.real_interactions // max(len(policy.members), 1)
+    return {"rig": seed, "episodes": episodes, "charged": {kind: real}, "outcomes": outcomes,
+            "identification_failed": {}, "seconds": 0.0}
 
 
 def rig_point(cfg: RigEfficiencyConfig, n: int, seed: int) -> dict[str, Any]:
@@ -123,10 +171,19 @@ def lines(cfg: RigEfficiencyConfig, parts: Parts) -> list[dict[str, Any]]:
             got = [parts[tid] for tid, m, _ in tasks(cfg) if m == n]
             points.append(_point(row, n, got, cfg))
         methods.append({"name": row, "label": kind_label(row), "points": points})
+    for kind in cfg.plant_agents:
+        points = []
+        for e in cfg.episodes:
+            got = [parts[tid] for tid, b, k, _ in plant_tasks(cfg) if b == e and k == kind]
+            points.append({**_point(kind, None, got, cfg), "episodes": e})
+        methods.append({"name": kind, "label": f"{agent_kind(kind).label}, trained on each rig",
+                        "points": points})
     return methods
 
 
-def _point(kind: str, n: int, got: Sequence[Mapping[str, Any]], cfg: RigEfficiencyConfig) -> dict[str, Any]:
+def _point(kind: str, n: int | None, got: Sequence[Mapping[str, Any]],
+           cfg: RigEfficiencyConfig) -> dict[str, Any]:
+    """A row's point over its rigs (``n``: the record length; None for an on-plant learner)."""
     per_rig = [rig_success(g, kind) for g in got]
     rate = rate_summary([k for k, _ in per_rig], [m for _, m in per_rig], cfg.rigs.resamples,
                         cfg.rigs.first_rig)
@@ -159,7 +216,10 @@ def document(cfg: RigEfficiencyConfig, parts: Parts) -> dict[str, Any]:
 
 def rig_efficiency(cfg: RigEfficiencyConfig) -> dict[str, Any]:
     """The document computed in this process, task after task (the command spreads the tasks)."""
-    return document(cfg, {tid: rig_point(cfg, n, seed) for tid, n, seed in tasks(cfg)})
+    parts = {tid: rig_point(cfg, n, seed) for tid, n, seed in tasks(cfg)}
+    parts.update({tid: rig_plant_point(cfg, e, kind, seed) for tid, e, kind, seed in plant_tasks(cfg)})
+    return document(cfg, parts)
 
 
-__all__ = ["FAMILIES", "RigEfficiencyConfig", "document", "lines", "rig_efficiency", "rig_point", "tasks"]
+__all__ = ["FAMILIES", "RigEfficiencyConfig", "document", "lines", "plant_tasks", "rig_efficiency",
+           "rig_plant_point", "rig_point", "tasks"]

@@ -181,12 +181,12 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
             outcomes += _not_designed(run, kind, not_made[kind])
             continue
         made[kind] = policy
-        outcomes += _validate(cfg, rig, kind, policy, seed)
+        outcomes += validate_on_rig(cfg, rig, kind, policy, seed)
     for name in CEILING if cfg.ceiling else ():
         t = time.perf_counter()
         ceiling = rig_routes.route(name).make(drawn, settings_from(agent_params(run)), run.learning_seeds(0))
         t_train += time.perf_counter() - t
-        outcomes += _validate(cfg, rig, name, ceiling, seed)
+        outcomes += validate_on_rig(cfg, rig, name, ceiling, seed)
     t_refine = time.perf_counter()
     if cfg.refine:
         charged = sum(len(p.command) for p in played)
@@ -261,7 +261,7 @@ def _not_designed(run: RunConfig, kind: str, why: str) -> list[dict[str, Any]]:
             for seed in designs.members(kind, run.learning_seeds(0))]
 
 
-def _validate(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy | None,
+def validate_on_rig(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy | None,
               rig_seed: int) -> list[dict[str, Any]]:
     """Every member on the rig: nominal first, then each rig scenario, in that order (a kind whose
     surrogate could not be identified fails on every learning seed)."""

@@ -83,7 +83,8 @@ def _add_rig_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"bootstrap-over-rigs resamples ({DEFAULT_RESAMPLES})")
     g.add_argument("--refine", type=int, default=0,
                    help="also the refined route: R rounds of re-identification from the closed-loop tries "
-                        "(as msd-bench rigs --refine; 0)")
+                        "(as msd-bench rigs --refine; 0); on-plant learners in --agents (plant, dyna-q) "
+                        "are trained on each rig itself at every --budgets")
 
 
 DEFAULT_BUDGETS = "10,30,100,300"
@@ -151,18 +152,23 @@ def rig_efficiency_tasks(cfg: RigEfficiencyConfig) -> list[str]:
 
 def rig_efficiency_config(args: argparse.Namespace) -> RigEfficiencyConfig:
     """The validated sweep on rigs from parsed options (one-line ConfigError otherwise)."""
+    from dataclasses import replace
+
     from msd_bench.app.rig_efficiency import RigEfficiencyConfig
     from msd_bench.app.rigs import RigsConfig
     from msd_bench.core.errors import ConfigError
 
     filled = _defaults(args)
-    if args.budgets != DEFAULT_BUDGETS:
-        raise ConfigError("--budgets sets the on-plant route, which is drawn on the ideal plant only "
-                          "(leave out --rigs and --family)")
-    rigs = RigsConfig(run_config_from_args(filled), rigs=filled.rigs, first_rig=args.first_rig,
+    run_cfg = run_config_from_args(filled)
+    on_model, on_plant = kinds.split_by_model(run_cfg.agents)
+    if not on_model:
+        raise ConfigError("the curve on rigs draws on-plant learners beside a surrogate route: add a kind "
+                          f"on an identified model to --agents (e.g. {kinds.RIG_EFFICIENCY[-1]})")
+    rigs = RigsConfig(replace(run_cfg, agents=tuple(on_model)), rigs=filled.rigs, first_rig=args.first_rig,
                       design=args.design, scenarios=(), resamples=args.bootstrap, refine=args.refine)
     return RigEfficiencyConfig(rigs, record_samples=_ints(args.record_samples, "--record-samples"),
-                               family=filled.family)
+                               family=filled.family, plant_agents=tuple(on_plant),
+                               episodes=_ints(args.budgets, "--budgets"))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -219,9 +225,10 @@ def _refuse_rig_options(args: argparse.Namespace) -> None:
 
 def _rig_tasks(cfg: RigEfficiencyConfig) -> list[Task]:
     from msd_bench.app.executor import Task
-    from msd_bench.app.rig_efficiency import rig_point, tasks
+    from msd_bench.app.rig_efficiency import plant_tasks, rig_plant_point, rig_point, tasks
 
-    return [Task(tid, rig_point, (cfg, n, seed)) for tid, n, seed in tasks(cfg)]
+    return [*(Task(tid, rig_point, (cfg, n, seed)) for tid, n, seed in tasks(cfg)),
+            *(Task(tid, rig_plant_point, (cfg, e, kind, seed)) for tid, e, kind, seed in plant_tasks(cfg))]
 
 
 def _rig_document(cfg: RigEfficiencyConfig) -> Callable[[dict[str, Any]], dict[str, Any]]:
