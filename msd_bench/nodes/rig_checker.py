@@ -35,6 +35,11 @@ from msd_msgs_py.contract import CLOCK, FORCE, JOINT_STATES, POSITION, RESET, TR
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 from msd_msgs_py.ros import command, msg_class, qos
 
+UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
+"""What rclpy names a node whose endpoint is discovered before the participant data naming it."""
+NAME_WAIT_S = 10.0
+"""The longest wait for discovery to name the nodes behind endpoints (seconds on a loaded machine)."""
+
 NONFINITE = (math.nan, math.nan, math.inf, math.inf, -math.inf, -math.inf)
 """The non-finite commands sent, one per row (lock-step: one at a time)."""
 
@@ -114,6 +119,19 @@ class RigChecker:
             self.executor.spin_once(timeout_sec=0.005)
         return done()
 
+    def names_of(self, infos_of: Callable[[], list[Any]]) -> list[str]:
+        """Full names of the nodes behind some endpoints, once discovery has named them.
+
+        DDS reports an endpoint before the participant data that names its node: until then rclpy
+        gives ``_NODE_NAME_UNKNOWN_``. On a loaded machine that gap lasts seconds, so the names are
+        read again while any is unknown, for at most :data:`NAME_WAIT_S`.
+        """
+        def names() -> list[str]:
+            return [f"{i.node_namespace.rstrip('/')}/{i.node_name}" for i in infos_of()]
+
+        self.spin_until(lambda: not any(UNKNOWN_NODE in n for n in names()), NAME_WAIT_S)
+        return names()
+
     def _discover(self) -> str | None:
         """Wait for the node's endpoints; None if there is no node, else its full name."""
         js, force = self.topic[JOINT_STATES.name], self.topic[FORCE.name]
@@ -122,11 +140,9 @@ class RigChecker:
                                self.script.discovery_timeout):
             return None
         self.spin_for(0.5)  # let every endpoint of the graph (a second publisher too) be discovered
-        infos = n.get_publishers_info_by_topic(js) or n.get_subscriptions_info_by_topic(force)
-        if not infos:
-            return None
-        i = infos[0]
-        return f"{i.node_namespace.rstrip('/')}/{i.node_name}"
+        found = self.names_of(lambda: n.get_publishers_info_by_topic(js)
+                              or n.get_subscriptions_info_by_topic(force))
+        return found[0] if found else None
 
     def _subscribe(self) -> None:
         """Subscribe to the telemetry with a QoS the node's publishers match (reliable or not)."""
@@ -465,7 +481,6 @@ class RigChecker:
                                    len(NONFINITE), self.limits)
 
     def _clock_clause(self) -> Clause:
-        infos = self.node.get_publishers_info_by_topic(CLOCK.name)
-        owners = [f"{i.node_namespace.rstrip('/')}/{i.node_name}" for i in infos]
+        owners = self.names_of(lambda: self.node.get_publishers_info_by_topic(CLOCK.name))
         expected = [s + round(self.limits.dt * 1e9) for s in self.rec.stamps]
         return cf.clock_clause(owners, self.name, list(self.rec.clock), expected)
