@@ -94,6 +94,21 @@ class RigDescription:
             raise ConfigError(f"model {model_name} has dt {model_dt:g} s but the rig samples every "
                               f"{self.dt:g} s ({self.rate:g} Hz): identify it at the rig's rate")
 
+    def paper_scaled(self) -> bool:
+        """Whether rate, stroke, force limit and decision period are exactly the paper plant's."""
+        paper = default_description()
+        return (self.rate, self.stroke, self.force_limit, self.decision_period) == (
+            paper.rate, paper.stroke, paper.force_limit, paper.decision_period)
+
+    def facts(self) -> dict[str, object]:
+        """What a run's report states about the rig it ran with (run.json ``rig``)."""
+        return {"rate_hz": self.rate, "dt_s": self.dt, "stroke": self.stroke,
+                "position_limits": [self.position_min, self.position_max],
+                "force_limit": self.force_limit, "position_unit": self.position_unit,
+                "force_unit": self.force_unit, "interface": self.interface,
+                "decision_period_s": self.decision_period,
+                "samples_per_decision": self.samples_per_decision}
+
     def scales(self) -> Scales:
         """The factors from the paper's plant to this rig (exactly 1.0 each on the default)."""
         from msd_bench.core.rigs.scales import Scales  # lazy: scales imports physics only
