@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
-from msd_bench.core.errors import ConfigError
+from msd_bench.core.errors import ConfigError, InvalidInputError
+from msd_bench.core.physics.model import plant_model
 from msd_bench.core.physics.plant import DT, PlantParams
 from msd_bench.core.rigs.description import (
     RigDescription,
@@ -78,10 +80,13 @@ def test_bad_key_is_one_line_naming_key_and_file(params: dict[str, object], name
 
 def test_model_at_another_rate_is_refused_in_one_line() -> None:
     rig = parse_description(FAST)
-    rig.check_model_dt(0.001, "fast.json")
-    with pytest.raises(ConfigError, match=r"^model m.json has dt 0.01 s but the rig samples every "
-                                          r"0.001 s \(1000 Hz\)"):
-        rig.check_model_dt(0.01, "m.json")
+    fast = plant_model(replace(PlantParams(), dt=0.001))
+    rig.check_model(fast, "rig.yaml")
+    with pytest.raises(InvalidInputError) as caught:
+        rig.check_model(plant_model(PlantParams()), "rig.yaml")
+    message = str(caught.value)
+    assert "identified at dt 0.01 s (100 Hz) but the rig of rig.yaml runs at dt 0.001 s" in message
+    assert "\n" not in message
 
 
 def test_decision_samples_counts_whole_samples_only() -> None:

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from msd_bench.core.errors import ConfigError
+from msd_bench.core.physics.model import StepModel, check_rate
 from msd_bench.core.physics.plant import DT, PlantParams
 
 if TYPE_CHECKING:
@@ -88,11 +89,9 @@ class RigDescription:
         """Rig samples the command is held over between two decisions (≥ 1)."""
         return decision_samples(self.decision_period, self.rate, "decision_period", "")
 
-    def check_model_dt(self, model_dt: float, model_name: str) -> None:
+    def check_model(self, model: StepModel, where: str) -> None:
         """Refuse in one line a model identified at another sample period than this rig's."""
-        if not math.isclose(model_dt, self.dt, rel_tol=WHOLE_TOLERANCE, abs_tol=0.0):
-            raise ConfigError(f"model {model_name} has dt {model_dt:g} s but the rig samples every "
-                              f"{self.dt:g} s ({self.rate:g} Hz): identify it at the rig's rate")
+        check_rate(model, self.dt, f"the rig of {where}" if where else "the rig")
 
     def paper_scaled(self) -> bool:
         """Whether rate, stroke, force limit and decision period are exactly the paper plant's."""
