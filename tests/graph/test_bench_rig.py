@@ -63,3 +63,13 @@ def test_bad_rig_is_one_line_and_writes_nothing(tmp_path: Path, text: str, needl
     err = capsys.readouterr().err
     assert needle in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_report_line_states_rate_stroke_and_force(tmp_path: Path) -> None:
+    from msd_bench.graph.bench_report import rig_line
+
+    cfg = bench_main.config(bench_main.parse(["--out", str(tmp_path), "--rig", str(DEFAULT_RIG)]))
+    assert cfg.rig is not None
+    line = rig_line(cfg.rig)
+    assert line == ("Rig (`--rig`): 100 Hz (dt 0.01 s), stroke 5 m, force limit 10 N, "
+                    "1 sample(s) per 0.01 s decision, msd face.\n")
