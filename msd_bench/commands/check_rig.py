@@ -28,11 +28,12 @@ import rclpy
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.physics.plant import DT, PlantParams
 from msd_bench.core.rigs.conformance import Clause, Limits
+from msd_bench.io.rigs.rig_file import read_rig
 from msd_bench.io.storage.atomic import write_text_atomic
 from msd_bench.io.storage.paths import writable_dir
 from msd_bench.io.storage.safe_read import read_json_bounded
 from msd_bench.nodes.spin import ros_session
-from msd_msgs_py.interface import add_cli_options, from_cli
+from msd_msgs_py.interface import MSD, add_cli_options, from_cli
 
 
 class CheckRigError(MsdBenchError):
@@ -48,8 +49,13 @@ def register(subparsers: Any) -> None:
                    help="real time: least telemetry the timing clauses see, s (the script itself takes ~4 s)")
     p.add_argument("--watchdog-timeout", type=float, default=0.5,
                    help="the node's declared watchdog timeout, s (real time)")
-    p.add_argument("--force-limit", type=float, default=PlantParams().F, help="the node's force limit F, N")
-    p.add_argument("--dt", type=float, default=DT, help="the node's sample period, s")
+    p.add_argument("--force-limit", type=float, help=f"the node's force limit F, N (default: --rig's, "
+                                                      f"else {PlantParams().F:g})")
+    p.add_argument("--dt", type=float,
+                   help=f"the node's sample period, s (default: 1/rate of --rig, else {DT:g})")
+    p.add_argument("--rig", type=Path, metavar="FILE",
+                   help="rig description (docs/rig-description.md): force limit, dt and face from it; "
+                        "explicit options win")
     p.add_argument("--p99-limit", type=float, default=0.025, help="limit of the inter-arrival p99, s")
     p.add_argument("--timing-tolerance", type=float, default=1.0,
                    help="factor on the timing limits (rate, gaps, p99, watchdog slack); > 1 on a loaded "
@@ -66,7 +72,30 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
+def apply_rig(args: argparse.Namespace) -> None:
+    """Fill what the command line left unset from ``--rig`` (one line on a bad file), else the defaults.
+
+    A face option counts as unset while it holds its default (``msd``, ''): the
+    options come from msd_msgs_py, which does not record what was typed.
+    """
+    rig = read_rig(args.rig) if getattr(args, "rig", None) is not None else None
+    if args.force_limit is None:
+        args.force_limit = rig.force_limit if rig is not None else PlantParams().F
+    if args.dt is None:
+        args.dt = rig.dt if rig is not None else DT
+    if rig is None:
+        return
+    if args.interface == MSD:
+        args.interface = rig.interface
+    for name in ("controller", "joint", "effort"):
+        if not getattr(args, name):
+            setattr(args, name, getattr(rig, name))
+    if not args.controller_joints:
+        args.controller_joints = ",".join(rig.controller_joints)
+
+
 def _check(args: argparse.Namespace) -> None:
+    apply_rig(args)
     positive = ("watchdog_timeout", "force_limit", "dt", "p99_limit", "timing_tolerance", "discovery_timeout")
     for name in positive:
         value = getattr(args, name)

@@ -94,6 +94,8 @@ class BenchConfig:
     (``--live-wait``), so a short emulated run is not over before Foxglove has connected."""
     supervision: Supervision = field(default_factory=Supervision)
     """Which stages run behind the safety supervisor, with which options (docs/supervisor.md)."""
+    rig: dict[str, object] | None = None
+    """With ``--rig FILE``: the rate, stroke, force limit and face the run ran with (run.json)."""
     timings: dict[str, float] = field(default_factory=dict, compare=False)
     """Seconds per stage, filled in as the run goes."""
 

@@ -165,6 +165,14 @@ def _plant_ns_lines(facts: dict[str, Any], iface: PlantInterface) -> str:
     return "\n".join(f"- {line}" for line in lines) + "\n"
 
 
+def rig_line(rig: dict[str, Any]) -> str:
+    """The rate, stroke and force a ``--rig`` run ran with, one line under Table 1."""
+    return (f"Rig (`--rig`): {rig['rate_hz']:g} Hz (dt {rig['dt_s']:g} s), stroke {rig['stroke']:g} "
+            f"{rig['position_unit']}, force limit {rig['force_limit']:g} {rig['force_unit']}, "
+            f"{rig['samples_per_decision']} sample(s) per {rig['decision_period_s']:g} s decision, "
+            f"{rig['interface']} face.\n")
+
+
 def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any]:
     """Table 1 (md/csv/json), robustness, figures and their page (``index.html``) under ``report/``."""
     records = load_records(cfg)
@@ -190,6 +198,9 @@ def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any
         md = paths["table"]["md"]
         text = md.read_text().rstrip("\n") + "\n\n" + facts["supervisor"]["line"] + "\n"
         write_text_atomic(md, text, root=root)
+    if cfg.rig is not None:  # only with --rig: a default run's report stays byte for byte
+        md = paths["table"]["md"]
+        write_text_atomic(md, md.read_text().rstrip("\n") + "\n\n" + rig_line(cfg.rig), root=root)
     paths["robustness"] = write_robustness(out, rob, {r.kind: r.label for r in results}, root=root)
     paths["index"] = write_index(out, root=root, title=f"bench.py run {root.name}", run_dir=root, config=cfg)
     return paths

@@ -47,6 +47,7 @@ from msd_bench.graph.launch import ProcessSet, caller_env, process_group, stop
 from msd_bench.graph.live import LiveStageProgress as StageProgress
 from msd_bench.graph.live import live_view
 from msd_bench.graph.live import log as live_log
+from msd_bench.graph.rig_option import add_rig_option, apply_rig, given_options
 from msd_bench.io.bags.bag_records import roles_from_dir
 from msd_bench.io.reports.live_server import DEFAULT_PORT
 from msd_msgs_py.interface import add_cli_options, from_cli
@@ -93,8 +94,11 @@ def parse(argv: list[str]) -> argparse.Namespace:
                    help="with --live: before the first stage, wait up to SECONDS for a viewer to "
                         "subscribe to the plant's rows (an emulated run can end in seconds)")
     add_cli_options(p)
+    add_rig_option(p)
     supervise_options(p)
-    return p.parse_args(argv)
+    args = p.parse_args(argv)
+    args.given = given_options(argv)
+    return args
 
 
 def supervise_options(p: argparse.ArgumentParser) -> None:
@@ -152,6 +156,7 @@ def config(args: argparse.Namespace) -> BenchConfig:
     # relative paths mean the caller's directory (children run in the repository)
     run_dir = (args.out or REPO / "bags" / dt.datetime.now().strftime("%Y%m%d-%H%M%S")).absolute()
     stages = stage_names([s.strip() for s in args.stages.split(",")])
+    rig = apply_rig(args, getattr(args, "given", frozenset()))
     run = run_config_from_args(args)
     extra: dict[str, Any] = {}
     if args.plant_ns is not None:
@@ -163,7 +168,7 @@ def config(args: argparse.Namespace) -> BenchConfig:
         via_ros=args.via_ros, bags=args.bags.absolute() if args.bags else None,
         stages=stages or tuple(args.stages.split(",")), interface=from_cli(args), live_port=args.live,
         live_wait_s=live_wait(args),
-        supervision=supervision(args), **extra)
+        supervision=supervision(args), rig=None if rig is None else rig.facts(), **extra)
 
 
 REPORT_MODULE = "msd_bench.graph.bench_report"

@@ -44,6 +44,7 @@ from rclpy.parameter import Parameter
 
 from msd_bench.app.job import JobError, read_job
 from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.core.rigs.description import parse_description
 
 T = TypeVar("T")
 Range = tuple[float, float]
@@ -310,6 +311,27 @@ def check_params_files(argv: Sequence[str]) -> None:
     """Every ``--params-file`` must be readable YAML shaped as ROS expects (rcl would ignore it)."""
     for path in _params_files(argv):
         _load_params_file(path)
+
+
+def check_rig_files(argv: Sequence[str]) -> None:
+    """A params file whose ``/**`` section sets ``rate`` is a rig description: check it whole.
+
+    Why here: ``--ros-args --params-file rig.yaml`` is how a ROS user hands a
+    node the rig (docs/rig-description.md); a typo or an inconsistent key must
+    be one line before the node starts, and a rig the nodes cannot run yet
+    (another rate, stroke, force limit or decision period than the paper's
+    plant) is refused rather than silently run at the default.
+    """
+    for path in _params_files(argv):
+        body = _load_params_file(path).get("/**", {}).get("ros__parameters", {})
+        if "rate" not in body:
+            continue
+        rig = parse_description({str(k): v for k, v in body.items()}, path)
+        if not rig.paper_scaled():
+            raise ConfigError(
+                f"rig file {path}: the nodes run the paper's plant only so far (100 Hz, 5 m, 10 N, "
+                f"0.01 s decisions); it describes {rig.rate:g} Hz, {rig.stroke:g} {rig.position_unit}, "
+                f"{rig.force_limit:g} {rig.force_unit}, {rig.decision_period:g} s decisions")
 
 
 def _flat(prefix: str, tree: Mapping[str, Any]) -> Iterable[str]:

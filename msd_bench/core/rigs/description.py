@@ -1,0 +1,265 @@
+"""One rig description: what the bench must know about a rig before it touches it.
+
+A rig is described once, in the form ROS 2 users already write (a parameter
+file, read by ``msd_bench.io.rigs.rig_file``); this module only parses the
+mapping of parameters, so the science never opens a file. Why one place: the
+sample rate, the stroke, the force limit, the units and the face were spread
+over presets and command-line options, and nothing checked that they agreed.
+A missing or inconsistent key is refused here in one line naming the key and
+the source, before anything is started (docs/rig-description.md).
+
+The decision period is a separate choice from the sample period (issue 37
+item 3): the agent decides every ``decision_period`` seconds and the command is
+held over the rig samples between decisions, so the period must be a whole
+number of samples.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.physics.model import StepModel, check_rate
+from msd_bench.core.physics.plant import DT, PlantParams
+
+if TYPE_CHECKING:
+    from msd_bench.core.rigs.scales import Scales
+
+FACES = ("msd", "ros2_control")
+"""The faces a rig may show (msd_msgs_py/interface.py)."""
+
+DEFAULT_DECISION_PERIOD = DT
+"""The paper's decision period, s (10 ms)."""
+
+WHOLE_TOLERANCE = 1e-9
+"""Relative slack when a period is checked to be a whole number of samples (float rates)."""
+
+KEYS = ("rate", "stroke", "position_min", "position_max", "force_limit", "position_unit",
+        "force_unit", "interface", "plant_ns", "controller", "joint", "controller_joints",
+        "effort", "decision_period", "actuator_delay_samples", "actuator_delay", "lag")
+"""Every key a description may hold; any other is refused with a 'did you mean'."""
+
+
+@dataclass(frozen=True)
+class RigDescription:
+    """A rig as the bench sees it: rate, stroke, force, units, face and known facts."""
+
+    rate: float
+    """Sample rate, Hz (> 0)."""
+    position_min: float
+    """Lower position limit, in ``position_unit`` (the stroke is centred when only a length is given)."""
+    position_max: float
+    """Upper position limit (> position_min)."""
+    force_limit: float
+    """Largest command magnitude, in ``force_unit`` (> 0)."""
+    position_unit: str = "m"
+    force_unit: str = "N"
+    interface: str = "msd"
+    """Face: ``msd`` or ``ros2_control``."""
+    plant_ns: str = ""
+    """Namespace of the plant-like node ('' = the emulator's own)."""
+    controller: str = ""
+    joint: str = ""
+    controller_joints: tuple[str, ...] = ()
+    effort: str = ""
+    """Names as the ros2_control face options name them ('' = the face's default)."""
+    decision_period: float = DEFAULT_DECISION_PERIOD
+    """Agent decision period, s: a whole number of rig samples."""
+    actuator_delay_samples: int | None = None
+    """A measured actuator delay, samples (optional known fact)."""
+    lag: float | None = None
+    """A measured first-order lag, s (optional known fact)."""
+
+    @property
+    def dt(self) -> float:
+        """Sample period, s."""
+        return 1.0 / self.rate
+
+    @property
+    def stroke(self) -> float:
+        """Full length of travel, in ``position_unit``."""
+        return self.position_max - self.position_min
+
+    @property
+    def samples_per_decision(self) -> int:
+        """Rig samples the command is held over between two decisions (≥ 1)."""
+        return decision_samples(self.decision_period, self.rate, "decision_period", "")
+
+    def check_model(self, model: StepModel, where: str) -> None:
+        """Refuse in one line a model identified at another sample period than this rig's."""
+        check_rate(model, self.dt, f"the rig of {where}" if where else "the rig")
+
+    def paper_scaled(self) -> bool:
+        """Whether rate, stroke, force limit and decision period are exactly the paper plant's."""
+        paper = default_description()
+        return (self.rate, self.stroke, self.force_limit, self.decision_period) == (
+            paper.rate, paper.stroke, paper.force_limit, paper.decision_period)
+
+    def facts(self) -> dict[str, object]:
+        """What a run's report states about the rig it ran with (run.json ``rig``)."""
+        return {"rate_hz": self.rate, "dt_s": self.dt, "stroke": self.stroke,
+                "position_limits": [self.position_min, self.position_max],
+                "force_limit": self.force_limit, "position_unit": self.position_unit,
+                "force_unit": self.force_unit, "interface": self.interface,
+                "decision_period_s": self.decision_period,
+                "samples_per_decision": self.samples_per_decision}
+
+    def scales(self) -> Scales:
+        """The factors from the paper's plant to this rig (exactly 1.0 each on the default)."""
+        from msd_bench.core.rigs.scales import Scales  # lazy: scales imports physics only
+        return Scales.of(self.stroke, self.force_limit, self.dt)
+
+
+def default_description() -> RigDescription:
+    """The emulator's default plant as a description (what config/rigs/default.yaml must say)."""
+    half = 0.5 * PlantParams().L
+    return RigDescription(rate=1.0 / DT, position_min=-half, position_max=half,
+                          force_limit=PlantParams().F)
+
+
+def decision_samples(period: float, rate: float, key: str, source: str) -> int:
+    """``period`` in rig samples; a one-line ConfigError when it is not a whole number ≥ 1."""
+    samples = period * rate
+    whole = round(samples)
+    if whole < 1 or not math.isclose(samples, whole, rel_tol=WHOLE_TOLERANCE, abs_tol=0.0):
+        raise ConfigError(f"{key}{_at(source)}: {period:g} s is not a whole number of rig samples "
+                          f"at {rate:g} Hz ({samples:g} samples)")
+    return whole
+
+
+def parse_description(params: Mapping[str, object], source: str = "") -> RigDescription:
+    """A description from a mapping of parameters; one-line ConfigError naming key and source."""
+    _refuse_unknown(params, source)
+    rate = _positive(params, "rate", source)
+    low, high = _limits(params, source)
+    desc = RigDescription(
+        rate=rate, position_min=low, position_max=high,
+        force_limit=_positive(params, "force_limit", source),
+        position_unit=_name(params, "position_unit", "m", source),
+        force_unit=_name(params, "force_unit", "N", source),
+        interface=_face(params, source),
+        plant_ns=_text(params, "plant_ns", source), controller=_text(params, "controller", source),
+        joint=_text(params, "joint", source),
+        controller_joints=_names(params, "controller_joints", source),
+        effort=_text(params, "effort", source),
+        decision_period=_optional_positive(params, "decision_period", source)
+        or DEFAULT_DECISION_PERIOD,
+        actuator_delay_samples=_delay(params, rate, source),
+        lag=_optional_positive(params, "lag", source))
+    decision_samples(desc.decision_period, rate, "decision_period", source)
+    return desc
+
+
+def _at(source: str) -> str:
+    """`` in FILE`` when the source is known."""
+    return f" in {source}" if source else ""
+
+
+def _refuse_unknown(params: Mapping[str, object], source: str) -> None:
+    """An unknown key is a typo until proven otherwise: name it, and the closest known one."""
+    for key in params:
+        if key not in KEYS:
+            close = difflib.get_close_matches(str(key), KEYS, n=1)
+            hint = f"; did you mean {close[0]}?" if close else f"; known: {', '.join(KEYS)}"
+            raise ConfigError(f"unknown rig key {key!r}{_at(source)}{hint}")
+
+
+def _number(params: Mapping[str, object], key: str, source: str) -> float | None:
+    """A finite number, or None when absent; anything else is one line."""
+    if key not in params:
+        return None
+    value = params[key]
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ConfigError(f"{key}{_at(source)} must be a finite number, got {value!r:.40}")
+    return float(value)
+
+
+def _positive(params: Mapping[str, object], key: str, source: str) -> float:
+    """A required number > 0."""
+    value = _optional_positive(params, key, source)
+    if value is None:
+        raise ConfigError(f"{key}{_at(source)} is missing (see docs/rig-description.md)")
+    return value
+
+
+def _optional_positive(params: Mapping[str, object], key: str, source: str) -> float | None:
+    """An optional number, > 0 when given."""
+    value = _number(params, key, source)
+    if value is not None and value <= 0:
+        raise ConfigError(f"{key}{_at(source)} must be > 0, got {value:g}")
+    return value
+
+
+def _limits(params: Mapping[str, object], source: str) -> tuple[float, float]:
+    """Position limits: an ordered pair, or a stroke centred on 0 — not both."""
+    low = _number(params, "position_min", source)
+    high = _number(params, "position_max", source)
+    if low is None and high is None:
+        half = 0.5 * _positive(params, "stroke", source)
+        return -half, half
+    if "stroke" in params:
+        raise ConfigError(f"stroke{_at(source)}: give either stroke or position_min/position_max")
+    if low is None or high is None:
+        missing = "position_min" if low is None else "position_max"
+        raise ConfigError(f"{missing}{_at(source)} is missing (position limits come in a pair)")
+    if not low < high:
+        raise ConfigError(f"position_min{_at(source)} ({low:g}) must be below position_max ({high:g})")
+    return low, high
+
+
+def _text(params: Mapping[str, object], key: str, source: str) -> str:
+    """An optional string ('' when absent)."""
+    value = params.get(key, "")
+    if not isinstance(value, str):
+        raise ConfigError(f"{key}{_at(source)} must be a string, got {value!r:.40}")
+    return value
+
+
+def _name(params: Mapping[str, object], key: str, default: str, source: str) -> str:
+    """A non-empty unit name."""
+    value = _text(params, key, source) if key in params else default
+    if not value.strip():
+        raise ConfigError(f"{key}{_at(source)} must not be empty")
+    return value
+
+
+def _names(params: Mapping[str, object], key: str, source: str) -> tuple[str, ...]:
+    """An optional list of strings."""
+    value = params.get(key, [])
+    if not isinstance(value, list | tuple) or not all(isinstance(v, str) for v in value):
+        raise ConfigError(f"{key}{_at(source)} must be a list of names, got {value!r:.40}")
+    return tuple(value)
+
+
+def _face(params: Mapping[str, object], source: str) -> str:
+    """``msd`` or ``ros2_control``."""
+    face = _text(params, "interface", source) or "msd"
+    if face not in FACES:
+        raise ConfigError(f"interface{_at(source)} must be one of {', '.join(FACES)}, got {face!r:.40}")
+    return face
+
+
+def _delay(params: Mapping[str, object], rate: float, source: str) -> int | None:
+    """A measured delay given in samples or seconds (not both), as whole samples ≥ 0."""
+    in_samples = _number(params, "actuator_delay_samples", source)
+    in_seconds = _number(params, "actuator_delay", source)
+    if in_samples is not None and in_seconds is not None:
+        raise ConfigError(f"actuator_delay{_at(source)}: give it in samples or in seconds, not both")
+    if in_samples is not None:
+        if in_samples < 0 or in_samples != int(in_samples):
+            raise ConfigError(f"actuator_delay_samples{_at(source)} must be a whole number ≥ 0, "
+                              f"got {in_samples:g}")
+        return int(in_samples)
+    if in_seconds is None:
+        return None
+    if in_seconds < 0:
+        raise ConfigError(f"actuator_delay{_at(source)} must be ≥ 0, got {in_seconds:g}")
+    return decision_samples(in_seconds, rate, "actuator_delay", source) if in_seconds > 0 else 0
+
+
+__all__ = ["FACES", "KEYS", "RigDescription", "decision_samples", "default_description",
+           "parse_description"]

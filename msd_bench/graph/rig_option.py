@@ -1,0 +1,54 @@
+"""bench.py's ``--rig FILE``: a rig description applied to the run (docs/rig-description.md).
+
+Why a module of its own: the description fills options the command line left
+unset (explicit options still win) and refuses, in one line and before any
+process starts, what the run cannot honour yet. The method runs at the paper's
+scales only until the scaled constants land (issue 37 item 2): a rig at another
+rate, stroke, force limit or decision period is refused rather than run with
+silently wrong constants.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from msd_bench.core.errors import ConfigError
+from msd_bench.core.rigs.description import RigDescription
+from msd_bench.io.rigs.rig_file import read_rig
+
+FACE_OPTIONS = ("interface", "controller", "joint", "controller_joints", "effort")
+"""Interface options a rig file may fill (argparse dests; the file's keys have the same names)."""
+
+
+def add_rig_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--rig FILE``."""
+    parser.add_argument("--rig", type=Path, metavar="FILE",
+                        help="rig description, a ROS 2 parameter file (docs/rig-description.md); "
+                             "explicit options win over it")
+
+
+def given_options(argv: list[str]) -> frozenset[str]:
+    """The argparse dests of the long options written on the command line (``--x`` or ``--x=v``)."""
+    return frozenset(a[2:].split("=", 1)[0].replace("-", "_") for a in argv if a.startswith("--"))
+
+
+def apply_rig(args: argparse.Namespace, given: frozenset[str]) -> RigDescription | None:
+    """Read ``--rig``, fill the face options not given, refuse what the run cannot honour."""
+    if args.rig is None:
+        return None
+    rig = read_rig(args.rig)
+    if not rig.paper_scaled():
+        raise ConfigError(
+            f"--rig {args.rig}: bench.py runs the method at the paper's scales only so far (100 Hz, "
+            f"5 m, 10 N, 0.01 s decisions); this rig is {rig.rate:g} Hz, {rig.stroke:g} "
+            f"{rig.position_unit}, {rig.force_limit:g} {rig.force_unit}, "
+            f"{rig.decision_period:g} s decisions")
+    if rig.plant_ns and rig.plant_ns != args.plant_ns:
+        raise ConfigError(f"--rig {args.rig} names plant_ns {rig.plant_ns!r} but the command line "
+                          f"gives --plant-ns {args.plant_ns!r}: give --plant-ns {rig.plant_ns}")
+    for name in FACE_OPTIONS:
+        value = getattr(rig, name)
+        if name not in given and value:
+            setattr(args, name, ",".join(value) if isinstance(value, tuple) else value)
+    return rig

@@ -1,0 +1,75 @@
+"""bench.py --rig FILE: the description fills the face, explicit options win, bad files stop the run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from msd_bench.graph import main as bench_main
+
+DEFAULT_RIG = Path(__file__).resolve().parents[2] / "config" / "rigs" / "default.yaml"
+ROS2_CONTROL_RIG = """/**:
+  ros__parameters:
+    rate: 100.0
+    stroke: 5.0
+    force_limit: 10.0
+    interface: ros2_control
+    plant_ns: /rig
+    controller: stage_controller
+    joint: stage
+"""
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "rig.yaml"
+    path.write_text(text)
+    return path
+
+
+def test_default_rig_changes_nothing_but_states_itself(tmp_path: Path) -> None:
+    plain = bench_main.config(bench_main.parse(["--out", str(tmp_path / "a")]))
+    cfg = bench_main.config(bench_main.parse(["--out", str(tmp_path / "a"), "--rig", str(DEFAULT_RIG)]))
+    assert cfg.run == plain.run and cfg.interface == plain.interface
+    assert cfg.rig is not None and plain.rig is None
+    assert (cfg.rig["rate_hz"], cfg.rig["stroke"], cfg.rig["force_limit"]) == (100.0, 5.0, 10.0)
+    assert json.loads(json.dumps(cfg.rig))["samples_per_decision"] == 1
+
+
+def test_rig_file_fills_the_face_and_explicit_options_win(tmp_path: Path) -> None:
+    rig = str(_write(tmp_path, ROS2_CONTROL_RIG))
+    cfg = bench_main.config(bench_main.parse(["--plant-ns", "/rig", "--rig", rig]))
+    assert cfg.interface.kind == "ros2_control" and cfg.interface.joint == "stage"
+    assert cfg.interface.controller == "stage_controller"
+    cfg = bench_main.config(bench_main.parse(["--plant-ns", "/rig", "--rig", rig, "--joint", "other"]))
+    assert cfg.interface.joint == "other"
+
+
+@pytest.mark.parametrize(("text", "needle"), [
+    ("/**:\n  ros__parameters:\n    rate: 0\n    stroke: 5.0\n    force_limit: 10.0\n", "rate in"),
+    ("/**:\n  ros__parameters:\n    rate: 100.0\n    strok: 5.0\n    force_limit: 10.0\n",
+     "did you mean stroke?"),
+    ("/**:\n  ros__parameters:\n    rate: 1000.0\n    stroke: 0.25\n    force_limit: 350.0\n",
+     "paper's scales only"),
+    ("/**:\n  ros__parameters:\n    rate: 250.0\n    stroke: 5.0\n    force_limit: 10.0\n"
+     "    decision_period: 0.01\n", "not a whole number of rig samples"),
+    (ROS2_CONTROL_RIG, "give --plant-ns /rig"),
+])
+def test_bad_rig_is_one_line_and_writes_nothing(tmp_path: Path, text: str, needle: str,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out"
+    assert bench_main.main(["--rig", str(_write(tmp_path, text)), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_report_line_states_rate_stroke_and_force(tmp_path: Path) -> None:
+    from msd_bench.graph.bench_report import rig_line
+
+    cfg = bench_main.config(bench_main.parse(["--out", str(tmp_path), "--rig", str(DEFAULT_RIG)]))
+    assert cfg.rig is not None
+    line = rig_line(cfg.rig)
+    assert line == ("Rig (`--rig`): 100 Hz (dt 0.01 s), stroke 5 m, force limit 10 N, "
+                    "1 sample(s) per 0.01 s decision, msd face.\n")
