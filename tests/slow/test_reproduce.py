@@ -19,6 +19,7 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -55,22 +56,25 @@ def seeds_cap() -> int | None:
     return int(raw)
 
 
-def rerun(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict:
+def rerun(name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[str, Any]:
     """The document ``name``'s own command writes afresh under ``tmp_path``."""
     if name in make_results.COMMANDS:
         monkeypatch.setattr(make_results, "RESULTS", tmp_path)
         monkeypatch.setitem(make_results.COMMANDS, name, capped(make_results.COMMANDS[name], seeds_cap()))
-        return json.loads(make_results.run(name).read_text())
+        doc: dict[str, Any] = json.loads(make_results.run(name).read_text())
+        return doc
     if name not in SCRIPTS:
         pytest.fail(f"{name}.json: no make_results.py command and no script in SCRIPTS reruns it")
     out = tmp_path / f"{name}.json"
     subprocess.run([sys.executable, str(REPO / SCRIPTS[name]), "--out", str(out)], cwd=REPO, check=True,
                    timeout=3600)
-    return json.loads(out.read_text())
+    written: dict[str, Any] = json.loads(out.read_text())
+    return written
 
 
 @pytest.mark.parametrize("name", STORED)
-def test_counts_reproduce_within_the_prediction_interval(name, tmp_path, monkeypatch):
+def test_counts_reproduce_within_the_prediction_interval(name: str, tmp_path: Path,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
     stored = json.loads((REPO / "docs" / "results" / f"{name}.json").read_text())
     assert stored["command"].startswith("msd-bench paper") or stored["command"] == SCRIPTS.get(name), name
     fresh = rerun(name, tmp_path, monkeypatch)
