@@ -25,7 +25,7 @@ import numpy as np
 from msd_bench import designs
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.job import agent_params
-from msd_bench.app.rig_scores import rig_scenario, scores
+from msd_bench.app.rig_scores import rig_scenario, run_member, scores
 from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError, IdentificationError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
@@ -34,7 +34,7 @@ from msd_bench.core.evaluation.scenarios import Scenario, noise_seed
 from msd_bench.core.identification.data import Experiment, IOData
 from msd_bench.core.identification.model_kinds import model_kind
 from msd_bench.core.rigs.refine import Refined, Try, refine
-from msd_bench.core.rigs.rig_loop import RigRun, run_controller_on_rig, run_on_rig
+from msd_bench.core.rigs.rig_loop import RigRun
 from msd_bench.designs import kinds
 from msd_bench.designs.protocol import settings_from
 
@@ -103,17 +103,9 @@ def with_closed_loop(records: Records, tries: Sequence[Experiment], weight: int)
 
 def _run(cfg: RigsConfig, rig: Rig, member: Member, sc: Scenario, stream: str) -> RigRun:
     """One supervised run of a member on the rig under ``sc`` (noise stream named by ``stream``)."""
-    from msd_bench.designs.qlearning import QPolicy
-
     policy, j = member
     rng = np.random.default_rng(noise_seed(policy.members[j], stream))
-    load_step = round(sc.disturbance_time / rig.params.dt)
-    steps, lim = cfg.run.validation_steps, limits_of(cfg)
-    if isinstance(policy, QPolicy) and policy.observer is not None:
-        return run_on_rig(rig, policy.q[j], policy.learner, policy.observer, sc.setpoint, steps, rng,
-                          load=sc.disturbance, load_step=load_step, limits=lim)
-    return run_controller_on_rig(rig, policy.controller(j, sc.setpoint), sc.setpoint, steps, rng,
-                                 load=sc.disturbance, load_step=load_step, limits=lim)
+    return run_member(rig, policy, j, sc, cfg.run.validation_steps, rng, limits_of(cfg))
 
 
 def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:

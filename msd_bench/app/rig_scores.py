@@ -14,8 +14,13 @@ from msd_bench.core.evaluation.results import SUCCESS_SSE
 from msd_bench.core.evaluation.scenarios import Scenario, parse
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from msd_bench.app.config import RunConfig
+    from msd_bench.core.rigs.rig import Rig
     from msd_bench.core.rigs.rig_loop import RigRun
+    from msd_bench.core.safety.supervisor import Limits
+    from msd_bench.designs import Policy
 
 RIG_KEYS = ("setpoint", "disturbance")
 """What a rig scenario may set."""
@@ -30,6 +35,22 @@ def rig_scenario(sid: str) -> Scenario:
                           "(its noise, delay, friction and parameters are its own)")
     return sc
 
+
+
+def run_member(rig: Rig, policy: Policy, member: int, sc: Scenario, steps: int, rng: np.random.Generator,
+               limits: Limits | None) -> RigRun:
+    """One run of ``policy``'s member ``member`` on the rig under ``sc`` (a set-point and a load):
+    a Q-table with its observer through the compiled greedy loop, any other policy through its
+    controller. Every row of ``msd-bench rigs`` runs through here, open loop or refined."""
+    from msd_bench.core.rigs.rig_loop import run_controller_on_rig, run_on_rig
+    from msd_bench.designs.qlearning import QPolicy
+
+    load_step = round(sc.disturbance_time / rig.params.dt)
+    if isinstance(policy, QPolicy) and policy.observer is not None:
+        return run_on_rig(rig, policy.q[member], policy.learner, policy.observer, sc.setpoint, steps, rng,
+                          load=sc.disturbance, load_step=load_step, limits=limits)
+    return run_controller_on_rig(rig, policy.controller(member, sc.setpoint), sc.setpoint, steps, rng,
+                                 load=sc.disturbance, load_step=load_step, limits=limits)
 
 
 def scores(r: RigRun, target: float, run: RunConfig, brief: bool = False) -> dict[str, Any]:

@@ -38,7 +38,7 @@ from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.app.job import agent_params
 from msd_bench.app.plan import paper_plan
-from msd_bench.app.rig_scores import rig_scenario, scores
+from msd_bench.app.rig_scores import rig_scenario, run_member, scores
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
 from msd_bench.core.evaluation.risk import trace_risk
@@ -49,7 +49,7 @@ from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.physics.model import StepModel
 from msd_bench.core.rigs import population
 from msd_bench.core.rigs.rig import Rig
-from msd_bench.core.rigs.rig_loop import RigRun, run_controller_on_rig, run_on_rig
+from msd_bench.core.rigs.rig_loop import RigRun
 from msd_bench.core.rigs.rig_play import measured_actuator, play_plan, records_of
 from msd_bench.core.rigs.rig_stats import DEFAULT_RESAMPLES, rate_summary
 from msd_bench.designs import Drive, Policy, kinds
@@ -286,17 +286,9 @@ def validate_on_rig(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy | None,
 def _one_run(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy, member: int, seed: int, rig_seed: int,
              sc: Scenario) -> RigRun:
     """One validation run of member ``member`` on the rig under ``sc`` (its noise stream named by rig,
-    kind, seed): a Q-table through the compiled greedy loop, any other policy through its controller."""
-    from msd_bench.designs.qlearning import QPolicy
-
+    kind, seed): :func:`msd_bench.app.rig_scores.run_member`."""
     rng = np.random.default_rng(noise_seed(seed, f"rig{rig_seed}/{kind}/{sc.id}"))
-    load_step = round(sc.disturbance_time / rig.params.dt)
-    steps, limits = cfg.run.validation_steps, cfg.run.supervisor_limits
-    if isinstance(policy, QPolicy) and policy.observer is not None:
-        return run_on_rig(rig, policy.q[member], policy.learner, policy.observer, sc.setpoint, steps, rng,
-                          load=sc.disturbance, load_step=load_step, limits=limits)
-    return run_controller_on_rig(rig, policy.controller(member, sc.setpoint), sc.setpoint, steps, rng,
-                                 load=sc.disturbance, load_step=load_step, limits=limits)
+    return run_member(rig, policy, member, sc, cfg.run.validation_steps, rng, cfg.run.supervisor_limits)
 
 
 def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:
