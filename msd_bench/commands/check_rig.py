@@ -33,7 +33,7 @@ from msd_bench.io.storage.atomic import write_text_atomic
 from msd_bench.io.storage.paths import writable_dir
 from msd_bench.io.storage.safe_read import read_json_bounded
 from msd_bench.nodes.spin import ros_session
-from msd_msgs_py.interface import MSD, add_cli_options, from_cli
+from msd_msgs_py.interface import add_cli_options, from_cli
 
 
 class CheckRigError(MsdBenchError):
@@ -69,24 +69,26 @@ def register(subparsers: Any) -> None:
     p.add_argument("--json", type=Path, metavar="PATH",
                    help="also write the clauses, the command, commit and machine to PATH (JSON)")
     add_cli_options(p)
-    p.set_defaults(func=run)
+    # --interface unset is None, so a typed --interface wins over --rig's face even when it names the
+    # default face; apply_rig fills it from the file or from the option's own default
+    p.set_defaults(func=run, interface=None, default_interface=p.get_default("interface"))
 
 
 def apply_rig(args: argparse.Namespace) -> None:
     """Fill what the command line left unset from ``--rig`` (one line on a bad file), else the defaults.
 
-    A face option counts as unset while it holds its default (``msd``, ''): the
-    options come from msd_msgs_py, which does not record what was typed.
+    ``--interface`` is unset while None (``register``); the other face options
+    while they hold their empty defaults (the options come from msd_msgs_py).
     """
     rig = read_rig(args.rig) if getattr(args, "rig", None) is not None else None
     if args.force_limit is None:
         args.force_limit = rig.force_limit if rig is not None else PlantParams().F
     if args.dt is None:
         args.dt = rig.dt if rig is not None else DT
+    if getattr(args, "interface", None) is None:
+        args.interface = rig.interface if rig is not None else args.default_interface
     if rig is None:
         return
-    if args.interface == MSD:
-        args.interface = rig.interface
     for name in ("controller", "joint", "effort"):
         if not getattr(args, name):
             setattr(args, name, getattr(rig, name))

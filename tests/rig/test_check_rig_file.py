@@ -31,10 +31,18 @@ def test_rig_file_gives_force_limit_dt_and_face(tmp_path: Path) -> None:
     assert (args.force_limit, args.joint) == (100.0, "other")
 
 
+def test_a_typed_default_face_wins_over_the_files(tmp_path: Path) -> None:
+    rig = tmp_path / "rig.yaml"
+    rig.write_text(FAST)
+    args = _args(["/rig", "--rig", str(rig), "--interface", "msd"])
+    check_rig.apply_rig(args)
+    assert args.interface == "msd"
+
+
 def test_without_a_rig_the_defaults_are_the_plants() -> None:
     args = _args(["/rig"])
     check_rig.apply_rig(args)
-    assert (args.force_limit, args.dt) == (10.0, 0.01)
+    assert (args.force_limit, args.dt, args.interface) == (10.0, 0.01, "msd")
 
 
 @pytest.mark.parametrize(("text", "message"), [
