@@ -27,6 +27,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from msd_bench.app.efficiency import reaches  # noqa: E402
+from msd_bench.app.rig_cost import ACCOUNTING, ACCOUNTING_TEXT  # noqa: E402
 from msd_bench.core.evaluation.risk_table import RISK_HEADERS, RISK_NOTE, compact, summary_of  # noqa: E402
 from msd_bench.core.evaluation.stats import wilson  # noqa: E402
 
@@ -149,7 +150,17 @@ def view_rigs_efficiency(doc: dict[str, Any], name: str) -> str:
     rigs = eff["rigs_run"]
     head = (f"{len(rigs)} {eff['rig_set']} rigs ({rigs[0]}–{rigs[-1]}) of the {eff['family']} family × "
             f"{len(eff['learning_seeds'])} learning seeds; success judged on the {eff['judged_on']}.")
-    return "\n".join([head, "", *lines, "", *notes, "", _source(doc, name)]) + "\n"
+    return "\n".join([head, "", *lines, "", *notes, "", _efficiency_bill(eff), "",
+                      _source(doc, name)]) + "\n"
+
+
+def _efficiency_bill(eff: dict[str, Any]) -> str:
+    """What the curve's real samples count, as the JSON names it (an older JSON names none)."""
+    if eff.get("accounting") == ACCOUNTING:
+        return f"Real samples per rig: {ACCOUNTING_TEXT}."
+    return ("Real samples per rig: this JSON predates the one bill of docs/rigs.md (it names none); its "
+            "open-loop routes were charged as that bill charges them (their records, settle segments and "
+            "the rests before each), a refined route its tries and fresh run without their rests.")
 
 
 def view_json(doc: dict[str, Any], name: str) -> str:
@@ -1042,9 +1053,19 @@ def view_rigs_refine(doc: dict[str, Any], name: str) -> str:
             f"{cfg.get('refine_weight', '?')}. Every try and the fresh run behind the supervisor; the "
             "ceiling is the higher of the sweep's own ceiling rows. Round 0 is the open-loop policy's try; "
             "the true successes of the tries are shown, never read by the choice (the measured record is).")
-    lines += [*rounds, "", note,
+    lines += [*rounds, "", note, "", _refine_bill(refined),
               "", f"_Generated from `docs/results/{name}.json`._"]
     return "\n".join(lines) + "\n"
+
+
+def _refine_bill(refined: list[dict[str, Any]]) -> str:
+    """What a refined run's real samples count, as the JSON names it (an older JSON names none)."""
+    named = {k["refine"]["real_samples_per_run"].get("accounting") for k in refined}
+    if named == {ACCOUNTING}:
+        return f"Real samples per run: {ACCOUNTING_TEXT}."
+    return ("Real samples per run as this JSON counted them, before the one bill of docs/rigs.md "
+            "§Refinement: every record of the plan played on the rig (the bias records too), every try "
+            "and the fresh run, without the rests before them.")
 
 
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {

@@ -11,7 +11,7 @@ validation twins of each with other seeds.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 from msd_bench.core.identification.excitation import MultilevelConfig, PrbsConfig
 from msd_bench.core.identification.operating_points import PLM_BIASES
@@ -98,7 +98,16 @@ def real_samples(plan: list[PlannedExperiment], records: str) -> int:
     return total
 
 
-def consumed_by(e: PlannedExperiment, records: str) -> bool:
+class Roled(Protocol):
+    """What :func:`consumed_by` reads of an experiment: a planned one, or one played through a rig."""
+
+    @property
+    def role(self) -> str: ...
+    @property
+    def bias(self) -> float | None: ...
+
+
+def consumed_by(e: Roled, records: str) -> bool:
     """Whether a model kind trained on ``records`` (``broad`` or ``bias``) uses experiment ``e``:
     its training records, and the broad validation record every kind is scored on."""
     return (e.role == VALIDATION and e.bias is None) or (

@@ -7,11 +7,13 @@ reset before every experiment), every model kind identified from those records
 only, each agent made on its surrogate (the robust agent told the drive the
 broad record shows) and validated through the rig at the nominal set-point.
 
-What a point charges, per rig, is what a rig owner would spend: the kind's
-training records with their settle segments, the broad validation record every
-kind is scored on, and the samples the rig took to come to rest before each of
-those experiments (a rig without reset waits for its mass; the ideal plant's
-curve has no such cost). The x of a point is the mean over its rigs (rests
+What a point charges, per rig, is what a rig owner would spend
+(:func:`msd_bench.app.rig_cost.spent`, the bill ``msd-bench rigs --refine`` uses
+too): the kind's training records with their settle segments, the broad
+validation record every kind is scored on, a refined route's tries and fresh
+run, and the samples the rig took to come to rest before each of those (a rig
+without reset waits for its mass; the ideal plant's curve has no such cost).
+The x of a point is the mean over its rigs (rests
 differ from rig to rig; the JSON keeps the spread), its rate pools every
 (rig, learning seed) run, and its interval is the bootstrap over rigs
 (:mod:`msd_bench.core.rigs.rig_stats`: runs on one rig share its records), the
@@ -30,12 +32,11 @@ from msd_bench.app.agents import agent_kind
 from msd_bench.app.efficiency import EPISODES, RECORD_SAMPLES, settle_for, validation_samples
 from msd_bench.app.executor import task_name
 from msd_bench.app.job import agent_params
-from msd_bench.app.plan import consumed_by, paper_plan
+from msd_bench.app.rig_cost import ACCOUNTING
 from msd_bench.app.rig_refine import base_kind
 from msd_bench.app.rigs import RigsConfig, kind_label, rig_success, rig_task, validate_on_rig
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
-from msd_bench.core.identification.model_kinds import model_kind
 from msd_bench.core.rigs import population
 from msd_bench.core.rigs.rig import Rig
 from msd_bench.core.rigs.rig_stats import rate_summary
@@ -123,39 +124,23 @@ def rig_plant_point(cfg: RigEfficiencyConfig, episodes: int, kind: str, seed: in
 
 
 def rig_point(cfg: RigEfficiencyConfig, n: int, seed: int) -> dict[str, Any]:
-    """One rig at record length ``n``: each row's runs, and the real samples each row was charged (a
-    refined row: its kind's records and rests, then its tries on the rig and its fresh validation run,
-    averaged over its learning seeds)."""
+    """One rig at record length ``n``: each row's runs, and the real samples each row was charged by
+    the rig's run (a refined row: the mean of its learning seeds' bills; one whose open-loop policy
+    could not be made tried nothing, and is charged its kind's records)."""
     pcfg = cfg.at_length(n)
     part = rig_task(pcfg, seed)
-    run = pcfg.run
-    plan = paper_plan(run.id_first_seed, run.samples, run.val_samples, pcfg.settle)
-    rests = part["rests"]["before_experiments"]
-    charged: dict[str, float] = {
-        kind: _charged(plan, rests, model_kind(agent_kind(kind).surrogate).records) for kind in run.agents}
+    charged: dict[str, float] = {kind: float(bill["total"]) for kind, bill in part["charged"].items()}
     for row in pcfg.kinds():
         base = base_kind(row)
-        if base is not None:  # the open-loop bill, then the tries and the fresh run (mean over seeds)
-            extra = [o["refine"]["real_samples"]["tries"] + o["refine"]["real_samples"]["fresh_validation"]
-                     for o in part["outcomes"] if o["kind"] == row and "refine" in o]
-            charged[row] = charged[base] + (float(np.mean(extra)) if extra else 0.0)
+        if base is not None:
+            bills = [o["refine"]["real_samples"]["total"] for o in part["outcomes"]
+                     if o["kind"] == row and "refine" in o]
+            charged[row] = float(np.mean(bills)) if bills else charged[base]
     outcomes = [{k: o[k] for k in ("kind", "seed", "success", "sse", "identified") if k in o}
                 for o in part["outcomes"]]
     return {"rig": seed, "record_samples": n, "charged": charged, "outcomes": outcomes,
             "identification_failed": part["identification_failed"], "design_failed": part["design_failed"],
             "actuator": part["actuator"], "seconds": part["seconds"]["total"]}
-
-
-def _charged(plan: Sequence[Any], rests: Sequence[int], records: str) -> int:
-    """Real samples a kind trained on ``records`` used on one rig: its experiments and their rests."""
-    if len(rests) != len(plan):
-        raise ConfigError(f"{len(rests)} rests for {len(plan)} experiments")
-    total = 0
-    for e, rest in zip(plan, rests, strict=True):
-        if consumed_by(e, records):
-            settle = getattr(e.signal, "settle", 0)
-            total += int(e.signal.n_samples) + int(settle) + int(rest)
-    return total
 
 
 Parts = Mapping[str, Mapping[str, Any]]
@@ -206,7 +191,7 @@ def document(cfg: RigEfficiencyConfig, parts: Parts) -> dict[str, Any]:
         "rig_set": "design" if rigs.design else "held-out", "rigs_run": rigs.rig_seeds(),
         "learning_seeds": rigs.run.learning_seeds(0), "success_sse_percent": SUCCESS_SSE,
         "judged_on": "true position at the nominal set-point",
-        "robust_told": rigs.actuator, "refine_rounds": rigs.refine,
+        "robust_told": rigs.actuator, "refine_rounds": rigs.refine, "accounting": ACCOUNTING,
         "interval": "ci95 is the bootstrap over rigs; wilson95 treats every run as independent",
         "bootstrap": {"resamples": rigs.resamples, "seed": rigs.first_rig, "level": 0.95, "over": "rigs"},
         "methods": lines(cfg, parts),

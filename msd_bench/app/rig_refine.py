@@ -10,8 +10,10 @@ Per learning seed, as a rig owner with one agent would: try the open-loop
 policy on the rig behind the supervisor, refit, retrain (that seed only), try
 again, up to R rounds; keep the policy whose *measured* try was best; then a
 fresh supervised validation of it — the nominal run (success judged on the true
-position, as for every row) and the rig scenarios. Every real sample is
-charged in the row: the played records, each try, the fresh nominal run.
+position, as for every row) and the rig scenarios. The row is charged what the
+route played on the rig, with the rest before each (:func:`msd_bench.app.rig_cost.spent`,
+the bill the data-efficiency curve on rigs uses too): the kind's records and the
+validation record, each try, the fresh nominal run.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ import numpy as np
 from msd_bench import designs
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.job import agent_params
+from msd_bench.app.rig_cost import ACCOUNTING, spent
 from msd_bench.app.rig_scores import rig_scenario, run_member, scores
 from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError, IdentificationError
@@ -43,6 +46,7 @@ if TYPE_CHECKING:
     from msd_bench.core.identification.records import Records
     from msd_bench.core.physics.model import StepModel
     from msd_bench.core.rigs.rig import Rig
+    from msd_bench.core.rigs.rig_play import PlayedExperiment
     from msd_bench.core.safety.supervisor import Limits
     from msd_bench.designs import Drive, Policy
 
@@ -119,12 +123,13 @@ def _as_try(cfg: RigsConfig, rig: Rig, r: RigRun, name: str) -> Try:
     true = metric_row(r.x, run.target, run.plant.dt, run.window)["sse"]
     report = {"sse": true, "success": bool(true < SUCCESS_SSE), "risk": _risk(cfg, rig, r)}
     return Try(Experiment(r.effort, r.y, name=name, truth=r.x), float(seen), r.abort != 0, int(r.x.size),
-               report)
+               r.rest.samples, report)
 
 
 def refine_kind(cfg: RigsConfig, rig: Rig, rig_seed: int, kind: str, policy: Policy, records: Records,
-                told: Drive | None, open_loop_samples: int) -> list[dict[str, Any]]:
-    """Every member of ``kind``'s open-loop ``policy`` refined on the rig, then freshly validated."""
+                told: Drive | None, played: Sequence[PlayedExperiment]) -> list[dict[str, Any]]:
+    """Every member of ``kind``'s open-loop ``policy`` refined on the rig, then freshly validated
+    (``played``: the rig's plan as played, what the row is charged of it and its rests)."""
     from msd_bench.app.pipeline import identify_each
 
     run = cfg.run
@@ -149,14 +154,15 @@ def refine_kind(cfg: RigsConfig, rig: Rig, rig_seed: int, kind: str, policy: Pol
             return designs.make(kind, model, settings, [seed], told), 0
 
         got = refine((policy, j), cfg.refine, try_, refit, retrain, (ConfigError, IdentificationError))
-        rows.append(_fresh(cfg, rig, rig_seed, kind, seed, got, open_loop_samples))
+        rows.append(_fresh(cfg, rig, rig_seed, kind, seed, got, played))
     return rows
 
 
 def _fresh(cfg: RigsConfig, rig: Rig, rig_seed: int, kind: str, seed: int, got: Refined[Member],
-           open_loop_samples: int) -> dict[str, Any]:
+           played: Sequence[PlayedExperiment]) -> dict[str, Any]:
     """The kept policy's fresh validation (nominal, then every rig scenario), with its rounds and the
-    real samples charged."""
+    real samples charged (the rig scenarios are not: they describe the row, a rig owner need not run
+    them)."""
     run = cfg.run
     row_kind = f"{kind}{SUFFIX}"
     nominal = _run(cfg, rig, got.policy, Scenario(setpoint=run.target), f"rig{rig_seed}/{row_kind}/nominal")
@@ -168,15 +174,15 @@ def _fresh(cfg: RigsConfig, rig: Rig, rig_seed: int, kind: str, seed: int, got: 
         got_sc = _run(cfg, rig, got.policy, sc, f"rig{rig_seed}/{row_kind}/{sc.id}")
         row["scenarios"][sid] = scores(got_sc, sc.setpoint, run, brief=True)
     fresh = int(nominal.x.size)
+    bill = spent(played, model_kind(agent_kind(kind).surrogate).records,
+                 [*got.try_runs, (fresh, nominal.rest.samples)])
     row["refine"] = {
         "chosen_round": got.chosen,
         "rounds": [{"round": d.index, "failed": d.failed, "fit": d.fit,
                     **({"sse_measured": d.tried.sse_measured, "aborted": d.tried.aborted,
                         "samples": d.tried.samples, **d.tried.report} if d.tried is not None else {})}
                    for d in got.rounds],
-        "real_samples": {"open_loop_records": open_loop_samples, "tries": got.try_samples,
-                         "fresh_validation": fresh,
-                         "total": open_loop_samples + got.try_samples + fresh},
+        "real_samples": {**bill, "tries": got.try_samples, "fresh_validation": fresh},
     }
     return row
 
@@ -184,7 +190,8 @@ def _fresh(cfg: RigsConfig, rig: Rig, rig_seed: int, kind: str, seed: int, got: 
 def summary(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """A refined kind's rounds over its runs: per round the tries made, their true successes, supervisor
     aborts, overridden samples and stop contacts (summed); how often each round was kept; the real
-    samples a run used (charged: records, tries, the fresh run)."""
+    samples a run used (:func:`msd_bench.app.rig_cost.spent`: its records, tries and fresh run, each
+    with its rest; ``accounting`` names that bill)."""
     runs = [o["refine"] for o in rows if "refine" in o]
     most = max((len(r["rounds"]) for r in runs), default=0)
     per_round = []
@@ -201,4 +208,4 @@ def summary(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     totals = [int(r["real_samples"]["total"]) for r in runs]
     return {"runs": len(runs), "rounds": per_round,
             "real_samples_per_run": {"median": float(np.median(totals)) if totals else None,
-                                     "max": max(totals, default=None)}}
+                                     "max": max(totals, default=None), "accounting": ACCOUNTING}}

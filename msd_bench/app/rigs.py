@@ -38,6 +38,7 @@ from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.app.job import agent_params
 from msd_bench.app.plan import paper_plan
+from msd_bench.app.rig_cost import spent
 from msd_bench.app.rig_scores import rig_scenario, run_member, scores
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
@@ -46,11 +47,12 @@ from msd_bench.core.evaluation.risk_table import summarise
 from msd_bench.core.evaluation.scenarios import Scenario, noise_seed
 from msd_bench.core.identification.excitation import PrbsConfig
 from msd_bench.core.identification.identify import FitReport
+from msd_bench.core.identification.model_kinds import model_kind
 from msd_bench.core.physics.model import StepModel
 from msd_bench.core.rigs import population
 from msd_bench.core.rigs.rig import Rig
 from msd_bench.core.rigs.rig_loop import RigRun
-from msd_bench.core.rigs.rig_play import measured_actuator, play_plan, records_of
+from msd_bench.core.rigs.rig_play import PlayedExperiment, measured_actuator, play_plan, records_of
 from msd_bench.core.rigs.rig_stats import DEFAULT_RESAMPLES, rate_summary
 from msd_bench.designs import Drive, Policy, kinds
 from msd_bench.designs.kinds import split_by_model
@@ -189,13 +191,13 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
         outcomes += validate_on_rig(cfg, rig, name, ceiling, seed)
     t_refine = time.perf_counter()
     if cfg.refine:
-        charged = sum(len(p.command) for p in played)
-        outcomes += _refine_all(cfg, rig, seed, made, records, told, charged)
+        outcomes += _refine_all(cfg, rig, seed, made, records, told, played)
     done = time.perf_counter()
     return {
         "rig": seed, "design": seed not in population.HELD_OUT_RIGS, "parameters": rig_parameters(drawn),
         "rests": {"before_experiments": [p.rest.samples for p in played],
                   "not_still": sum(not p.rest.still for p in played)},
+        "charged": _bills(run.agents, played),
         "fits": {name: fits[name].as_row() for name in fits}, "identification_failed": failed,
         "design_failed": not_made,
         "actuator": {"delay_samples": drive.delay_samples, "lag_s": drive.time_constant_s,
@@ -208,8 +210,14 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
     }
 
 
+def _bills(agents: Sequence[str], played: Sequence[PlayedExperiment]) -> dict[str, dict[str, int | str]]:
+    """What each open-loop route spent on the rig (:func:`msd_bench.app.rig_cost.spent`): its kind's
+    records and the validation record, with their rests; the validation runs that score it are not."""
+    return {kind: spent(played, model_kind(agent_kind(kind).surrogate).records) for kind in agents}
+
+
 def _refine_all(cfg: RigsConfig, rig: Rig, seed: int, made: Mapping[str, Policy | None], records: Any,
-                told: Drive | None, charged: int) -> list[dict[str, Any]]:
+                told: Drive | None, played: Sequence[PlayedExperiment]) -> list[dict[str, Any]]:
     """Every refinable kind refined on the rig (one whose open-loop policy could not be made fails
     on every learning seed, as its open-loop row does)."""
     out: list[dict[str, Any]] = []
@@ -220,7 +228,7 @@ def _refine_all(cfg: RigsConfig, rig: Rig, seed: int, made: Mapping[str, Policy 
             out += [{"kind": row, "seed": s, "success": False, "identified": False}
                     for s in designs.members(kind, cfg.run.learning_seeds(0))]
             continue
-        out += rig_refine.refine_kind(cfg, rig, seed, kind, policy, records, told, charged)
+        out += rig_refine.refine_kind(cfg, rig, seed, kind, policy, records, told, played)
     return out
 
 

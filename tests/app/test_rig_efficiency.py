@@ -77,8 +77,9 @@ def test_the_refined_route_is_charged_its_tries_and_its_fresh_run(curve: dict[st
         if name.startswith("n300-"):
             charged = curve["points"][name]["charged"]
             # one round: the open-loop try, then (if the refit and retraining worked) the refined one,
-            # then the fresh validation run: 300 samples each, averaged over the learning seeds
-            assert charged["glm+robust+refined"] - charged["glm+robust"] in (600, 900)
+            # then the fresh validation run: 300 samples each, and a rest of at least 300 before each
+            extra = charged["glm+robust+refined"] - charged["glm+robust"]
+            assert 2 * (300 + 300) <= extra < 3 * 300 + 3 * 3000, extra
 
 
 def test_on_plant_learners_train_on_each_rig_and_are_charged_every_step(curve: dict[str, Any]) -> None:

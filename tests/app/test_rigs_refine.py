@@ -65,10 +65,28 @@ def test_the_ceiling_and_the_refined_rows_charge_every_real_sample(both: Both) -
         best = min(rounds, key=lambda r: r["sse_measured"])  # the kept policy: the best *measured* try
         assert ref["chosen_round"] == best["round"]
         charged = ref["real_samples"]
+        assert charged["accounting"] == "route+rests"
         assert charged["tries"] == 3 * steps and charged["fresh_validation"] == steps
-        assert charged["open_loop_records"] > 5 * 500  # the played records, settle segments included
-        assert charged["total"] == charged["open_loop_records"] + 4 * steps
+        assert charged["runs"] == 4 * steps  # three tries and the fresh run ...
+        assert charged["run_rests"] >= 4 * 300  # ... each after a rest of at least the rest window
+        # the open-loop route's own bill (its records and their rests, not the PLM's bias records), then
+        # the runs: the one accounting of the efficiency curve too
+        own = more["charged"]["greybox+robust"]
+        assert (charged["records"], charged["record_rests"]) == (own["records"], own["record_rests"])
+        assert charged["total"] == own["total"] + charged["runs"] + charged["run_rests"]
         assert o["risk"]["override_share"] >= 0 and set(o["scenarios"]) == {"setpoint=-0.5"}
+
+
+def test_a_route_is_charged_its_own_records_and_the_rests_before_them(both: Both) -> None:
+    plain, _, _ = both
+    grey, plm = plain["charged"]["greybox+robust"], plain["charged"]["plm"]
+    assert grey["records"] == 500 + 400  # the broad record and the broad validation record, no settle
+    rests = plain["rests"]["before_experiments"]
+    assert grey["record_rests"] == rests[5] + rests[11] and min(rests) >= 300  # plan: 5 bias, broad, twice
+    # the PLM: its five bias records (settle segments included) and the same validation record
+    assert plm["records"] == 5 * (500 + 1000) + 400 and plm["record_rests"] == sum(rests[:5]) + rests[11]
+    assert grey["total"] == grey["records"] + grey["record_rests"]
+    assert plain["charged"].keys() == {"plm", "greybox+robust"}
 
 
 def test_the_summary_counts_each_round(both: Both) -> None:

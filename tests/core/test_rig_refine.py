@@ -15,7 +15,7 @@ from msd_bench.core.rigs.refine import Try, choose, refine
 
 
 def _try(sse: float, aborted: bool = False, name: str = "t") -> Try:
-    return Try(Experiment(np.ones(5), np.zeros(5), name=name), sse, aborted, 5)
+    return Try(Experiment(np.ones(5), np.zeros(5), name=name), sse, aborted, 5, rest=300 + len(name))
 
 
 def test_the_choice_reads_the_measured_try_and_prefers_a_run_that_was_not_aborted() -> None:
@@ -55,6 +55,7 @@ def test_each_refit_sees_every_try_so_far_and_a_worse_round_is_not_kept() -> Non
     assert rig.fitted_on == [["try0"], ["try0", "try1"]]
     assert got.policy == 1 and got.chosen == 1
     assert [r.index for r in got.rounds] == [0, 1, 2] and got.try_samples == 15
+    assert got.try_runs == [(5, 304)] * 3  # each try with the rest before it: what the bill charges
     assert got.rounds[2].fit == {"fit": 2}
 
 

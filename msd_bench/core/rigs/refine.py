@@ -61,7 +61,9 @@ class Try:
     aborted: bool
     """The supervisor stopped the run."""
     samples: int
-    """Real samples the try took (charged)."""
+    """Real samples the try played (charged)."""
+    rest: int = 0
+    """Zero-force samples the rig took to come to rest before the try (charged too: no reset)."""
     report: dict[str, Any] = field(default_factory=dict)
     """What the report shows of it (risk, overrides, the true SSE): never read by the choice."""
 
@@ -92,8 +94,13 @@ class Refined(Generic[P]):
 
     @property
     def try_samples(self) -> int:
-        """Real samples of every try (charged, whatever was kept)."""
+        """Real samples every try played (charged, whatever was kept)."""
         return sum(r.tried.samples for r in self.rounds if r.tried is not None)
+
+    @property
+    def try_runs(self) -> list[tuple[int, int]]:
+        """Each try's (samples played, rest before it): what the bill of a refined route charges."""
+        return [(r.tried.samples, r.tried.rest) for r in self.rounds if r.tried is not None]
 
 
 def choose(tries: Sequence[Try | None]) -> int:
