@@ -16,12 +16,14 @@ from typing import Any
 from msd_bench.app.identification import IdentifyJob, failure_lines, identify_and_write, written
 from msd_bench.app.job import shared
 from msd_bench.core.errors import ConfigError, IdentificationError
+from msd_bench.core.identification.data import Experiment
 from msd_bench.core.identification.model_kinds import (
     MODEL_KINDS,
     check_models,
     model_kind,
     needs_bias_records,
 )
+from msd_bench.core.identification.records import Records
 from msd_bench.io.bags.bag_interface import FORCE_INPUTS, ForceSource
 from msd_bench.io.bags.bag_records import (
     BagRole,
@@ -32,7 +34,9 @@ from msd_bench.io.bags.bag_records import (
     roles_from_dir,
     stamp_interval,
 )
+from msd_bench.io.bags.bag_timing import IDENTIFY
 from msd_bench.io.bags.drive_file import broad_drive, write_drive
+from msd_bench.io.bags.reader import read_experiment
 from msd_bench.io.storage import artifacts
 from msd_bench.io.storage.atomic import write_text_atomic
 from msd_bench.io.storage.paths import writable_dir
@@ -107,14 +111,7 @@ def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERF
     """
     sources = [] if sources is None else sources
     out = writable_dir(cfg.out_dir, "out_dir")  # before the fit: a read-only disk fails at once
-    explicit = [] if cfg.bags_dir else explicit_roles(cfg.bias_bags, cfg.broad_bag, cfg.validation_bag,
-                                                      cfg.settle_samples)
-    if cfg.dt == FROM_STAMPS:  # the median stamp interval, then checked on every bag as if given
-        paths = bag_dirs(Path(cfg.bags_dir)) if cfg.bags_dir else [r.path for r in explicit]
-        cfg = replace(cfg, dt=stamp_interval(paths, cfg.namespace))
-    roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace, cfg.dt) if cfg.bags_dir else explicit
-    records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace, cfg.dt, iface=iface,
-                           force_limit=cfg.force, sources=sources, force_input=cfg.force_input)
+    cfg, roles, records = bag_records(cfg, iface, sources)
     written(lambda: write_drive(out, broad_drive(roles, sources)), out)  # before any model: see drive_file
     parameters = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()}
     parameters["interface"] = iface.as_dict()
@@ -127,6 +124,30 @@ def identify_from_bags(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERF
         raise IdentificationError("; ".join(failure_lines(done.failed, lambda n: _records_of(n, roles)))
                                   + f" (the other kinds are written under {out})")
     return done.fits
+
+
+def bag_records(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERFACE,
+                sources: list[ForceSource] | None = None) -> tuple[IdentifierConfig, list[BagRole], Records]:
+    """The records of ``cfg``'s bags, as the identifier reads them (played cut, timing checked), with
+    the configuration (its ``dt`` found from the stamps if not given) and each bag's role: what
+    :func:`identify_from_bags` fits, and what ``bench.py --refine`` joins its closed-loop tries to."""
+    explicit = [] if cfg.bags_dir else explicit_roles(cfg.bias_bags, cfg.broad_bag, cfg.validation_bag,
+                                                      cfg.settle_samples)
+    if cfg.dt == FROM_STAMPS:  # the median stamp interval, then checked on every bag as if given
+        paths = bag_dirs(Path(cfg.bags_dir)) if cfg.bags_dir else [r.path for r in explicit]
+        cfg = replace(cfg, dt=stamp_interval(paths, cfg.namespace))
+    roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace, cfg.dt) if cfg.bags_dir else explicit
+    records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace, cfg.dt, iface=iface,
+                           force_limit=cfg.force, sources=sources, force_input=cfg.force_input)
+    return cfg, list(roles), records
+
+
+def closed_loop_record(path: Path, namespace: str, dt: float, name: str) -> Experiment:
+    """A closed-loop run's bag as a record a refit can join: the force the node reported applied (its
+    ``joint_states`` effort) and the position it measured, stamps checked as an identification
+    record's (an agent writes its validation runs so: ``nodes/agent_node.py``)."""
+    exp, _ = read_experiment(path, namespace, timing=replace(IDENTIFY, dt=dt))
+    return Experiment(exp.u, exp.y, name=name)
 
 
 def _records_of(model: str, roles: Sequence[BagRole]) -> str:
@@ -144,4 +165,4 @@ def _write_inputs(out: Path, iface: PlantInterface, sources: list[ForceSource]) 
                              root=out)
 
 
-__all__ = ["FROM_STAMPS", "IdentifierConfig", "identify_from_bags"]
+__all__ = ["FROM_STAMPS", "IdentifierConfig", "bag_records", "closed_loop_record", "identify_from_bags"]

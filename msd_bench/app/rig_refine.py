@@ -105,6 +105,21 @@ def with_closed_loop(records: Records, tries: Sequence[Experiment], weight: int)
                                                 "closed_loop_weight": weight}))
 
 
+def refit(records: Records, tries: Sequence[Experiment], weight: int, surrogate: str,
+          run: RunConfig) -> tuple[StepModel, dict[str, Any]]:
+    """Model ``surrogate`` fitted by its registered fitter from the open-loop ``records`` plus the
+    closed-loop ``tries`` (each ``weight`` times), and its fit on the open-loop validation record; an
+    IdentificationError naming the kind when it cannot be. The one refit of ``rigs --refine`` and of
+    ``bench.py --refine`` (which reads ``records`` and the tries from bags)."""
+    from msd_bench.app.pipeline import identify_each
+
+    data = with_closed_loop(records, tries, weight)
+    models, fits, failed = identify_each(data, [surrogate], run.id_first_seed, run.plant, run.nlarx_scale)
+    if surrogate in failed:
+        raise IdentificationError(f"refit of {surrogate}: {failed[surrogate]}")
+    return models[surrogate], fits[surrogate].as_row()
+
+
 def _run(cfg: RigsConfig, rig: Rig, member: Member, sc: Scenario, stream: str) -> RigRun:
     """One supervised run of a member on the rig under ``sc`` (noise stream named by ``stream``)."""
     policy, j = member
@@ -130,8 +145,6 @@ def refine_kind(cfg: RigsConfig, rig: Rig, rig_seed: int, kind: str, policy: Pol
                 told: Drive | None, played: Sequence[PlayedExperiment]) -> list[dict[str, Any]]:
     """Every member of ``kind``'s open-loop ``policy`` refined on the rig, then freshly validated
     (``played``: the rig's plan as played, what the row is charged of it and its rests)."""
-    from msd_bench.app.pipeline import identify_each
-
     run = cfg.run
     surrogate = agent_kind(kind).surrogate
     settings = settings_from(agent_params(run))
@@ -142,18 +155,13 @@ def refine_kind(cfg: RigsConfig, rig: Rig, rig_seed: int, kind: str, policy: Pol
             return _as_try(cfg, rig, _run(cfg, rig, member, Scenario(setpoint=run.target), stream),
                            f"closed-loop try {r}, seed {seed}")
 
-        def refit(tries: Sequence[Experiment]) -> tuple[StepModel, dict[str, Any]]:
-            data = with_closed_loop(records, tries, cfg.refine_weight)
-            models, fits, failed = identify_each(data, [surrogate], run.id_first_seed, run.plant,
-                                                 run.nlarx_scale)
-            if surrogate in failed:
-                raise IdentificationError(f"refit of {surrogate}: {failed[surrogate]}")
-            return models[surrogate], fits[surrogate].as_row()
+        def refit_(tries: Sequence[Experiment]) -> tuple[StepModel, dict[str, Any]]:
+            return refit(records, tries, cfg.refine_weight, surrogate, run)
 
         def retrain(model: StepModel, seed: int = seed) -> Member:
             return designs.make(kind, model, settings, [seed], told), 0
 
-        got = refine((policy, j), cfg.refine, try_, refit, retrain, (ConfigError, IdentificationError))
+        got = refine((policy, j), cfg.refine, try_, refit_, retrain, (ConfigError, IdentificationError))
         rows.append(_fresh(cfg, rig, rig_seed, kind, seed, got, played))
     return rows
 

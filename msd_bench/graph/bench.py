@@ -42,6 +42,7 @@ from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.identification.model_kinds import needs_bias_records
 from msd_bench.designs import kinds
 from msd_bench.graph import live
+from msd_bench.graph import refine as refine_stage
 from msd_bench.graph.jobs import JOBS_DIR, Job, JobFiles, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, NodeProcess, ProcessSet
 from msd_bench.graph.record import ExperimentSpec, RecordServers, paper_plan, record_experiments
@@ -94,6 +95,11 @@ class BenchConfig:
     (``--live-wait``), so a short emulated run is not over before Foxglove has connected."""
     supervision: Supervision = field(default_factory=Supervision)
     """Which stages run behind the safety supervisor, with which options (docs/supervisor.md)."""
+    refine: int = 0
+    """``--refine R``: after the agents stage, each refinable kind refined on the node, up to R rounds
+    (:mod:`msd_bench.graph.refine`; 0: none)."""
+    refine_weight: int = 1
+    """``--refine-weight``: how many times each closed-loop record counts in a refit."""
     rig: dict[str, object] | None = None
     """With ``--rig FILE``: the rate, stroke, force limit and face the run ran with (run.json)."""
     timings: dict[str, float] = field(default_factory=dict, compare=False)
@@ -106,6 +112,7 @@ class BenchConfig:
         if self.run.id_seeds != 1:
             raise ConfigError("bench.py records one identification seed; use msd-bench paper for --id-seeds")
         check_supervision(self)
+        refine_stage.check(self.refine, self.refine_weight, self.plant_ns, self.run.agents, self.stages)
         if self.plant_ns is None:
             if self.node_scenarios or self.scenario_kinds:
                 raise ConfigError("--node-scenarios and --scenario-kinds need --plant-ns")
@@ -450,7 +457,8 @@ def write_run_facts(cfg: BenchConfig, extra: dict[str, Any]) -> Path:
     return write_text_atomic(path, json.dumps(doc, indent=1, default=str) + "\n", root=cfg.run_dir)
 
 
-BENCH_ENTRIES = frozenset({"excitation", "models", "agents", "report", "run.json", JOBS_DIR})
+BENCH_ENTRIES = frozenset({"excitation", "models", "agents", refine_stage.DIR, "report", "run.json",
+                           JOBS_DIR})
 """What bench.py writes at the top of its --out: nothing else may be there."""
 
 

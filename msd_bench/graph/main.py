@@ -93,6 +93,13 @@ def parse(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--live-wait", type=float, default=0.0, metavar="SECONDS",
                    help="with --live: before the first stage, wait up to SECONDS for a viewer to "
                         "subscribe to the plant's rows (an emulated run can end in seconds)")
+    p.add_argument("--refine", type=int, default=0, metavar="R",
+                   help="with --plant-ns: after the agents, refine each kind whose model is fitted from the "
+                        "broad record on the node: try, refit from the open-loop and closed-loop bags, "
+                        "retrain, try again, up to R rounds; keep the best measured try, validate it afresh "
+                        "(report/refine.md; docs/rigs.md §Refinement in real time)")
+    p.add_argument("--refine-weight", type=int, default=1, metavar="W",
+                   help="with --refine: how many times each closed-loop record counts in a refit")
     add_cli_options(p)
     add_rig_option(p)
     supervise_options(p)
@@ -168,7 +175,8 @@ def config(args: argparse.Namespace) -> BenchConfig:
         via_ros=args.via_ros, bags=args.bags.absolute() if args.bags else None,
         stages=stages or tuple(args.stages.split(",")), interface=from_cli(args), live_port=args.live,
         live_wait_s=live_wait(args),
-        supervision=supervision(args), rig=None if rig is None else rig.facts(), **extra)
+        supervision=supervision(args), rig=None if rig is None else rig.facts(), refine=args.refine,
+        refine_weight=args.refine_weight, **extra)
 
 
 REPORT_MODULE = "msd_bench.graph.bench_report"
@@ -266,6 +274,22 @@ def run_graph_stages(cfg: BenchConfig) -> None:
                 timed(cfg, "agents", lambda: stage_agents(cfg, procs, say, agents_bar, agent_server, early))
         if guard is not None:
             say(supervise.report_line(timed(cfg, "supervisor_record", guard.finish))["line"])
+        if cfg.refine and "agents" in cfg.stages:
+            run_refine(cfg, procs)
+
+
+def run_refine(cfg: BenchConfig, procs: ProcessSet) -> None:
+    """The refinement stage (``--refine R``), after the agents and their supervisor's record."""
+    from msd_bench.graph.bench import agent_placement, job_args, unmade_agents
+    from msd_bench.graph.refine import stage_refine
+
+    say(f"refining on {cfg.namespace}: up to {cfg.refine} round(s) per kind and seed")
+    def args(name: str, doc: dict[str, Any]) -> list[str]:
+        return [*job_args(cfg, name, doc), *supervise.agent_remaps(cfg)]
+
+    unmade = list(unmade_agents(cfg))
+    timed(cfg, "refine", lambda: stage_refine(cfg, procs, say, lambda kind: agent_placement(cfg, kind), args,
+                                              unmade))
 
 
 def identifies(cfg: BenchConfig) -> bool:
@@ -342,6 +366,9 @@ def run(cfg: BenchConfig) -> int:
     if cfg.plant_ns is not None:
         facts.update(plant_ns_facts(cfg))
     facts["supervisor"] = supervise.report_facts(cfg)
+    refined = refine_facts(cfg)
+    if refined is not None:
+        facts["refine"] = refined
     if "report" in cfg.stages:
         from msd_bench.graph.bench_report import write_bench_report  # prewarmed during the agents stage
 
@@ -349,9 +376,27 @@ def run(cfg: BenchConfig) -> int:
         print(paths["table"]["md"].read_text())
         print(paths["robustness"]["md"].read_text())
         say(f"report: {paths['table']['md'].parent}")
-    write_run_facts(cfg, {"ros_domain_id": int(os.environ["ROS_DOMAIN_ID"])})
+    if refined is not None:
+        print((cfg.run_dir / "report" / "refine.md").read_text())
+    write_run_facts(cfg, {"ros_domain_id": int(os.environ["ROS_DOMAIN_ID"]),
+                          **({"refine": refined} if refined is not None else {})})
     say("stage seconds: " + ", ".join(f"{k} {v:.1f}" for k, v in cfg.timings.items()))
     return 0
+
+
+def refine_facts(cfg: BenchConfig) -> dict[str, Any] | None:
+    """The refinement stage's summary per kind and round (``refine/refine.json``), None without one."""
+    from msd_bench.graph.refine import DIR, RESULT
+
+    path = cfg.run_dir / DIR / RESULT
+    if not path.is_file():
+        return None
+    from msd_bench.graph.run_files import read_json_object
+
+    doc = read_json_object(path)
+    return {"rounds": doc.get("rounds"), "refine_weight": doc.get("refine_weight"),
+            "summary": doc.get("summary"),
+            "chosen": {k: [r.get("chosen_round") for r in rows] for k, rows in doc.get("kinds", {}).items()}}
 
 
 def use_domain(args: argparse.Namespace) -> IO[str] | None:
