@@ -16,6 +16,10 @@ the run directory, so a run can be resumed or re-reported):
              (:func:`start_model_free`);
 ``report``   Table 1 (Markdown, CSV, JSON) and the figures under ``report/``.
 
+With ``--refine R`` (and ``plant_ns``) the agents are then refined on the node
+after the agents stage, before the report (:mod:`msd_bench.graph.refine`:
+``refine/``, ``report/refine.md``).
+
 With ``plant_ns`` (``--plant-ns NS``) no emulator is started: every stage runs
 against whatever node serves NS, in real time, without ``reset`` (zero force
 until still before each experiment and episode), and only with the kinds and

@@ -376,8 +376,9 @@ def run(cfg: BenchConfig) -> int:
         print(paths["table"]["md"].read_text())
         print(paths["robustness"]["md"].read_text())
         say(f"report: {paths['table']['md'].parent}")
-    if refined is not None:
-        print((cfg.run_dir / "report" / "refine.md").read_text())
+    table = cfg.run_dir / "report" / "refine.md"
+    if refined is not None and table.is_file():
+        print(table.read_text())
     write_run_facts(cfg, {"ros_domain_id": int(os.environ["ROS_DOMAIN_ID"]),
                           **({"refine": refined} if refined is not None else {})})
     say("stage seconds: " + ", ".join(f"{k} {v:.1f}" for k, v in cfg.timings.items()))
