@@ -144,15 +144,11 @@ class QPolicy:
     """The model trained on (a ``model`` observer predicts with it); None: the learner never reads it."""
 
     def rollout(self, plant: Kernel, cond: Conditions, noise: FloatArray) -> tuple[FloatArray, FloatArray]:
-        from msd_bench.core.evaluation.closed_loop import greedy_under, nominal
-        from msd_bench.core.learning.q_kernels import greedy_batch
+        from msd_bench.core.evaluation.closed_loop import greedy_under
         from msd_bench.core.learning.qconfig import packed
 
-        lr = packed(self.learner)
-        if cond == nominal(cond.target) and not noise.any() and not lr.observed:
-            return greedy_batch(plant, lr, self.q, float(cond.target), int(noise.shape[1]))
         obs = self.observer.kernel if self.observer is not None else plant
-        return greedy_under(plant, lr, self.q, cond, noise, obs)
+        return greedy_under(plant, packed(self.learner), self.q, cond, noise, obs)
 
     def controller(self, member: int, target: float) -> Controller:
         return GreedyController(self.learner, self.q[member], target, self.observer)

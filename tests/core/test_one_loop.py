@@ -64,7 +64,6 @@ EXCEPTIONS: dict[str, str] = {
     "msd_bench/core/learning/q_kernels.py::q_episode": FIT + " (Q-learning episode on a model)",
     "msd_bench/core/learning/q_kernels.py::learn_one": TODO + " (learning against the plant under test)",
     "msd_bench/core/learning/q_kernels.py::learn_observed": TODO + " (learning against the plant under test)",
-    "msd_bench/core/learning/q_kernels.py::greedy_batch": TODO,
     # closed loops still written per controller
     "msd_bench/core/baselines/pid.py::rollout_under": TODO,
     "msd_bench/core/baselines/lqr.py::rollout_under": TODO,

@@ -487,25 +487,3 @@ def train_batch(model: Kernel, lr: Learner, budget: Budget,
         else:
             learn_one(model, lr, budget, q[i], snaps[i], returns[i], counts[i], state, i)
     return q, snaps, returns, counts
-
-
-@numba.njit(cache=True)
-def greedy_batch(model: Kernel, lr: Learner, q: FloatArray, target: float,
-                 n_steps: int) -> tuple[FloatArray, FloatArray]:
-    """Fixed-table greedy closed loop from rest for each table ``q[j]``; returns (x, u)."""
-    n = q.shape[0]
-    xs = np.empty((n, n_steps))
-    us = np.empty((n, n_steps))
-    plant = np.zeros(kernels.RIG_STATE_SIZE)
-    for j in range(n):
-        plant[:] = 0.0
-        x = 0.0
-        s = encode(lr.enc, x - target, 0.0, target)
-        for k in range(n_steps):
-            u = lr.actions[greedy(q[j], s)]
-            xs[j, k] = x
-            us[j, k] = u
-            x_new = kernels.advance(model, plant, u)
-            s = encode(lr.enc, x_new - target, x_new - x, target)
-            x = x_new
-    return xs, us

@@ -128,12 +128,11 @@ def greedy_rollouts(model: StepModel, q_tables: FloatArray, cfg: QConfig, target
         raise InvalidInputError(f"target must be finite, got {target}")
     if n_steps < 1:
         raise InvalidInputError(f"n_steps must be >= 1, got {n_steps}")
-    if lr.observed:  # through its observer: the nominal scenario of the closed-loop kernel
-        from msd_bench.core.evaluation.closed_loop import greedy_under, nominal
+    from msd_bench.core.evaluation.closed_loop import greedy_under, nominal
 
-        obs = (observer or model).kernel
-        return greedy_under(model.kernel, lr, q, nominal(target), np.zeros((q.shape[0], int(n_steps))), obs)
-    return qlearning.greedy_batch(model.kernel, lr, q, float(target), int(n_steps))
+    # the nominal scenario of the one closed loop (an unobserved learner reads the true position)
+    obs = (observer or model).kernel
+    return greedy_under(model.kernel, lr, q, nominal(target), np.zeros((q.shape[0], int(n_steps))), obs)
 
 
 def greedy_rollout(model: StepModel, q: FloatArray, cfg: QConfig, target: float = 1.0,
