@@ -92,7 +92,7 @@ def test_each_design_succeeds_nominally_at_one_metre_on_the_plant(built, kind):
 def test_mpc_holds_setpoints_whose_force_is_not_in_the_alphabet(setpoint):
     """Without integral action on the reference this search settles 7.8 % and 8.7 % off (pinned PLM)."""
     d = mpc.design(_model("plm"), setpoint, P.F, P.dt)
-    xs, _ = mpc.rollout_under(PLANT, d.law, d.observer, nominal(setpoint), np.zeros((1, 3000)))
+    xs, _ = mpc.rollout(PLANT, d, nominal(setpoint), np.zeros((1, 3000)))
     assert compute(xs[0], setpoint, P.dt).sse < SUCCESS_SSE
 
 

@@ -114,19 +114,28 @@ def test_a_rig_without_imperfections_validates_as_the_nominal_loop():
     assert not population.measurement_noise(spec, [1, 2], 10).any()
 
 
-def test_the_baselines_plant_half_is_the_rig_transition_too():
-    from msd_bench.core.baselines.base import plant_side
-    from msd_bench.core.evaluation.closed_loop import actuator_state
+def test_a_baselines_rollout_runs_the_rig_transition_too() -> None:
+    """The one closed loop with a PID's decision is the rig node's run of the PID, sample for sample."""
+    from pathlib import Path
+
+    from msd_bench.core.baselines import designs
+    from msd_bench.io.storage.artifacts import load_model
 
     spec = draw(1002)
     imp = replace(spec.imperfections, delay_samples=2, actuator_tau=0.03, friction=0.25,
                   sensor_noise=0.0, sensor_quant=0.0)
     spec = replace(spec, imperfections=imp)
+    glm = load_model(Path(__file__).resolve().parents[1] / "data" / "pinned" / "glm.json")
+    d = designs.make("pid", glm, 1.0, spec.params.F, spec.params.dt)
     cond = population.conditions(spec, 1.0)
-    kernel = plant_model(spec.params).kernel
-    state, act = np.zeros(4), actuator_state(imp.delay_samples)
-    u = np.where(np.arange(400) % 90 < 40, 6.0, -3.0)
-    xs = [plant_side(kernel, state, act, k, float(uk), cond) for k, uk in enumerate(u)]
-    rig = Rig(spec.params, imp)
-    assert np.array_equal(xs, [rig.step(uk).measured_next for uk in u])
+    xs, us = designs.entry("pid").rollout(plant_model(spec.params).kernel, d, cond, np.zeros((1, 400)))
+    rig, ctl = Rig(spec.params, imp), designs.entry("pid").controller(d)
+    ctl.reset()
+    y, seen = 0.0, []
+    for _ in range(400):
+        u = ctl.act(y)
+        row = rig.step(u)
+        seen.append((row.x, u))
+        y = row.measured_next
+    assert np.array_equal(xs[0], [x for x, _ in seen]) and np.array_equal(us[0], [u for _, u in seen])
     assert np.ptp(xs) > 0.05

@@ -1,8 +1,9 @@
 """A design that exists only in the tests: a proportional relay on the five forces.
 
 It is registered at run time (:func:`msd_bench.designs.register`) and must then
-run in both engines with no other edit (issue 22). Its rollout is plain Python
-over the compiled plant side, so it shares no code with any built-in design.
+run in both engines with no other edit (issue 22). Its controller is plain Python,
+so it shares no code with any built-in design; its rollout is the one closed
+loop's stepwise shape (a Python design supplies only its decision).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from msd_bench.core.baselines import base
-from msd_bench.core.evaluation.closed_loop import Conditions, quantise
+from msd_bench.core.evaluation.closed_loop import Conditions, stepwise
 from msd_bench.designs.protocol import Facts, KindSpec, Request, Settings
 from msd_bench.designs.registry import plus_kinds
 from msd_bench.io.storage import artifacts
@@ -49,16 +50,8 @@ class RelayPolicy:
         return RelayController(target, self.hold, base.alphabet(self.force))
 
     def rollout(self, plant: Any, cond: Conditions, noise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        n, steps = noise.shape
-        xs, us = np.empty((n, steps)), np.empty((n, steps))
-        for j in range(n):
-            ctl = self.controller(0, cond.target)
-            state, queue, x = np.zeros(4), np.zeros(cond.delay + 2), 0.0  # the actuator: delay, then lag
-            for k in range(steps):
-                u = ctl.act(quantise(x + noise[j, k], cond.quant))
-                xs[j, k], us[j, k] = x, u
-                x = base.plant_side(plant, state, queue, k, u, cond)
-        return xs, us
+        runs = [stepwise(self.controller(0, cond.target), plant, cond, row) for row in noise]
+        return np.concatenate([t.x for t in runs]), np.concatenate([t.command for t in runs])
 
     def save(self, directory: Path, provenance: dict[str, Any], root: Path, overwrite: bool) -> list[Path]:
         doc = artifacts.policy_doc(self.kind, self.facts, self.members, provenance, {},

@@ -1,4 +1,4 @@
-"""What the three baseline designs share: the operating point, the observer, the loop's plant side.
+"""What the three baseline designs share: the operating point, the observer, the alphabet.
 
 Why one module: every design starts from the same question — which force holds
 the identified model at the set-point, and how does the model respond to small
@@ -15,9 +15,9 @@ its own rule.
   is designed with python-control's ``dlqe`` on the linearisation augmented
   with a constant input force, so an unknown load or a wrong equilibrium force
   leaves no bias in the estimate.
-* :func:`plant_side` is the compiled loop's plant half, with exactly the
-  semantics of :func:`msd_bench.core.evaluation.closed_loop.greedy_under` (delay queue,
-  load from ``load_step``, friction on the plant kind).
+
+The closed loop itself is not here: each design registers its decision with
+:func:`msd_bench.core.evaluation.closed_loop.decision` and runs in the one loop.
 """
 
 from __future__ import annotations
@@ -32,7 +32,6 @@ from numpy.typing import NDArray
 from scipy.optimize import brentq
 
 from msd_bench.core.errors import ConfigError, InvalidInputError
-from msd_bench.core.evaluation.closed_loop import Conditions, _advance, actuate
 from msd_bench.core.learning.qconfig import QConfig
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.kernels import KIND_GREYBOX_RIG, MOTION, POS, Kernel
@@ -275,18 +274,3 @@ def nearest(forces: FloatArray, u: float) -> float:
         if abs(f - u) < abs(best - u):
             best = f
     return best
-
-
-@numba.njit(cache=True)
-def plant_side(plant: Kernel, state: FloatArray, queue: FloatArray, k: int, u: float,
-               cond: Conditions) -> float:
-    """Command ``u`` issued at sample ``k``; the plant advances under the one issued ``delay`` ago.
-
-    Exactly :func:`closed_loop.greedy_under`'s plant half: the rig's actuator
-    (``queue`` is its state, ``delay + 2`` long: :func:`closed_loop.actuator_state`;
-    the delay, then the lag), a load from ``load_step`` on, friction on the plant kind.
-    """
-    applied = actuate(queue, k, u, cond.delay, cond.lag)
-    load = cond.load if k >= cond.load_step else 0.0
-    x: float = _advance(plant, state, applied, load, cond.friction)
-    return x

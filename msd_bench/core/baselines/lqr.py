@@ -35,8 +35,8 @@ from numpy.typing import NDArray
 from msd_bench.core.baselines import base
 from msd_bench.core.baselines.base import Observer, ObserverNoise
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.evaluation.closed_loop import Conditions, quantise
-from msd_bench.core.physics import kernels
+from msd_bench.core.evaluation import closed_loop
+from msd_bench.core.evaluation.closed_loop import Conditions
 from msd_bench.core.physics.kernels import POS, Kernel
 from msd_bench.core.physics.model import StepModel
 
@@ -166,30 +166,24 @@ def act(w: LqrLaw, ob: Observer, ost: FloatArray, cs: FloatArray, y: float, firs
     return u
 
 
+class LqrRun(NamedTuple):
+    """The LQR as the one closed loop (:func:`closed_loop.run`) reads it: law, observer, their memory."""
+
+    law: LqrLaw
+    """The state feedback."""
+    observer: Observer
+    """The observer the law reads."""
+    ost: FloatArray
+    """The observer's state (:func:`base.observer_state`)."""
+    memory: FloatArray
+    """[integral, last command]."""
+
+
+@closed_loop.decision(LqrRun)
 @numba.njit(cache=True)
-def rollout_under(plant: Kernel, w: LqrLaw, ob: Observer, cond: Conditions,
-                  noise: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Each run from rest under ``cond`` (greedy_under's semantics); (true x, commanded u)."""
-    n, n_steps = noise.shape
-    xs = np.empty((n, n_steps))
-    us = np.empty((n, n_steps))
-    state = np.zeros(kernels.state_size(plant.kind))
-    ost = base.observer_state(ob)
-    cs = np.zeros(2)
-    queue = np.zeros(cond.delay + 2)  # the actuator's state (closed_loop.actuator_state)
-    for j in range(n):
-        state[:] = 0.0
-        queue[:] = 0.0
-        x = 0.0
-        y = quantise(x + noise[j, 0], cond.quant)
-        for k in range(n_steps):
-            u = act(w, ob, ost, cs, y, k == 0)
-            xs[j, k] = x
-            us[j, k] = u
-            x = base.plant_side(plant, state, queue, k, u, cond)
-            if k + 1 < n_steps:
-                y = quantise(x + noise[j, k + 1], cond.quant)
-    return xs, us
+def decide(c: LqrRun, j: int, k: int, y: float, target: float) -> float:
+    """The LQR's force for ``y`` (its set-point is the one it was designed at; the first sample resets it)."""
+    return act(c.law, c.observer, c.ost, c.memory, y, k == 0)
 
 
 class Lqr:
@@ -220,5 +214,7 @@ Stepwise = Lqr
 
 def rollout(plant: Kernel, d: LqrDesign, cond: Conditions,
             noise: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """The baseline face: :func:`rollout_under` with the design's law and observer."""
-    return rollout_under(plant, d.law, d.observer, cond, noise)
+    """The baseline face: every row of ``noise`` one run from rest in the one closed loop; (true x, u)."""
+    c = LqrRun(d.law, d.observer, base.observer_state(d.observer), np.zeros(2))
+    t = closed_loop.run(plant, c, cond, noise, closed_loop.AT_REST, closed_loop.NO_LIMITS, False, False, 0)
+    return t.x, t.command

@@ -47,8 +47,8 @@ from scipy.optimize import brentq
 
 from msd_bench.core.baselines import base
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.evaluation.closed_loop import Conditions, quantise
-from msd_bench.core.physics import kernels
+from msd_bench.core.evaluation import closed_loop
+from msd_bench.core.evaluation.closed_loop import Conditions
 from msd_bench.core.physics.kernels import Kernel
 from msd_bench.core.physics.model import StepModel
 
@@ -213,29 +213,20 @@ def act(g: PidGains, cs: FloatArray, y: float, first: bool) -> float:
     return u
 
 
+class PidRun(NamedTuple):
+    """The PID as the one closed loop (:func:`closed_loop.run`) reads it: its gains and its memory."""
+
+    gains: PidGains
+    """The compiled controller."""
+    memory: FloatArray
+    """[integral, filtered derivative, last measurement] (:func:`controller_state`)."""
+
+
+@closed_loop.decision(PidRun)
 @numba.njit(cache=True)
-def rollout_under(plant: Kernel, g: PidGains, cond: Conditions,
-                  noise: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Each run from rest under ``cond`` (greedy_under's semantics); (true x, commanded u)."""
-    n, n_steps = noise.shape
-    xs = np.empty((n, n_steps))
-    us = np.empty((n, n_steps))
-    state = np.zeros(kernels.state_size(plant.kind))
-    cs = np.zeros(3)
-    queue = np.zeros(cond.delay + 2)  # the actuator's state (closed_loop.actuator_state)
-    for j in range(n):
-        state[:] = 0.0
-        queue[:] = 0.0
-        x = 0.0
-        y = quantise(x + noise[j, 0], cond.quant)
-        for k in range(n_steps):
-            u = act(g, cs, y, k == 0)
-            xs[j, k] = x
-            us[j, k] = u
-            x = base.plant_side(plant, state, queue, k, u, cond)
-            if k + 1 < n_steps:
-                y = quantise(x + noise[j, k + 1], cond.quant)
-    return xs, us
+def decide(c: PidRun, j: int, k: int, y: float, target: float) -> float:
+    """The PID's force for ``y`` (its set-point is the one it was tuned at; the first sample resets it)."""
+    return act(c.gains, c.memory, y, k == 0)
 
 
 class Pid:
@@ -266,5 +257,7 @@ Stepwise = Pid
 
 def rollout(plant: Kernel, d: PidDesign, cond: Conditions,
             noise: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """The baseline face: :func:`rollout_under` with the design's gains."""
-    return rollout_under(plant, d.gains, cond, noise)
+    """The baseline face: every row of ``noise`` one run from rest in the one closed loop; (true x, u)."""
+    t = closed_loop.run(plant, PidRun(d.gains, controller_state()), cond, noise, closed_loop.AT_REST,
+                        closed_loop.NO_LIMITS, False, False, 0)
+    return t.x, t.command

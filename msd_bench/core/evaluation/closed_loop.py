@@ -46,7 +46,7 @@ from msd_bench.core.learning.q_kernels import encode, greedy, observe, observer_
 from msd_bench.core.learning.qconfig import Learner
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.kernels import RIG_STATE_SIZE, Kernel
-from msd_bench.core.rigs.rig import Conditions, actuate, actuator_state, advance_rig, sense, transition
+from msd_bench.core.rigs.rig import Conditions, actuate, actuator_state, sense, transition
 from msd_bench.core.safety.supervisor import S_ABORT, STATE_SIZE, Limits, filter_step
 
 __all__ = ["Acts", "Conditions", "QRun", "SupervisedRuns", "Trace", "actuate", "actuator_state", "decide",
@@ -61,8 +61,6 @@ NO_LIMITS = Limits(*([0.0] * len(Limits._fields)))
 """The supervisor's limits when a run is not supervised (read by nothing: :func:`run` skips it)."""
 AT_REST = np.zeros(2)
 """A run's start (x0, v0): at rest at the origin."""
-_advance = advance_rig
-"""The loop's plant step (kept under this name for the baselines' plant half until they run in the loop)."""
 
 
 def nominal(target: float) -> Conditions:
