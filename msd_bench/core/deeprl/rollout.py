@@ -5,16 +5,16 @@ the same force bit for bit in-process (:func:`greedy_under`) and over ROS
 (:class:`NetworkController`, fed one measurement at a time by the agent node).
 The rollout has :func:`msd_bench.core.evaluation.closed_loop.greedy_under`'s semantics:
 the agent measures through the sensor (noise drawn by the caller, then
-quantisation, then the ADC clip the environment applies), its command acts
-``delay`` samples late through the actuator's first-order ``lag``, a load may
-push from ``load_step`` on, and Coulomb friction acts on the plant kind: one
-step is :func:`msd_bench.core.rigs.rig.transition`, the rig's own. Metrics are the caller's, on the true
-positions returned.
+quantisation, then the ADC clip the environment applies, which the decision
+makes), and the plant under test is the one loop's
+(:func:`msd_bench.core.evaluation.closed_loop.run`: delay, lag, load, friction).
+Metrics are the caller's, on the true positions returned.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -22,9 +22,9 @@ from numpy.typing import NDArray
 
 from msd_bench.core.deeprl.mlp import Net, check_net, greedy
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.evaluation.closed_loop import Conditions, quantise
+from msd_bench.core.evaluation import closed_loop
+from msd_bench.core.evaluation.closed_loop import Conditions
 from msd_bench.core.physics.kernels import Kernel
-from msd_bench.core.rigs.rig import transition
 
 FloatArray = NDArray[np.float64]
 
@@ -37,7 +37,7 @@ def y_bound(x_max: float, noise_std: float, quant: float) -> float:
 @numba.njit(cache=True)
 def measure(x: float, noise: float, quant: float, bound: float) -> float:
     """What the agent reads for true position ``x``: noise, quantisation, then the ADC's range."""
-    y = quantise(x + noise, quant)
+    y = closed_loop.quantise(x + noise, quant)
     return min(max(y, -bound), bound)
 
 
@@ -50,37 +50,43 @@ def decide(net: Net, j: int, forces: FloatArray, y: float, y_prev: float, target
     return u
 
 
+class NetRun(NamedTuple):
+    """A stack of policies as the one closed loop (:func:`closed_loop.run`) reads it: run j uses policy j."""
+
+    net: Net
+    """The stacked weights."""
+    forces: FloatArray
+    """The force of each network output, N."""
+    bound: float
+    """The measurement's clip, m (:func:`y_bound`; ``inf``: none)."""
+    memory: FloatArray
+    """[last clipped measurement, last command]."""
+
+
+@closed_loop.decision(NetRun)
 @numba.njit(cache=True)
+def net_decide(c: NetRun, j: int, k: int, y: float, target: float) -> float:
+    """Policy j's force for ``y`` clipped to the ADC's range, as the environment observes it."""
+    yc = min(max(y, -c.bound), c.bound)
+    first = k == 0
+    u = decide(c.net, j, c.forces, yc, yc if first else c.memory[0], target, 0.0 if first else c.memory[1],
+               first)
+    c.memory[0], c.memory[1] = yc, u
+    return u
+
+
 def greedy_under(model: Kernel, net: Net, forces: FloatArray, cond: Conditions, noise: FloatArray,
                  bound: float) -> tuple[FloatArray, FloatArray]:
-    """Each policy's greedy run from rest; ``noise[j, k]`` is added to the k-th measurement of run j.
+    """Each policy's greedy run from rest in the one closed loop; ``noise[j, k]`` is added to the k-th
+    measurement of run j, which the agent reads clipped to ±``bound``.
 
     Returns (true x, commanded u), each (n_policies, n_steps); ``x[j, k]`` is
     the position before command ``u[j, k]`` is issued.
     """
-    n, n_steps = noise.shape
-    xs = np.empty((n, n_steps))
-    us = np.empty((n, n_steps))
-    state = np.zeros(4)
-    act = np.zeros(cond.delay + 2)  # the actuator (delay line, lag), as closed_loop.greedy_under
-    for j in range(n):
-        state[:] = 0.0
-        act[:] = 0.0
-        x = 0.0
-        y = measure(x, noise[j, 0], cond.quant, bound)
-        y_prev, u_prev = y, 0.0
-        for k in range(n_steps):
-            u = decide(net, j, forces, y, y_prev, cond.target, u_prev, k == 0)
-            xs[j, k] = x
-            us[j, k] = u
-            load = cond.load if k >= cond.load_step else 0.0
-            e = noise[j, k + 1] if k + 1 < n_steps else 0.0
-            _, x, y_new = transition(model, state, act, k, u, e, cond.delay, cond.lag, load, cond.friction,
-                                     cond.quant)
-            if k + 1 < n_steps:
-                y_prev, u_prev = y, u
-                y = min(max(y_new, -bound), bound)
-    return xs, us
+    c = NetRun(net, np.ascontiguousarray(forces, dtype=np.float64), float(bound), np.zeros(2))
+    t = closed_loop.run(model, c, cond, np.ascontiguousarray(noise, dtype=np.float64), closed_loop.AT_REST,
+                        closed_loop.NO_LIMITS, False, False, 0)
+    return t.x, t.command
 
 
 class NetworkController:
