@@ -49,7 +49,7 @@ from msd_bench.core.rigs import population
 from msd_bench.core.rigs.population import RigSpec
 from msd_bench.core.rigs.rig import RigImperfections
 from msd_bench.core.safety.adversaries import ADVERSARIES, Runs, adversary, run_on_plant, run_on_rig
-from msd_bench.core.safety.supervisor import Limits, Supervisor, SupervisorOptions
+from msd_bench.core.safety.supervisor import Limits, SupervisorOptions
 from msd_bench.io.storage.supervisor_file import read_options
 
 REPO = Path(__file__).resolve().parents[1]
@@ -100,7 +100,7 @@ def on_rig(opts: SupervisorOptions, name: str, rig: str, seeds: list[int]) -> di
     for side in ("unsupervised", "supervised"):
         risks = []
         for j, seed in enumerate(runs):
-            sup = Supervisor(opts, nominal) if side == "supervised" else None
+            sup = opts.limits(nominal) if side == "supervised" else None
             risks += _risks(run_on_rig(plant, RIGS[rig], sup, adv, STEPS, seed=seed, run=j), plant, lim)
         out[side] = cell(risks)
     return out
@@ -119,7 +119,7 @@ def on_population(opts: SupervisorOptions, name: str, specs: list[RigSpec],
         risks, failed = [], []
         for j, spec in runs:
             adv = adversary(name, spec.params, STEPS, seeds)
-            sup = Supervisor(opts, nominal) if side == "supervised" else None
+            sup = opts.limits(nominal) if side == "supervised" else None
             got = _risks(run_on_rig(spec.params, spec.imperfections, sup, adv, STEPS, seed=spec.seed, run=j),
                          spec.params, lim)
             risks += got

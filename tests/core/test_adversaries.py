@@ -20,7 +20,7 @@ from msd_bench.core.safety.adversaries import (
     run_on_plant,
     run_on_rig,
 )
-from msd_bench.core.safety.supervisor import Limits, Supervisor, SupervisorOptions
+from msd_bench.core.safety.supervisor import Limits, SupervisorOptions
 
 PLANT = PRESETS["default"]
 STEPS = 3000  # one validation episode, 30 s
@@ -85,7 +85,7 @@ def test_the_turncoat_is_left_alone_while_it_behaves() -> None:
 def test_on_the_rig_emulator_no_adversary_reaches_a_stop_behind_the_supervisor(name: str, rig: str) -> None:
     plant = PRESETS["rig"]  # the supervisor is told the nominal plant; the rig is another
     adv = adversary(name, plant, STEPS, [3])
-    guarded = run_on_rig(plant, RIGS[rig], Supervisor(SupervisorOptions(), PLANT), adv, STEPS, seed=3)
+    guarded = run_on_rig(plant, RIGS[rig], SupervisorOptions().limits(PLANT), adv, STEPS, seed=3)
     r = risks(guarded, plant, LIM)[0]
     assert r.contacts == 0 and r.exits_beyond_margin == 0
 

@@ -65,8 +65,6 @@ EXCEPTIONS: dict[str, str] = {
     "msd_bench/core/learning/q_kernels.py::learn_one": TODO + " (learning against the plant under test)",
     "msd_bench/core/learning/q_kernels.py::learn_observed": TODO + " (learning against the plant under test)",
     # closed loops still written per controller
-    "msd_bench/core/safety/adversaries.py::_plant_runs": TODO,
-    "msd_bench/core/safety/adversaries.py::run_on_rig": TODO,
 }
 
 

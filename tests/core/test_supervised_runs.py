@@ -2,8 +2,9 @@
 
 Two references, each written independently of :func:`closed_loop.supervised_runs`:
 a design's own compiled rollout (when nothing is overridden the supervisor must
-not change a sample) and the rig emulator driven through the stepwise
-:class:`Supervisor` a node holds (``adversaries.run_on_rig``), with overrides.
+not change a sample) and the rig emulator (:meth:`Rig.step`) driven through the
+stepwise :class:`Supervisor` a node holds, sample by sample here, with overrides;
+``adversaries.run_on_rig`` (the compiled loop on the rig) must equal that too.
 """
 
 from __future__ import annotations
@@ -21,9 +22,9 @@ from msd_bench.core.evaluation.scenarios import parse
 from msd_bench.core.physics.model import plant_model
 from msd_bench.core.physics.plant import PlantParams
 from msd_bench.core.physics.sensor import sensor_rng
-from msd_bench.core.rigs.rig import RigImperfections, lag_samples
-from msd_bench.core.safety.adversaries import Adversary, adversary, command, run_on_rig
-from msd_bench.core.safety.supervisor import ENVELOPE, NONE, Supervisor, SupervisorOptions
+from msd_bench.core.rigs.rig import Rig, RigImperfections, lag_samples
+from msd_bench.core.safety.adversaries import Adversary, Runs, adversary, command, run_on_rig
+from msd_bench.core.safety.supervisor import ENVELOPE, NONE, S_ABORT, Supervisor, SupervisorOptions
 from msd_bench.io.storage.artifacts import load_model
 
 P = PlantParams()
@@ -45,6 +46,25 @@ def test_with_nothing_overridden_the_run_is_the_designs_own_rollout(name: str, s
     np.testing.assert_array_equal(r.x, xs)
     np.testing.assert_array_equal(r.command, us)
     np.testing.assert_array_equal(r.force, us)
+
+
+def _node_path(imp: RigImperfections, sup: Supervisor, adv: Adversary, steps: int, seed: int) -> Runs:
+    """The rig node's path, written out: the rig emulator stepped by the supervisor node's filter on
+    the measured y_k (the first is the rest position), the adversary on the same y_k."""
+    rig = Rig(P, imp, seed)
+    sup.reset()
+    out = np.empty((4, steps))
+    reasons = np.zeros(steps, dtype=np.int64)
+    y, y_prev = 0.0, 0.0
+    for k in range(steps):
+        u = float(command(adv, 0, k, y, y_prev, 1.0, P.dt))
+        d = sup.step(y, 1.0, u)
+        reasons[k] = d.reason
+        row = rig.step(d.force)
+        out[:, k] = (row.x, row.v, u, d.force)
+        y_prev, y = y, row.measured_next
+    return Runs(out[0][None], out[1][None], out[2][None], out[3][None], reasons[None],
+                np.array([int(sup.state[S_ABORT])], dtype=np.int64))
 
 
 class _Adversary:
@@ -70,7 +90,10 @@ def test_in_process_runs_equal_the_stepwise_supervisor_on_the_rig_emulator(name:
                            friction=0.0, jitter=0.0)
     adv = adversary(name, P, steps)
     opts = SupervisorOptions()
-    ref = run_on_rig(P, imp, Supervisor(opts, P), adv, steps, seed=seed)
+    ref = _node_path(imp, Supervisor(opts, P), adv, steps, seed)
+    compiled = run_on_rig(P, imp, opts.limits(P), adv, steps, seed=seed)
+    for name in Runs._fields:
+        np.testing.assert_array_equal(getattr(compiled, name), getattr(ref, name))
     noise = imp.sensor_noise * sensor_rng(seed).standard_normal((1, steps))
     cond = Conditions(1.0, 0.0, imp.delay_samples, 0.0, 0, 0.0, lag_samples(imp.actuator_tau, P.dt))
     got = supervised_runs([_Adversary(adv, 1.0)], PLANT, cond, noise, opts.limits(P))

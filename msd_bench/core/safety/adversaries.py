@@ -8,12 +8,14 @@ a bang-bang square wave at the plant's small-signal resonance ω = √(k g / m)
 full force. The open-loop ones are a precomputed force sequence; the turncoat
 reads the measured position, as any controller would.
 
-Two loops run them: :func:`run_on_plant` (compiled, many runs at once, the
-ideal plant seen through additive measurement noise) and :func:`run_on_rig`
-(the rig emulator of :mod:`msd_bench.core.rigs.rig`, one run, the stepwise
-supervisor a node holds). Both return the true trajectory, which only the
-risk metrics read (:mod:`msd_bench.core.evaluation.risk`): the supervisor sees the
-measurement.
+An adversary is a decision of the one closed loop
+(:func:`msd_bench.core.evaluation.closed_loop.run`): :func:`run_on_plant` runs
+many at once on the ideal plant seen through additive measurement noise,
+:func:`run_on_rig` one on the rig emulator of :mod:`msd_bench.core.rigs.rig`
+(its actuator, friction and sensor, its noise stream), each behind the
+supervisor's compiled filter if asked. Both return the true trajectory, which
+only the risk metrics read (:mod:`msd_bench.core.evaluation.risk`): the
+supervisor sees the measurement.
 """
 
 from __future__ import annotations
@@ -27,11 +29,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.physics import kernels
-from msd_bench.core.physics.kernels import Plant
+from msd_bench.core.evaluation import closed_loop
+from msd_bench.core.physics.model import plant_model
 from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.physics.sensor import sensor_rng
 from msd_bench.core.rigs.rig import Rig, RigImperfections
-from msd_bench.core.safety.supervisor import NONE, S_ABORT, STATE_SIZE, Limits, Supervisor, filter_step
+from msd_bench.core.rigs.rig_loop import conditions
+from msd_bench.core.safety.supervisor import Limits
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -144,71 +148,58 @@ class Runs(NamedTuple):
     """Abort reason code at the end of each run (0 = ran to the end)."""
 
 
+class AdversaryRun(NamedTuple):
+    """An adversary as the one closed loop (:func:`closed_loop.run`) reads it."""
+
+    adv: Adversary
+    """The controller."""
+    dt: float
+    """Sample time, s (the turncoat's velocity estimate)."""
+    first: int
+    """Run j of the loop is the adversary's run ``first + j`` (which sequence row it plays)."""
+    memory: FloatArray
+    """[the measured position of the sample before]."""
+
+
+@closed_loop.decision(AdversaryRun)
 @numba.njit(cache=True)
-def _plant_runs(plant: Plant, lim: Limits, supervised: bool, adv: Adversary, reference: float,
-                noise: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, IntArray,
-                                            IntArray]:
-    n, n_steps = noise.shape
-    xs = np.empty((n, n_steps))
-    vs = np.empty((n, n_steps))
-    cs = np.empty((n, n_steps))
-    fs = np.empty((n, n_steps))
-    rs = np.zeros((n, n_steps), dtype=np.int64)
-    aborts = np.zeros(n, dtype=np.int64)
-    st = np.zeros(STATE_SIZE)
-    for j in range(n):
-        st[:] = 0.0
-        x = 0.0
-        v = 0.0
-        y_prev = 0.0
-        for k in range(n_steps):
-            y = x + noise[j, k]
-            u = command(adv, j, k, y, y_prev, reference, plant.dt)
-            f = u
-            if supervised:
-                f, r = filter_step(lim, st, y, reference, u)
-                rs[j, k] = r
-            xs[j, k] = x
-            vs[j, k] = v
-            cs[j, k] = u
-            fs[j, k] = f
-            x, v = kernels.plant_step(plant, x, v, f)
-            y_prev = y
-        aborts[j] = int(st[S_ABORT]) if supervised else NONE
-    return xs, vs, cs, fs, rs, aborts
+def decide(c: AdversaryRun, j: int, k: int, y: float, target: float) -> float:
+    """The adversarial force of run ``first + j`` at sample ``k`` (:func:`command`, towards ``target``)."""
+    y_prev = 0.0 if k == 0 else c.memory[0]
+    c.memory[0] = y
+    return command(c.adv, c.first + j, k, y, y_prev, target, c.dt)
+
+
+def _runs(t: closed_loop.Trace) -> Runs:
+    return Runs(t.x, t.v, t.command, t.force, t.reason, t.aborts)
 
 
 def run_on_plant(plant: PlantParams, lim: Limits, adv: Adversary, noise: FloatArray,
                  reference: float = 1.0, supervised: bool = True) -> Runs:
-    """Every row of ``noise`` (runs, steps: added to the true position) one run from rest."""
+    """Every row of ``noise`` (runs, steps: added to the true position) one run from rest on the ideal
+    plant (the one closed loop with nothing added but the noise)."""
     noise = np.ascontiguousarray(noise, dtype=np.float64)
-    return Runs(*_plant_runs(plant.kernel(), lim, supervised, adv, float(reference), noise))
+    return _runs(closed_loop.run(plant_model(plant).kernel, AdversaryRun(adv, plant.dt, 0, np.zeros(1)),
+                                 closed_loop.nominal(reference), noise, closed_loop.AT_REST, lim,
+                                 supervised, False, 0))
 
 
-def run_on_rig(plant: PlantParams, imperfections: RigImperfections, sup: Supervisor | None,
+def run_on_rig(plant: PlantParams, imperfections: RigImperfections, lim: Limits | None,
                adv: Adversary, n_steps: int, seed: int = 0, run: int = 0,
                reference: float = 1.0) -> Runs:
-    """One run of ``adv`` on the rig emulator from rest, behind the stepwise ``sup`` if given.
+    """One run of ``adv`` on the rig emulator from rest, behind the supervisor with limits ``lim`` if given.
 
     The controller and the supervisor see the rig's measured position y_k (row k), the way a
-    controller on the wire would; ``run`` picks the adversary's sequence row.
+    controller on the wire would; the first is the rest position itself. The rig of ``seed`` is
+    the one closed loop's plant under test (:func:`msd_bench.core.rigs.rig_loop.conditions`,
+    its noise the rig's own stream: one draw per measurement); ``run`` picks the adversary's
+    sequence row.
     """
     rig = Rig(plant, imperfections, seed)
-    if sup is not None:
-        sup.reset()
-    out = np.empty((4, n_steps))
-    reasons = np.zeros(n_steps, dtype=np.int64)
-    y, y_prev = 0.0, 0.0  # a run starts at rest at the origin; every later y is the rig's
-    for k in range(n_steps):
-        u = float(command(adv, run, k, y, y_prev, reference, plant.dt))
-        f = u
-        if sup is not None:
-            d = sup.step(y, reference, u)
-            f, reasons[k] = d.force, d.reason
-        row = rig.step(f)
-        out[:, k] = (row.x, row.v, u, f)
-        y_prev, y = y, row.measured_next
-    abort = 0 if sup is None else int(sup.state[S_ABORT])
-    return Runs(out[0][None], out[1][None], out[2][None], out[3][None], reasons[None],
-                np.array([abort], dtype=np.int64))
-
+    noise = np.zeros((1, n_steps))
+    if imperfections.sensor_noise > 0.0:  # the rig's stream: its start-up draw, then one per sample
+        noise[0, 1:] = imperfections.sensor_noise * sensor_rng(seed).standard_normal(n_steps)[1:]
+    t = closed_loop.run(plant_model(plant).kernel, AdversaryRun(adv, plant.dt, int(run), np.zeros(1)),
+                        conditions(rig, reference), noise, closed_loop.AT_REST,
+                        lim if lim is not None else closed_loop.NO_LIMITS, lim is not None, True, 0)
+    return _runs(t)
