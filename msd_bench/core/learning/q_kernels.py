@@ -30,6 +30,7 @@ from msd_bench.core.learning import rng
 from msd_bench.core.learning.qconfig import MODE_PAPER, N_ACTIONS, OBS_ALPHA_BETA, OBS_NONE, Encoding, Learner
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.kernels import Kernel
+from msd_bench.core.rigs.rig import actuate
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -433,14 +434,14 @@ def learn_observed(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, sn
     """
     plant = np.zeros(kernels.RIG_STATE_SIZE)
     ost = observer_state(lr)
-    queue = np.zeros(lr.train_delay + 1)
+    drive = np.zeros(lr.train_delay + 2)  # the rig's drive (rig.actuate) without a lag: the delay only
     k_snap = 0
     for ep in range(budget.episodes):
         target = draw_target(lr, state, i)
         sigma = lr.train_noise * rng.uniform(state, i) if lr.train_noise > 0.0 else 0.0
         delay = rng.below(state, i, lr.train_delay + 1) if lr.train_delay > 0 else 0
         plant[:] = 0.0
-        queue[:] = 0.0
+        drive[:] = 0.0
         x = 0.0
         err = abs(x - target)
         y = x + sigma * normal(state, i) if sigma > 0.0 else x
@@ -449,8 +450,7 @@ def learn_observed(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, sn
         total = 0.0
         for k in range(budget.steps):
             a = choose(q, s, lr.epsilon, state, i)
-            queue[k % (delay + 1)] = lr.actions[a]
-            x = kernels.advance(model, plant, queue[(k + 1) % (delay + 1)] if delay > 0 else lr.actions[a])
+            x = kernels.advance(model, plant, actuate(drive, k, lr.actions[a], delay, 0.0))
             y = x + sigma * normal(state, i) if sigma > 0.0 else x
             xh, dh = observe(lr, model, ost, lr.actions[a], y, xh, dh, False)
             s2 = encode(lr.enc, xh - target, dh, target)
