@@ -49,9 +49,9 @@ from msd_bench.core.physics.kernels import RIG_STATE_SIZE, Kernel
 from msd_bench.core.rigs.rig import Conditions, actuate, actuator_state, sense, transition
 from msd_bench.core.safety.supervisor import S_ABORT, STATE_SIZE, Limits, filter_step
 
-__all__ = ["Acts", "Conditions", "QRun", "SupervisedRuns", "Trace", "actuate", "actuator_state", "decide",
-           "decision", "greedy_under", "nominal", "quantise", "run", "stepwise", "supervised_runs",
-           "transition"]
+__all__ = ["AT_REST", "NO_LIMITS", "Acts", "Conditions", "QRun", "SupervisedRuns", "Trace", "actuate",
+           "actuator_state", "decide", "decision", "greedy_under", "nominal", "q_run", "quantise", "run",
+           "stepwise", "supervised_runs", "transition"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -95,7 +95,9 @@ def decision(cls: type) -> Callable[[T], T]:
     function taken as an argument (or a closure over one) is typed by the
     function object, so numba's on-disk cache never hits and every process
     would compile every design's loop again; an overload picked by the
-    controller's type is cached like any kernel.
+    controller's type is cached like any kernel. Like every cross-module call
+    of a cached kernel, numba keys the cached loop on this file alone: after
+    changing a decision, clear the caches (``*.nbi``/``*.nbc`` under msd_bench).
     """
     def register(impl: T) -> T:
         def typer(ctl: Any, j: Any, k: Any, y: Any, target: Any) -> Any:
