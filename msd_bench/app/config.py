@@ -18,6 +18,7 @@ if TYPE_CHECKING:  # the supervisor is compiled: loaded only when a run is valid
     from msd_bench.core.safety.supervisor import Limits
 from msd_bench.core.evaluation.scenarios import Scenario, suite
 from msd_bench.core.physics.sensor import SensorModel
+from msd_bench.core.rigs.description import RigDescription
 from msd_bench.core.rigs.scales import Scales
 from msd_bench.designs.kinds import split_by_model
 
@@ -72,10 +73,16 @@ class RunConfig:
     supervisor: bool = False
     """Validate every run behind the safety supervisor (its default limits on the plant:
     docs/supervisor.md); off in-process, so the tables measure the controllers themselves."""
+    rig: RigDescription | None = None
+    """The rig the run is on (``--rig FILE``; None: the paper's plant). Its rate, stroke and force
+    limit make the plant (:meth:`RigDescription.emulated_plant` of the preset) and the method's
+    :class:`Scales`; set it with :meth:`on_rig`, which also scales the budgets."""
 
     def __post_init__(self) -> None:
         check_agents(self.agents)
         preset(self.preset)  # an unknown preset fails here, naming the choices
+        if self.rig is not None:
+            self.rig.emulated_plant()  # limits the plant cannot take fail here, in one line
         for name in _POSITIVE:
             if int(getattr(self, name)) < 1:
                 raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
@@ -94,10 +101,25 @@ class RunConfig:
         if self.shaping not in SHAPINGS:
             raise ConfigError(f"shaping must be one of {', '.join(SHAPINGS)}, got {self.shaping!r}")
 
-    def scenario_suite(self, scales: Scales = Scales.DEFAULT) -> list[Scenario]:
-        """The standard scenarios plus this run's extra ones, each once (on a rig of ``scales``: the
-        standard ones scaled to it, the extra ones in its units)."""
-        return suite(self.scenarios, scales)
+    def scenario_suite(self, scales: Scales | None = None) -> list[Scenario]:
+        """The standard scenarios plus this run's extra ones, each once (on a rig of ``scales``,
+        default the run's own: the standard ones scaled to it, the extra ones in its units)."""
+        return suite(self.scenarios, self.scales if scales is None else scales)
+
+    @property
+    def scales(self) -> Scales:
+        """The factors from the paper's plant to the run's rig (:data:`Scales.DEFAULT` without one)."""
+        return Scales.DEFAULT if self.rig is None else self.rig.scales()
+
+    def on_rig(self, rig: RigDescription) -> RunConfig:
+        """This run, its budgets given in paper samples and metres, on ``rig``: the plant and the
+        scales are the rig's and the budgets last the same seconds (:meth:`scaled`). Applied once,
+        to a run without a rig (a second application would scale the budgets twice)."""
+        if self.rig is not None:
+            raise ConfigError("the run is on a rig already")
+        if rig.scales().is_default:  # config/rigs/default.yaml: the run as it is, bit for bit
+            return self
+        return replace(self.scaled(rig.scales()), rig=rig)
 
     def scaled(self, scales: Scales) -> RunConfig:
         """These budgets, stated in paper samples and metres, on a rig of ``scales``
@@ -123,12 +145,13 @@ class RunConfig:
         """The supervisor's limits on the plant when runs are validated behind it, else None."""
         from msd_bench.core.safety.supervisor import SupervisorOptions
 
-        return SupervisorOptions().limits(self.plant) if self.supervisor else None
+        return SupervisorOptions().on_plant(self.plant).limits(self.plant) if self.supervisor else None
 
     @property
     def plant(self) -> PlantParams:
-        """The true plant's parameters."""
-        return preset(self.preset)
+        """The true plant's parameters: the preset's, on the rig's scales and rate when there is one."""
+        p = preset(self.preset)
+        return p if self.rig is None else self.rig.emulated_plant(p)
 
     def id_seed_values(self) -> list[int]:
         """The identification seeds of the run."""

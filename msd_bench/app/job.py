@@ -26,6 +26,7 @@ from typing import Any
 from msd_bench.app.config import RunConfig
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics.plant import PlantParams, preset
+from msd_bench.core.rigs.rest import RestConfig
 from msd_bench.io.storage.safe_read import read_json_bounded
 
 JOB_SCHEMA = "msd-bench.job"
@@ -81,9 +82,20 @@ def agent_params(run: RunConfig) -> dict[str, Any]:
     p = run.plant
     return {
         "steps": run.steps, "validation_steps": run.validation_steps, "window": run.window,
-        "target": float(run.target), "dt": p.dt, "force": p.F, "shaping": run.shaping,
+        "target": float(run.target), "dt": p.dt, "force": p.F, "stroke": p.L, "shaping": run.shaping,
         "episodes": run.episodes, "plant_episodes": run.dyna_episodes, "planning_steps": run.planning_steps,
+        **rest_params(run),
     }
+
+
+def rest_params(run: RunConfig) -> dict[str, Any]:
+    """The stillness test of a node that waits for rest on a rig (agent, excitation): the default test
+    on the run's rig (:meth:`RestConfig.scaled`: the same seconds and share of the stroke); nothing
+    on the paper's plant, whose nodes keep their own defaults."""
+    if run.scales.is_default:
+        return {}
+    rest = RestConfig().scaled(run.scales)
+    return {"rest_window": rest.window, "rest_threshold": rest.threshold}
 
 
 def _identifier_params(run: RunConfig, seed: int) -> dict[str, Any]:
@@ -93,7 +105,8 @@ def _identifier_params(run: RunConfig, seed: int) -> dict[str, Any]:
 
 
 def _excitation_params(run: RunConfig) -> dict[str, Any]:
-    return {"dt": run.plant.dt}  # the real-time period; the signal is the experiment's (placement)
+    # the real-time period; the signal is the experiment's (placement)
+    return {"dt": run.plant.dt, **rest_params(run)}
 
 
 def _recorder_params(_run: RunConfig) -> dict[str, Any]:

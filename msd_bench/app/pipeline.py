@@ -68,7 +68,8 @@ class PaperRun:
 
 def make_records(cfg: RunConfig, id_seed: int) -> Records:
     """Drive the true plant with the plan's excitations (in-process), measured through the run's sensor."""
-    return records_from_plan(cfg.plant, paper_plan(id_seed, cfg.samples, cfg.val_samples), cfg.sensor)
+    return records_from_plan(cfg.plant, paper_plan(id_seed, cfg.samples, cfg.val_samples, scales=cfg.scales),
+                             cfg.sensor)
 
 
 def records_from_plan(p: PlantParams, plan: Sequence[PlannedExperiment],

@@ -30,13 +30,23 @@ from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.scenarios import Scenario, parse
 from msd_bench.core.identification.excitation import PrbsConfig
 from msd_bench.core.identification.model_kinds import needs_bias_records
+from msd_bench.core.rigs.scales import Scales
 from msd_bench.designs import kinds
 
 DEFAULT_AGENTS: tuple[str, ...] = kinds.PLANT_NS
 """Agent kinds of a ``--plant-ns`` run (:data:`msd_bench.designs.kinds.PLANT_NS`)."""
 
 DEFAULT_SCENARIOS: tuple[str, ...] = ("setpoint=0.5", "disturbance=2@15")
-"""Robustness scenarios validated on the node (one set-point, one added load)."""
+"""Robustness scenarios validated on the node (one set-point, one added load), on the paper's plant."""
+
+
+def default_scenarios(scales: Scales = Scales.DEFAULT) -> tuple[str, ...]:
+    """:data:`DEFAULT_SCENARIOS` on a rig of ``scales``: the same set-point relative to the stroke and
+    the same load relative to the force limit, at the same second (the ids are in the rig's units,
+    as a user would write them); the defaults themselves on the paper's plant."""
+    if scales.is_default:
+        return DEFAULT_SCENARIOS
+    return (f"setpoint={scales.metres(0.5):g}", f"disturbance={scales.newtons(2.0):g}@15")
 
 DEFAULT_SCENARIO_KINDS: tuple[str, ...] = kinds.PLANT_NS_SCENARIO_KINDS
 """Kinds whose tables are also validated under :data:`DEFAULT_SCENARIOS` (each costs real time)."""
@@ -87,9 +97,10 @@ def left_out_note(dropped: Sequence[str]) -> str:
             f"model, which a foreign node does not have")
 
 
-def hardware_scenario(text: str) -> Scenario:
-    """A scenario a rig can be given from outside: only ``setpoint`` and ``disturbance`` keys."""
-    sc = parse(text)
+def hardware_scenario(text: str, scales: Scales = Scales.DEFAULT) -> Scenario:
+    """A scenario a rig can be given from outside: only ``setpoint`` and ``disturbance`` keys (values in
+    the units of the rig of ``scales``; a set-point outside its stroke is one line)."""
+    sc = parse(text, scales)
     if sc.id == "nominal":
         raise ConfigError("the nominal condition is always validated; give set-point or disturbance "
                           "scenarios, e.g. setpoint=0.5 or disturbance=2@15")
@@ -101,7 +112,8 @@ def hardware_scenario(text: str) -> Scenario:
     return sc
 
 
-def check_node_scenarios(scenarios: Sequence[str], kinds: Sequence[str], episode_s: float) -> None:
+def check_node_scenarios(scenarios: Sequence[str], kinds: Sequence[str], episode_s: float,
+                         scales: Scales = Scales.DEFAULT) -> None:
     """Every scenario is one a rig can be given; a disturbance must start within the episode.
 
     The timing is checked only when some kind of the run is validated under the scenarios
@@ -109,7 +121,7 @@ def check_node_scenarios(scenarios: Sequence[str], kinds: Sequence[str], episode
     ``disturbance=2@15`` unused), so a shortened ``--validation-steps`` is no mistake.
     """
     for text in scenarios:
-        sc = hardware_scenario(text)
+        sc = hardware_scenario(text, scales)
         if kinds and sc.disturbance != 0.0 and sc.disturbance_time >= episode_s:
             raise ConfigError(f"scenario {sc.id!r}: the disturbance starts at {sc.disturbance_time:g} s, "
                               f"after the {episode_s:g} s validation episode ends; shorten its time or give "

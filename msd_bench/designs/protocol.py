@@ -54,6 +54,9 @@ class Settings:
     """Force limit F of the actuator and of the five-force alphabet, N."""
     dt: float = 0.01
     """Sample time, s."""
+    stroke: float = 5.0
+    """The plant's full travel, m: with ``force`` and ``dt`` it gives the scales the learners'
+    paper constants are multiplied by (docs/decisions.md §Scales; 1.0 each on the paper's plant)."""
     target: float = 1.0
     """Nominal validation set-point, m."""
     shaping: str = "toward"

@@ -106,6 +106,9 @@ class BenchConfig:
     """``--refine-weight``: how many times each closed-loop record counts in a refit."""
     rig: dict[str, object] | None = None
     """With ``--rig FILE``: the rate, stroke, force limit and face the run ran with (run.json)."""
+    rig_file: Path | None = None
+    """With ``--rig FILE``: the file, handed to the emulated plant and the supervisor as their
+    ``--params-file`` (they take the rig's plant from it)."""
     timings: dict[str, float] = field(default_factory=dict, compare=False)
     """Seconds per stage, filled in as the run goes."""
 
@@ -132,7 +135,7 @@ class BenchConfig:
         if not self.realtime:
             raise ConfigError("--plant-ns runs in real time")
         check_node_scenarios(self.node_scenarios, self.scenario_kinds,
-                             self.run.validation_steps * self.run.plant.dt)
+                             self.run.validation_steps * self.run.plant.dt, self.run.scales)
         stray = [k for k in self.scenario_kinds if k not in self.run.agents]
         if stray:
             raise ConfigError(f"--scenario-kinds {stray[0]!r} is not among the run's agent kinds")
@@ -177,11 +180,16 @@ def plant_args(cfg: BenchConfig, sensor: bool = False) -> list[str]:
     seeds see different noise and one seed the same noise run after run.
     """
     args = ["-p", f"preset:={cfg.run.preset}", "-p", f"lockstep:={str(not cfg.realtime).lower()}",
-            "-p", f"duplicate_check:={BENCH_DUPLICATE_CHECK_S!r}"]
+            "-p", f"duplicate_check:={BENCH_DUPLICATE_CHECK_S!r}", *rig_file_args(cfg)]
     if sensor and cfg.run.sensor is not None:
         args += ["-p", f"sensor_noise:={float(cfg.run.record_noise)!r}",
                  "-p", f"sensor_quant:={float(cfg.run.record_quant)!r}", "-p", f"sensor_seed:={cfg.id_seed}"]
     return args
+
+
+def rig_file_args(cfg: BenchConfig) -> list[str]:
+    """``--params-file FILE`` for a node that serves or guards the plant when the run has ``--rig``."""
+    return [] if cfg.rig_file is None else ["--params-file", str(cfg.rig_file)]
 
 
 def start_plant(procs: ProcessSet, cfg: BenchConfig, sensor: bool = False) -> NodeProcess:
@@ -198,7 +206,7 @@ def record_plan(cfg: BenchConfig) -> list[ExperimentSpec]:
     fitted on bias records (the PLM); a run without one records the two broad
     records alone, a sixth of the recording time.
     """
-    specs = paper_plan(cfg.id_seed, cfg.run.samples, cfg.run.val_samples)
+    specs = paper_plan(cfg.id_seed, cfg.run.samples, cfg.run.val_samples, cfg.run.scales)
     if needs_bias_records(cfg.run.surrogates_needed()):
         return specs
     return [s for s in specs if s.params.get("bias") is None]

@@ -138,7 +138,8 @@ def supervision(args: argparse.Namespace) -> supervise.Supervision:
 def _plant_ns_fields(args: argparse.Namespace, run: RunConfig) -> tuple[RunConfig, dict[str, Any]]:
     """The run without the kinds a foreign node cannot serve, and BenchConfig's --plant-ns fields."""
     kept, dropped = plant_ns.split_kinds(run.agents)
-    text = ";".join(plant_ns.DEFAULT_SCENARIOS) if args.node_scenarios is None else args.node_scenarios
+    defaults = plant_ns.default_scenarios(run.scales)
+    text = ";".join(defaults) if args.node_scenarios is None else args.node_scenarios
     scenarios = tuple(s.strip() for s in text.split(";") if s.strip())
     if args.scenario_kinds is None:
         kinds = tuple(k for k in plant_ns.DEFAULT_SCENARIO_KINDS if k in kept)
@@ -165,6 +166,8 @@ def config(args: argparse.Namespace) -> BenchConfig:
     stages = stage_names([s.strip() for s in args.stages.split(",")])
     rig = apply_rig(args, getattr(args, "given", frozenset()))
     run = run_config_from_args(args)
+    if rig is not None:
+        run = run.on_rig(rig)  # the rig's plant and scales; the budgets the same seconds
     extra: dict[str, Any] = {}
     if args.plant_ns is not None:
         run, extra = _plant_ns_fields(args, run)
@@ -176,7 +179,7 @@ def config(args: argparse.Namespace) -> BenchConfig:
         stages=stages or tuple(args.stages.split(",")), interface=from_cli(args), live_port=args.live,
         live_wait_s=live_wait(args),
         supervision=supervision(args), rig=None if rig is None else rig.facts(), refine=args.refine,
-        refine_weight=args.refine_weight, **extra)
+        refine_weight=args.refine_weight, rig_file=None if rig is None else args.rig.absolute(), **extra)
 
 
 REPORT_MODULE = "msd_bench.graph.bench_report"

@@ -42,9 +42,9 @@ import shutil
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -57,6 +57,7 @@ from msd_bench.core.identification import excitation as exc
 from msd_bench.graph.jobs import Job, JobFiles, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, ProcessSet
 from msd_bench.io.bags.bag_interface import read_interface_experiment
+from msd_bench.io.bags.bag_timing import READ
 from msd_bench.io.bags.played import confirm_by_effort, locate_from_bag
 from msd_bench.io.bags.reader import bag_info, read_topic
 from msd_msgs_py.contract import (
@@ -67,6 +68,9 @@ from msd_msgs_py.contract import (
     TopicSpec,
 )
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
+
+if TYPE_CHECKING:
+    from msd_bench.core.rigs.scales import Scales
 
 SignalConfig = exc.PrbsConfig | exc.MultilevelConfig | exc.StepsConfig
 Progress = Callable[[int, int, str], None]
@@ -159,12 +163,14 @@ class ExperimentSpec:
         return {"signal": self.signal, "seed": self.seed, **section}
 
 
-def paper_plan(id_seed: int, n_samples: int, val_samples: int) -> list[ExperimentSpec]:
+def paper_plan(id_seed: int, n_samples: int, val_samples: int,
+               scales: Scales | None = None) -> list[ExperimentSpec]:
     """The application's experiment plan (:func:`msd_bench.app.plan.paper_plan`) as recordable specs
-    (the lengths are the run's ``samples`` and ``val_samples``: no default of their own here)."""
+    (the lengths are the run's ``samples`` and ``val_samples``: no default of their own here; the
+    forces and dwells on a rig of ``scales``)."""
     return [ExperimentSpec(e.name, e.kind, e.signal, e.seed,
                            {"role": e.role, "bias": e.bias, "id_seed": id_seed})
-            for e in plan.paper_plan(id_seed, n_samples, val_samples)]
+            for e in plan.paper_plan(id_seed, n_samples, val_samples, scales=scales)]
 
 
 @dataclass(frozen=True)
@@ -430,7 +436,7 @@ def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: 
         cut = None if dt is None else locate_from_bag(bag, iface, namespace, u, force_limit)
         # our joint by name; a measured effort must be explained by the recorded commands (over the cut)
         experiment, _, _ = read_interface_experiment(bag, iface, namespace, force_limit=force_limit,
-                                                     force_input="held",
+                                                     force_input="held", timing=replace(READ, dt=sample_dt),
                                                      played=None if cut is None else cut.rows)
         if cut is not None and iface.effort_is_commanded:  # a measured effort was checked when rebuilt
             confirm_by_effort(bag, cut, experiment.u, sample_dt)

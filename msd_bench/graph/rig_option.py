@@ -2,10 +2,9 @@
 
 Why a module of its own: the description fills options the command line left
 unset (explicit options still win) and refuses, in one line and before any
-process starts, what the run cannot honour yet. The method runs at the paper's
-scales only until the scaled constants land (issue 37 item 2): a rig at another
-rate, stroke, force limit or decision period is refused rather than run with
-silently wrong constants.
+process starts, what the run cannot honour. Its rate, stroke and force limit
+become the run's plant and scales (:meth:`msd_bench.app.config.RunConfig.on_rig`,
+called by :func:`msd_bench.graph.main.config`).
 """
 
 from __future__ import annotations
@@ -38,12 +37,11 @@ def apply_rig(args: argparse.Namespace, given: frozenset[str]) -> RigDescription
     if args.rig is None:
         return None
     rig = read_rig(args.rig)
-    if not rig.paper_scaled():
+    if rig.samples_per_decision != 1:
         raise ConfigError(
-            f"--rig {args.rig}: bench.py runs the method at the paper's scales only so far (100 Hz, "
-            f"5 m, 10 N, 0.01 s decisions); this rig is {rig.rate:g} Hz, {rig.stroke:g} "
-            f"{rig.position_unit}, {rig.force_limit:g} {rig.force_unit}, "
-            f"{rig.decision_period:g} s decisions")
+            f"--rig {args.rig}: bench.py decides every rig sample so far; this rig's decision period "
+            f"{rig.decision_period:g} s is {rig.samples_per_decision} samples at {rig.rate:g} Hz: give "
+            f"decision_period {rig.dt:g}")
     if rig.plant_ns and rig.plant_ns != args.plant_ns:
         raise ConfigError(f"--rig {args.rig} names plant_ns {rig.plant_ns!r} but the command line "
                           f"gives --plant-ns {args.plant_ns!r}: give --plant-ns {rig.plant_ns}")

@@ -57,6 +57,8 @@ class BenchConfig(Protocol):
     def realtime(self) -> bool: ...
     @property
     def namespace(self) -> str: ...
+    @property
+    def rig_file(self) -> Path | None: ...
 
 SCRIPT = "supervisor.py"
 NODE = "supervisor"
@@ -100,7 +102,7 @@ class Supervision:
     def resolved(self, plant: PlantParams) -> SupervisorOptions:
         """The options: the file's (or the defaults), then the ``--supervisor-option`` items; with
         recording supervised and no envelope given, the recording's wider one (:data:`RECORDING_ENVELOPE`)."""
-        base = read_options(self.params) if self.params is not None else SupervisorOptions()
+        base = read_options(self.params) if self.params is not None else SupervisorOptions().on_plant(plant)
         merged = {f.name: getattr(base, f.name) for f in fields(base)} | dict(self.options)
         if self.recording and merged["envelope"] is None:
             merged["envelope"] = RECORDING_ENVELOPE * plant.x_max
@@ -207,7 +209,8 @@ def node_args(cfg: BenchConfig, options_file: Path) -> list[str]:
     return ["-p", f"plant_ns:={cfg.namespace}", "-p", f"preset:={cfg.run.preset}",
             "-p", f"options_file:={options_file}", "-p", f"lockstep:={str(not cfg.realtime).lower()}",
             "-p", f"run_steps:={cfg.run.validation_steps}", "-p", f"reference:={float(cfg.run.target)!r}",
-            "-r", f"__ns:={namespace(cfg.namespace)}", *cfg.interface.ros_args()]
+            "-r", f"__ns:={namespace(cfg.namespace)}", *cfg.interface.ros_args(),
+            *([] if cfg.rig_file is None else ["--params-file", str(cfg.rig_file)])]
 
 
 class SupervisorProcess:

@@ -50,6 +50,7 @@ from msd_bench.core.evaluation.robustness import cell
 from msd_bench.core.evaluation.scenarios import Scenario
 from msd_bench.core.physics.model import StepModel, check_rate
 from msd_bench.core.rigs.rest import RestConfig
+from msd_bench.core.rigs.scales import Scales
 from msd_bench.designs import Controller, Drive, Policy, Settings, Stepwise
 from msd_bench.designs.kinds import facts_record, made_on_plant, stepwise_namespace, stepwise_training
 from msd_bench.designs.protocol import StepwiseLearner, settings_from
@@ -100,13 +101,17 @@ class AgentNodeConfig:
     """Sample time of the plant, s (for settling times)."""
     force: float = field(default=shared("force"), metadata={"range": (1e-3, 1e4)})
     """Force magnitude F of the action alphabet, N."""
+    stroke: float = field(default=shared("stroke"), metadata={"range": (1e-6, 1e6)})
+    """The plant's full travel, m: the learners' lengths are the paper's relative to it."""
     shaping: str = shared("shaping")
     """Reading of the paper's shaping penalty for the paper agent: ``away`` or ``toward``."""
     out_dir: str = ""
     """Where qtables.npz, result.json and the validation bags go (required)."""
     reset: bool = True
     """The node has ``reset``; false (a rig): zero force until still before every episode."""
-    rest_threshold: float = field(default=0.005, metadata={"range": (1e-6, 1.0)})
+    rest_window: int = field(default=RestConfig.window, metadata={"range": (4, 10_000_000)})
+    """Samples the stillness is judged over (:class:`msd_bench.core.rigs.rest.RestConfig`)."""
+    rest_threshold: float = field(default=0.005, metadata={"range": (1e-6, 1e3)})
     """Largest position standard deviation at rest, m (:class:`msd_bench.core.rigs.rest.RestConfig`)."""
     rest_timeout: float = field(default=30.0, metadata={"range": (0.1, 3600.0)})
     """Seconds of zero force after which an episode starts even if the mass never looked still."""
@@ -139,12 +144,18 @@ class AgentNodeConfig:
         if self.pooled and not self.lockstep:
             raise ConfigError("pooled needs lockstep: a free-running node publishes between jobs")
         for text in self.scenario_ids:
-            hardware_scenario(text)
+            hardware_scenario(text, self.scales)
 
     @property
     def scenario_ids(self) -> list[str]:
         """The ``scenarios`` one by one."""
         return [t.strip() for t in self.scenarios.split(";") if t.strip()]
+
+    @property
+    def scales(self) -> Scales:
+        """The factors from the paper's plant to the one this agent runs on (scenario values are in its
+        units)."""
+        return Scales.of(self.stroke, self.force, self.dt)
 
     def drive(self) -> Drive | None:
         """What the design is told of the drive (None: nothing)."""
@@ -238,7 +249,7 @@ class AgentNode(Node):
         self.x0: dict[str, dict[int, float]] = {}
         self._client = EpisodeClient(
             self, lockstep=self.config.lockstep, reset=self.config.reset,
-            rest=RestConfig(threshold=self.config.rest_threshold, timeout=self.config.rest_timeout),
+            rest=RestConfig(self.config.rest_window, self.config.rest_threshold, self.config.rest_timeout),
             interfaces={self.config.plant_ns: self.interface}, pooled=self.config.pooled)
         self._client.log = self._warn
         self._client.on_error = self._fail
@@ -309,7 +320,7 @@ class AgentNode(Node):
             self._client.submit(Episode(ctl, cfg.plant_ns, cfg.validation_steps, record=True,
                                         on_done=functools.partial(self._validated, policy.members[i])))
         for text in cfg.scenario_ids:
-            sc = hardware_scenario(text)
+            sc = hardware_scenario(text, cfg.scales)
             for i in members:
                 ctl = _Drive(policy.controller(i, sc.setpoint), sc.setpoint, self._announce, sc.disturbance,
                              round(sc.disturbance_time / cfg.dt))

@@ -128,9 +128,9 @@ class ExcitationNodeConfig:
     """Bag path of a recorder to wait for (its latched ``recorder/ready``); empty = none."""
     rest_first: bool = False
     """A node without ``reset`` (a rig): command zero force until the position is still, then play."""
-    rest_window: int = field(default=300, metadata={"range": (4, 100_000)})
+    rest_window: int = field(default=300, metadata={"range": (4, 10_000_000)})
     """Samples the stillness is judged over (:class:`msd_bench.core.rigs.rest.RestConfig`)."""
-    rest_threshold: float = field(default=0.005, metadata={"range": (1e-6, 1.0)})
+    rest_threshold: float = field(default=0.005, metadata={"range": (1e-6, 1e3)})
     """Largest position standard deviation at rest, m (above the sensor's noise)."""
     rest_timeout: float = field(default=30.0, metadata={"range": (0.1, 3600.0)})
     """Seconds of zero force after which the signal plays even if the mass never looked still."""

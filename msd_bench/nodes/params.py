@@ -44,7 +44,8 @@ from rclpy.parameter import Parameter
 
 from msd_bench.app.job import JobError, read_job
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.rigs.description import parse_description
+from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.rigs.description import RigDescription, parse_description
 
 T = TypeVar("T")
 Range = tuple[float, float]
@@ -318,20 +319,62 @@ def check_rig_files(argv: Sequence[str]) -> None:
 
     Why here: ``--ros-args --params-file rig.yaml`` is how a ROS user hands a
     node the rig (docs/rig-description.md); a typo or an inconsistent key must
-    be one line before the node starts, and a rig the nodes cannot run yet
-    (another rate, stroke, force limit or decision period than the paper's
-    plant) is refused rather than silently run at the default.
+    be one line before the node starts. The description read is kept
+    (:func:`params_file_rig`): a node that serves or guards a plant takes its
+    rate, stroke and force limit from it (explicit ``-p`` values still win).
+    Two rig files for one process are refused: which one describes the rig
+    would be a guess.
     """
+    found: list[tuple[str, RigDescription]] = []
     for path in _params_files(argv):
         body = _load_params_file(path).get("/**", {}).get("ros__parameters", {})
         if "rate" not in body:
             continue
-        rig = parse_description({str(k): v for k, v in body.items()}, path)
-        if not rig.paper_scaled():
-            raise ConfigError(
-                f"rig file {path}: the nodes run the paper's plant only so far (100 Hz, 5 m, 10 N, "
-                f"0.01 s decisions); it describes {rig.rate:g} Hz, {rig.stroke:g} {rig.position_unit}, "
-                f"{rig.force_limit:g} {rig.force_unit}, {rig.decision_period:g} s decisions")
+        found.append((path, parse_description({str(k): v for k, v in body.items()}, path)))
+        if len(found) > 1:
+            raise ConfigError(f"rig files {found[0][0]} and {path}: give one rig description per node")
+    _RIG[:] = [rig for _, rig in found]
+
+
+_RIG: list[RigDescription] = []
+"""The rig description of this process's params files, if any (set by :func:`check_rig_files`)."""
+
+
+def params_file_rig() -> RigDescription | None:
+    """The rig description this node was given (``--params-file`` or ``--rig``), or None."""
+    return _RIG[0] if _RIG else None
+
+
+def rig_plant(params: PlantParams) -> PlantParams:
+    """``params`` on the rig this node was given (:meth:`RigDescription.emulated_plant`: the rig's
+    stroke, force limit and rate, the rest scaled consistently); ``params`` itself without one."""
+    rig = params_file_rig()
+    return params if rig is None else rig.emulated_plant(params)
+
+
+RIG_OPTION = "--rig"
+"""The launch scripts' own option for a rig description (before any ``--ros-args``)."""
+
+
+def expand_rig_option(argv: Sequence[str]) -> list[str]:
+    """``--rig FILE`` (before ``--ros-args``) as the ROS form ``--ros-args --params-file FILE``.
+
+    Why: bench.py, check-rig and the in-process commands take ``--rig FILE``; the
+    launch scripts take it too, and hand it to ROS as the parameter file it is, so
+    one file serves both forms. A missing file name is one line.
+    """
+    args = list(argv)
+    end = args.index("--ros-args") if "--ros-args" in args else len(args)
+    if RIG_OPTION not in args[:end]:
+        return args
+    i = args.index(RIG_OPTION)
+    if i + 1 >= end:
+        raise ConfigError("--rig needs a file: --rig rig.yaml (docs/rig-description.md)")
+    path = args[i + 1]
+    rest = args[:i] + args[i + 2:]
+    if not Path(path).is_file():
+        raise ConfigError(f"--rig {path}: no such file")
+    return [*rest, "--ros-args", "--params-file", path]
 
 
 def _flat(prefix: str, tree: Mapping[str, Any]) -> Iterable[str]:

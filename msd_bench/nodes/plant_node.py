@@ -80,7 +80,12 @@ from msd_bench.core.safety.supervisor import MAX_LATCH_TEXT, LogThrottle, parse_
 from msd_bench.io.reports.live_server import OFF, LiveServer, start_live
 from msd_bench.nodes import plant_claim
 from msd_bench.nodes.health import StallTracker, diagnostic_array
-from msd_bench.nodes.params import declare_from_dataclass, keep_own_clock, reject_unknown_parameters
+from msd_bench.nodes.params import (
+    declare_from_dataclass,
+    keep_own_clock,
+    reject_unknown_parameters,
+    rig_plant,
+)
 from msd_bench.nodes.spin import DeadlinePacer, DeadlineThread, stops_deferred
 from msd_msgs_py.contract import (
     CLOCK,
@@ -194,7 +199,8 @@ def declare_plant_params(node: Node, default_preset: str = "default") -> PlantPa
                     f"{', '.join(sorted(PRESETS))}.",
     )
     name: str = node.declare_parameter("preset", default_preset, desc).value
-    return declare_from_dataclass(node, PlantParams, defaults=preset(str(name)), ranges=PLANT_RANGES)
+    defaults = rig_plant(preset(str(name)))  # a rig file's stroke, force limit and rate
+    return declare_from_dataclass(node, PlantParams, defaults=defaults, ranges=PLANT_RANGES)
 
 
 class PlantNode(Node):

@@ -55,7 +55,7 @@ from msd_bench.core.rigs.population import EMULATOR_SEED, MAX_SEED, RigSpec
 from msd_bench.core.rigs.rig import Rig, RigImperfections
 from msd_bench.io.reports.live_server import OFF
 from msd_bench.nodes.interface_params import declare_interface
-from msd_bench.nodes.params import declare_from_dataclass
+from msd_bench.nodes.params import declare_from_dataclass, params_file_rig, rig_plant
 from msd_bench.nodes.plant_node import (
     PLANT_RANGES,
     ModelSpec,
@@ -116,8 +116,11 @@ class RigNode(PlantNode):
                               "drop -p lockstep")
         self.rig_config = declare_from_dataclass(self, RigNodeConfig)
         self.member = population.draw(self.rig_config.population_seed)
-        self.imperfections = declare_from_dataclass(self, RigImperfections,
-                                                    defaults=self.member.imperfections)
+        rig = params_file_rig()  # a described rig: the member's imperfections in its scales and rate
+        imperfections = self.member.imperfections
+        if rig is not None:
+            imperfections = imperfections.scaled(rig.scales())
+        self.imperfections = declare_from_dataclass(self, RigImperfections, defaults=imperfections)
         self.interface = declare_interface(self)
         self._names = self.interface.state_names(self.rig_config.extra_joints)
         if self._names.count(self.interface.joint) > 1:
@@ -169,7 +172,8 @@ class RigNode(PlantNode):
             name="preset", type=ParameterType.PARAMETER_STRING, read_only=True,
             description="Named plant parameter set the fields default to instead of the population "
                         f"member's, read once at start-up: {', '.join(sorted(PRESETS))}."))
-        return declare_from_dataclass(self, PlantParams, defaults=self.member.params, ranges=PLANT_RANGES)
+        return declare_from_dataclass(self, PlantParams, defaults=rig_plant(self.member.params),
+                                      ranges=PLANT_RANGES)
 
     def _explicit(self) -> set[str]:
         """Names of the parameters given on the command line (or as overrides)."""

@@ -38,6 +38,7 @@ from msd_bench.nodes.params import (
     allow_wildcard_names,
     check_params_files,
     check_rig_files,
+    expand_rig_option,
     reject_unknown_parameters,
     wildcard_parameter_names,
 )
@@ -236,6 +237,7 @@ def main(build: Callable[[], Node], args: Sequence[str] | None = None) -> int:
     """
     argv = list(sys.argv if args is None else args)
     try:
+        argv = expand_rig_option(argv)
         check_params_files(argv)
         check_rig_files(argv)
         allow_wildcard_names(wildcard_parameter_names(argv))

@@ -63,7 +63,7 @@ from msd_bench.core.safety.supervisor import (
 from msd_bench.io.storage.supervisor_file import read_options
 from msd_bench.nodes.health import diagnostic_array
 from msd_bench.nodes.interface_params import declare_interface
-from msd_bench.nodes.params import declare_from_dataclass
+from msd_bench.nodes.params import declare_from_dataclass, rig_plant
 from msd_msgs_py.contract import DIAGNOSTICS, ESTOP, ESTOP_CLEAR, REFERENCE, TopicSpec
 from msd_msgs_py.ros import command, command_force, msg_class, qos
 
@@ -87,7 +87,7 @@ class SupervisorNodeConfig:
     """Plant preset the supervisor's model states (core/physics/plant.py PRESETS); never the rig's truth."""
     options_file: str = ""
     """JSON object of SupervisorOptions fields; empty = the defaults derived from the stroke."""
-    reference: float = field(default=1.0, metadata={"range": (-2.5, 2.5)})
+    reference: float = field(default=1.0, metadata={"range": (-1e4, 1e4)})
     """Set-point the divergence detector tracks until one arrives on ``reference``, m."""
     lockstep: bool = False
     """The plant runs in lock-step: no stale-state check and no extra 0 N on an e-stop (each
@@ -106,9 +106,10 @@ class SupervisorNode(Node):
         super().__init__(node_name, namespace=namespace, **node_kwargs)
         self.config = declare_from_dataclass(self, SupervisorNodeConfig)
         self.iface = declare_interface(self)
-        opts = (SupervisorOptions() if not self.config.options_file
+        plant = rig_plant(preset(self.config.preset))  # a rig file wins over the preset
+        opts = (SupervisorOptions().on_plant(plant) if not self.config.options_file
                 else read_options(Path(self.config.options_file)))
-        self.supervisor = Supervisor(opts, preset(self.config.preset))
+        self.supervisor = Supervisor(opts, plant)
         self._wrong_clears = LogThrottle(1.0)
         self.reference = self.config.reference
         self._y = 0.0

@@ -50,8 +50,10 @@ def test_rig_file_fills_the_face_and_explicit_options_win(tmp_path: Path) -> Non
     ("/**:\n  ros__parameters:\n    rate: 0\n    stroke: 5.0\n    force_limit: 10.0\n", "rate in"),
     ("/**:\n  ros__parameters:\n    rate: 100.0\n    strok: 5.0\n    force_limit: 10.0\n",
      "did you mean stroke?"),
-    ("/**:\n  ros__parameters:\n    rate: 1000.0\n    stroke: 0.25\n    force_limit: 350.0\n",
-     "paper's scales only"),
+    ("/**:\n  ros__parameters:\n    rate: 1000.0\n    stroke: 0.25\n    force_limit: 350.0\n"
+     "    decision_period: 0.01\n", "decides every rig sample so far"),
+    ("/**:\n  ros__parameters:\n    rate: 1000.0\n    position_min: -0.1\n    position_max: 0.15\n"
+     "    force_limit: 350.0\n    decision_period: 0.001\n", "centred on 0"),
     ("/**:\n  ros__parameters:\n    rate: 250.0\n    stroke: 5.0\n    force_limit: 10.0\n"
      "    decision_period: 0.01\n", "not a whole number of rig samples"),
     (ROS2_CONTROL_RIG, "give --plant-ns /rig"),
@@ -73,3 +75,27 @@ def test_report_line_states_rate_stroke_and_force(tmp_path: Path) -> None:
     line = rig_line(cfg.rig)
     assert line == ("Rig (`--rig`): 100 Hz (dt 0.01 s), stroke 5 m, force limit 10 N, "
                     "1 sample(s) per 0.01 s decision, msd face.\n")
+
+
+STAGE = Path(__file__).resolve().parents[2] / "config" / "rigs" / "stage_1khz.yaml"
+
+
+def test_a_kilohertz_rig_runs_in_its_own_scales(tmp_path: Path) -> None:
+    """The shipped stage: its plant, its scales, the budgets the same seconds, the job's quantities."""
+    from msd_bench.app.job import agent_params, job_document
+
+    plain = bench_main.config(bench_main.parse(["--plant-ns", "/rig", "--out", str(tmp_path)]))
+    cfg = bench_main.config(bench_main.parse(["--plant-ns", "/rig", "--out", str(tmp_path),
+                                              "--rig", str(STAGE)]))
+    p = cfg.run.plant
+    assert (p.L, p.F, p.dt) == pytest.approx((0.25, 350.0, 0.001))
+    assert cfg.run.scales.length == pytest.approx(0.05) and cfg.run.scales.time == pytest.approx(0.1)
+    assert cfg.run.samples == 10 * plain.run.samples
+    assert cfg.run.validation_steps == 10 * plain.run.validation_steps
+    assert cfg.run.target == pytest.approx(0.05)  # the paper's unit step, 0.4 of the half-stroke
+    assert cfg.node_scenarios == ("setpoint=0.025", "disturbance=70@15")
+    params = agent_params(cfg.run)
+    assert (params["stroke"], params["force"], params["dt"]) == pytest.approx((0.25, 350.0, 0.001))
+    assert params["rest_window"] == 3000  # the 3 s stillness window
+    assert job_document("excitation", cfg.run, {})["params"]["dt"] == pytest.approx(0.001)
+    assert cfg.rig_file == STAGE and cfg.rig is not None and cfg.rig["rate_hz"] == 1000.0

@@ -113,6 +113,29 @@ class RigDescription:
         from msd_bench.core.rigs.scales import Scales  # lazy: scales imports physics only
         return Scales.of(self.stroke, self.force_limit, self.dt)
 
+    def emulated_plant(self, base: PlantParams | None = None) -> PlantParams:
+        """The plant the emulator serves for this description: ``base`` (default: the paper's
+        plant) in the rig's units of length and force, sampled at the rig's rate.
+
+        Why: a real rig brings its own plant; the emulator needs one, and the one that keeps the
+        task physically the same is the similarity transform of docs/decisions.md §Scales with
+        lengths × l = stroke / 5 m and forces × f = force limit / 10 N (m × f/l, c × f/l, k × f,
+        g / l, h × f/l³, L = stroke, F = force limit), and time × 1: durations are stated in
+        seconds, so the plant keeps its time constants and only its sample period becomes the
+        rig's (1/rate). On the default description every factor is exactly 1.0 and the default
+        plant comes back bit for bit. The emulator's hard stops sit at ±L/2, so limits that are
+        not centred on 0 are refused in one line.
+        """
+        if self.position_min != -self.position_max:
+            raise ConfigError(f"position limits [{self.position_min:g}, {self.position_max:g}]: the "
+                              f"emulator's plant has its stops at ±stroke/2; give a stroke centred on 0")
+        p = PlantParams() if base is None else base
+        paper = PlantParams()
+        length, force = self.stroke / paper.L, self.force_limit / paper.F
+        return PlantParams(m=p.m * force / length, c=p.c * force / length, k=p.k * force,
+                           g=p.g / length, h=p.h * force / length**3, L=p.L * length,
+                           F=p.F * force, dt=self.dt)
+
 
 def default_description() -> RigDescription:
     """The emulator's default plant as a description (what config/rigs/default.yaml must say)."""

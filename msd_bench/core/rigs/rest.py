@@ -21,11 +21,15 @@ sensor above the threshold — must not hang a run); the caller is told.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from msd_bench.core.errors import ConfigError
+
+if TYPE_CHECKING:
+    from msd_bench.core.rigs.scales import Scales
 
 X0_SAMPLES = 50
 """Positions averaged into ``x0`` (0.5 s at 100 Hz: 2 mm of noise becomes 0.3 mm)."""
@@ -43,6 +47,14 @@ class RestConfig:
     """Largest standard deviation (and half-window mean shift) of a still position, m."""
     timeout: float = 30.0
     """Seconds after which the wait ends even if the mass never looked still."""
+
+    def scaled(self, scales: Scales) -> RestConfig:
+        """This test, stated on the paper's plant, on a rig of ``scales``: the window the same seconds,
+        the threshold the same share of the stroke (itself on the paper's plant)."""
+        if scales.is_default:
+            return self
+        return replace(self, window=max(4, scales.samples(self.window)),
+                       threshold=scales.metres(self.threshold))
 
     def __post_init__(self) -> None:
         if self.window < 4:

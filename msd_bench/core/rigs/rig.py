@@ -32,8 +32,8 @@ measured ``y_k``, the velocity estimate at k, the force applied over
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import NamedTuple
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, NamedTuple
 
 import numba
 import numpy as np
@@ -44,6 +44,9 @@ from msd_bench.core.physics import kernels
 from msd_bench.core.physics.kernels import KIND_PLANT, Kernel
 from msd_bench.core.physics.plant import PlantParams
 from msd_bench.core.physics.sensor import SensorModel, VelocityEstimator, sensor_rng
+
+if TYPE_CHECKING:
+    from msd_bench.core.rigs.scales import Scales
 
 FloatArray = NDArray[np.float64]
 
@@ -71,7 +74,7 @@ class RigImperfections:
     actuator_tau: float = field(default=0.02, metadata={"range": (0.0, 1.0)})
     """Time constant (s) of the actuator's first-order lag (drive current loop, motor
     inductance); 0 = the force follows the delayed command at once."""
-    friction: float = field(default=0.2, metadata={"range": (0.0, 5.0)})
+    friction: float = field(default=0.2, metadata={"range": (0.0, 1e4)})
     """Coulomb friction (N): opposes motion; at rest it holds the mass while the other forces
     stay within it; 0 = none."""
     jitter: float = field(default=0.002, metadata={"range": (0.0, 0.05)})
@@ -98,6 +101,19 @@ class RigImperfections:
     def sensor(self) -> SensorModel:
         """The rig's position sensor."""
         return SensorModel(self.sensor_noise, self.sensor_quant)
+
+    def scaled(self, scales: Scales) -> RigImperfections:
+        """These imperfections, stated on the paper's plant, on a rig of ``scales`` (docs/decisions.md
+        §Scales): the sensor's noise and step relative to the stroke, friction relative to the force
+        limit, the dead time and the publish jitter the same seconds (the delay rounded to whole rig
+        samples, the jitter the same share of a sample); the lag is in seconds already. Itself on
+        the paper's plant, so the default rig is unchanged bit for bit."""
+        if scales.is_default:
+            return self
+        m = scales.metres
+        return replace(self, sensor_noise=m(self.sensor_noise), sensor_quant=m(self.sensor_quant),
+                       friction=scales.newtons(self.friction), jitter=self.jitter * scales.time,
+                       delay_samples=round(self.delay_samples / scales.time))
 
     def check_against(self, params: PlantParams) -> None:
         """Facts that need the plant: jitter must stay within one sample period."""

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any, NamedTuple
 
 import numba
@@ -145,6 +145,16 @@ class SupervisorOptions:
             raise ConfigError(f"supervisor option mass_factor must be >= 1, got {self.mass_factor}")
         if self.stale_timeout <= 0:
             raise ConfigError(f"supervisor option stale_timeout must be > 0, got {self.stale_timeout}")
+
+    def on_plant(self, plant: PlantParams) -> SupervisorOptions:
+        """These options, stated in the paper's metres, on a rig of ``plant``'s stroke: the velocity
+        margin and the divergence tolerance the same share of the stroke (docs/decisions.md §Scales;
+        seconds stay seconds, and the envelope, brake and latency are derived from ``plant`` already).
+        Itself on the paper's stroke, bit for bit."""
+        length = plant.L / PlantParams().L
+        if length == 1.0:
+            return self
+        return replace(self, v_margin=self.v_margin * length, div_tol=self.div_tol * length)
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any], what: str = "supervisor options") -> SupervisorOptions:

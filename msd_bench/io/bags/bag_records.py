@@ -25,8 +25,9 @@ from msd_bench.core.identification.excitation import (
     finite_or_nan,
     signal_from_params,
 )
-from msd_bench.core.identification.operating_points import PLM_BIASES
+from msd_bench.core.identification.operating_points import plm_biases
 from msd_bench.core.identification.records import Records
+from msd_bench.core.rigs.scales import DEFAULT_FORCE_LIMIT, Scales
 from msd_bench.io.bags.bag_error import BagError
 from msd_bench.io.bags.bag_interface import ForceSource, read_interface_experiment
 from msd_bench.io.bags.bag_recover import RECOVERED_SUFFIX
@@ -216,11 +217,12 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
     for role in ("train", "validation"):
         if (role, None) not in data:
             raise BagError(f"no broad-range {role} bag given (the multilevel record)")
-    bias_train = {b: data[("train", b)] for b in PLM_BIASES if ("train", b) in data}
-    if need_plm and len(bias_train) != len(PLM_BIASES):
-        missing = [b for b in PLM_BIASES if b not in bias_train]
-        raise BagError(f"PLM needs training bags at biases {list(PLM_BIASES)}; missing {missing}")
-    bias_val = {b: data[("validation", b)] for b in PLM_BIASES if ("validation", b) in data}
+    biases = plm_biases(Scales(force=force_limit / DEFAULT_FORCE_LIMIT))  # the plan's, on this rig
+    bias_train = {b: data[("train", b)] for b in biases if ("train", b) in data}
+    if need_plm and len(bias_train) != len(biases):
+        missing = [b for b in biases if b not in bias_train]
+        raise BagError(f"PLM needs training bags at biases {list(biases)}; missing {missing}")
+    bias_val = {b: data[("validation", b)] for b in biases if ("validation", b) in data}
     return Records(bias_train, bias_val, data[("train", None)], data[("validation", None)])
 
 
