@@ -81,8 +81,10 @@ class RunConfig:
     def __post_init__(self) -> None:
         check_agents(self.agents)
         preset(self.preset)  # an unknown preset fails here, naming the choices
-        if self.rig is not None:
-            self.rig.emulated_plant()  # limits the plant cannot take fail here, in one line
+        half = self.plant.x_max  # a rig whose limits the emulated plant cannot take fails here, in one line
+        if not abs(self.target) < half:
+            where = "" if self.rig is None else " of the rig"
+            raise ConfigError(f"set-point {self.target:g} m is outside the ±{half:g} m stroke{where}")
         for name in _POSITIVE:
             if int(getattr(self, name)) < 1:
                 raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -99,3 +100,28 @@ def test_a_kilohertz_rig_runs_in_its_own_scales(tmp_path: Path) -> None:
     assert params["rest_window"] == 3000  # the 3 s stillness window
     assert job_document("excitation", cfg.run, {})["params"]["dt"] == pytest.approx(0.001)
     assert cfg.rig_file == STAGE and cfg.rig is not None and cfg.rig["rate_hz"] == 1000.0
+
+
+def test_a_setpoint_outside_the_rigs_stroke_is_one_line(tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    """Scenario values are in the rig's units: 0.2 m is beyond the stage's ±0.125 m (nothing started)."""
+    out = tmp_path / "out"
+    argv = ["--plant-ns", "/rig", "--rig", str(STAGE), "--out", str(out), "--node-scenarios", "setpoint=0.2"]
+    assert bench_main.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "within the ±0.125 m stroke" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_the_run_target_must_lie_within_the_stroke() -> None:
+    from msd_bench.app.config import RunConfig
+    from msd_bench.core.errors import ConfigError
+    from msd_bench.io.rigs.rig_file import read_rig
+
+    with pytest.raises(ConfigError, match=r"set-point 3 m is outside the ±2.5 m stroke"):
+        RunConfig(target=3.0)
+    on_stage = RunConfig().on_rig(read_rig(STAGE))
+    assert on_stage.target == pytest.approx(0.05)
+    with pytest.raises(ConfigError, match=r"set-point 0.2 m is outside the ±0.125 m stroke of the rig"):
+        replace(on_stage, target=0.2)  # a set-point typed in the rig's units
