@@ -20,6 +20,7 @@ import os
 import platform
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +29,7 @@ import rclpy
 from msd_bench.core.errors import MsdBenchError
 from msd_bench.core.physics.plant import DT, PlantParams
 from msd_bench.core.rigs.conformance import Clause, Limits
-from msd_bench.io.rigs.rig_file import read_rig
+from msd_bench.io.rigs.rig_file import probe_new_rig, read_rig, write_rig
 from msd_bench.io.storage.atomic import write_text_atomic
 from msd_bench.io.storage.paths import writable_dir
 from msd_bench.io.storage.safe_read import read_json_bounded
@@ -68,6 +69,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--discovery-timeout", type=float, default=5.0, help="wait for the node's endpoints, s")
     p.add_argument("--json", type=Path, metavar="PATH",
                    help="also write the clauses, the command, commit and machine to PATH (JSON)")
+    p.add_argument("--write-rig", type=Path, metavar="FILE",
+                   help="also write a starting rig description (docs/rig-description.md) to the new FILE "
+                        "from what was measured: rate, stroke seen, force limit, and the face; never "
+                        "overwrites")
     add_cli_options(p)
     # --interface unset is None, so a typed --interface wins over --rig's face even when it names the
     # default face; apply_rig fills it from the file or from the option's own default
@@ -121,7 +126,8 @@ def limits_from_args(args: argparse.Namespace) -> Limits:
 
 
 def check(args: argparse.Namespace, context: rclpy.context.Context | None = None) -> list[Clause]:
-    """Run the check on ``context`` (an initialised one; the default context if None)."""
+    """Run the check on ``context`` (an initialised one; the default context if None); with
+    ``--write-rig`` also write the starting description (:func:`write_measured_rig`)."""
     from msd_bench.nodes.rig_checker import RigChecker, Script
 
     _check(args)
@@ -129,9 +135,40 @@ def check(args: argparse.Namespace, context: rclpy.context.Context | None = None
                     discovery_timeout=args.discovery_timeout)
     node = rclpy.create_node("msd_bench_check_rig", context=context, start_parameter_services=False)
     try:
-        return RigChecker(node, args.namespace, limits_from_args(args), script, from_cli(args)).run()
+        checker = RigChecker(node, args.namespace, limits_from_args(args), script, from_cli(args))
+        clauses = checker.run()
+        if getattr(args, "write_rig", None) is not None:
+            write_measured_rig(args, checker.measured)
+        return clauses
     finally:
         node.destroy_node()
+
+
+def write_measured_rig(args: argparse.Namespace, measured: Callable[[], dict[str, float]]) -> None:
+    """The starting description of ``--write-rig``: the measured rate, stroke seen and force limit,
+    the face it was checked through, the namespace; a one-line error (nothing written) when one of
+    them could not be measured. Why a starting file: check-rig drives the node gently, so the
+    stroke is what the mass moved within, not the stops; the header says to check every value."""
+    try:
+        values = measured()
+    except MsdBenchError as exc:
+        raise CheckRigError(f"--write-rig {args.write_rig}: not written: {exc}") from None
+    iface = from_cli(args)
+    params: dict[str, Any] = {**values, "interface": iface.kind, "plant_ns": args.namespace}
+    for name in ("controller", "joint", "effort"):
+        if getattr(args, name):
+            params[name] = getattr(args, name)
+    if args.controller_joints:
+        params["controller_joints"] = [j.strip() for j in args.controller_joints.split(",") if j.strip()]
+    header = ["Starting rig description written by msd-bench check-rig --write-rig from what it measured",
+              f"on {args.namespace} at {dt.datetime.now(dt.UTC).isoformat(timespec='seconds')} "
+              f"(docs/rig-description.md).",
+              "rate: median stamp interval; stroke: twice the largest |position| seen (a lower bound:",
+              "the stops were not looked for); force_limit: the effort under a command beyond it.",
+              "Check every value against the rig's data sheet before running the method on it."]
+    write_rig(args.write_rig, params, header)
+    print(f"wrote {args.write_rig}: rate {values['rate']:g} Hz, stroke seen {values['stroke']:g}, "
+          f"force limit {values['force_limit']:g}", flush=True)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -140,6 +177,8 @@ def run(args: argparse.Namespace) -> int:
     from_cli(args)  # an inconsistent interface is one line before any ROS work
     if args.json is not None:
         probe_json(args.json)
+    if args.write_rig is not None:
+        probe_new_rig(args.write_rig)
     with ros_session([]):
         clauses = check(args)
     for c in clauses:

@@ -31,6 +31,7 @@ from std_msgs.msg import Empty, Float64
 from msd_bench.core.errors import InterfaceError
 from msd_bench.core.rigs import conformance as cf
 from msd_bench.core.rigs.conformance import Clause, Limits
+from msd_bench.core.rigs.description import measured_parameters
 from msd_msgs_py.contract import CLOCK, FORCE, JOINT_STATES, POSITION, RESET, TRUTH_JOINT_STATES
 from msd_msgs_py.interface import MSD_INTERFACE, PlantInterface
 from msd_msgs_py.ros import command, msg_class, qos
@@ -100,6 +101,8 @@ class RigChecker:
         self._moves = True
         """Whether the effort step moved the applied effort (else the settle waits are skipped)."""
         self._on_row: Callable[[], None] | None = None
+        self.saturated = np.empty(0)
+        """The efforts while the over-limit command was held (``check-rig --write-rig``'s force limit)."""
         self.topic = {s.name: s.resolve(self.ns) for s in (JOINT_STATES, POSITION, FORCE, RESET,
                                                              TRUTH_JOINT_STATES)}
         self.topic[FORCE.name] = iface.command.resolve(self.ns)  # the command topic of the face
@@ -226,6 +229,10 @@ class RigChecker:
         body = self._lockstep() if lockstep else self._realtime()
         return [*self._graph_clauses(), mode, *body]
 
+    def measured(self) -> dict[str, float]:
+        """The rate, stroke seen and force limit this check measured (:func:`measured_parameters`)."""
+        return measured_parameters(self.rec.stamps, self.rec.x, self.saturated)
+
     def _graph_clauses(self) -> list[Clause]:
         n = self.node
         topics = [self.topic[JOINT_STATES.name]]
@@ -329,7 +336,8 @@ class RigChecker:
         settle = self._settle_rows(resp)
         sat_cmd = -self.script.saturation_factor * F  # back toward the origin
         first = self._settled(sat_cmd, settle)
-        sat = cf.saturation_clause(self.rec.efforts()[first:], sat_cmd, lim)
+        self.saturated = self.rec.efforts()[first:]
+        sat = cf.saturation_clause(self.saturated, sat_cmd, lim)
         self._settled(a, settle)
         nonfinite = self._realtime_nonfinite(a)
         reset = self._realtime_reset(a)
@@ -438,7 +446,8 @@ class RigChecker:
         sat_cmd = -self.script.saturation_factor * F
         first = len(self.rec.stamps)
         counts += [self._step(sat_cmd) for _ in range(settle)]
-        sat = cf.saturation_clause(self.rec.efforts()[first:], sat_cmd, lim)
+        self.saturated = self.rec.efforts()[first:]
+        sat = cf.saturation_clause(self.saturated, sat_cmd, lim)
         counts += [self._step(a) for _ in range(settle)]
         nonfinite = self._lockstep_nonfinite(a)
         counts += [self._step(a) for _ in range(5)]

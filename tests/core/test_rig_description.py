@@ -124,3 +124,18 @@ def test_single_node_section_is_accepted(tmp_path: Path) -> None:
                     "    force_limit: 350.0\n")
     assert read_rig(path) == RigDescription(rate=1000.0, position_min=-0.125, position_max=0.125,
                                             force_limit=350.0)
+
+
+def test_measured_parameters_are_what_was_seen_or_one_line() -> None:
+    from msd_bench.core.rigs.description import measured_parameters
+
+    stamps = [k * 1_000_000 for k in range(50)]  # 1 kHz
+    efforts = [0.0, 300.0, 349.9, 350.1, 350.0, 350.0, 350.0]  # the last five settled at the limit
+    got = measured_parameters(stamps, [0.0, 0.01, -0.03, 0.02], efforts)
+    assert got == {"rate": 1000.0, "stroke": 0.06, "force_limit": 350.0}
+    parse_description(got)  # a description as it stands
+    for args, key in (((stamps[:2], [0.1], [10.0]), "rate"), ((stamps, [0.0, 0.0], [10.0]), "stroke"),
+                      ((stamps, [0.1], []), "force_limit")):
+        with pytest.raises(ConfigError, match=f"^{key}: ") as err:
+            measured_parameters(*args)
+        assert "\n" not in str(err.value)

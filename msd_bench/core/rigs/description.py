@@ -18,9 +18,12 @@ from __future__ import annotations
 
 import difflib
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics.model import StepModel, check_rate
@@ -142,6 +145,31 @@ def default_description() -> RigDescription:
     half = 0.5 * PlantParams().L
     return RigDescription(rate=1.0 / DT, position_min=-half, position_max=half,
                           force_limit=PlantParams().F)
+
+
+def measured_parameters(stamps_ns: Sequence[int], positions: Sequence[float],
+                        saturated_efforts: Sequence[float] | NDArray[np.float64]) -> dict[str, float]:
+    """A starting description's numbers from what ``check-rig`` saw on a node: the rate from the
+    median stamp interval, the stroke the mass moved within (twice the largest |position|: a lower
+    bound, the stops were not looked for) and the force limit the effort settled at under a command
+    beyond it (the mean |effort| of the last five such rows). A one-line ConfigError when one of
+    them was not measured (too few rows, a mass that never moved, no effort under the over-limit
+    command): a description is never written with a guessed value.
+    """
+    stamps = np.unique(np.asarray(stamps_ns, dtype=np.int64))
+    if stamps.size < 3:
+        raise ConfigError(f"rate: only {stamps.size} distinct stamps seen; nothing to measure it from")
+    period = float(np.median(np.diff(stamps))) * 1e-9
+    x = np.asarray(positions, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    if x.size == 0 or float(np.max(np.abs(x))) == 0.0:
+        raise ConfigError("stroke: the position never left 0; nothing to measure it from")
+    effort = np.abs(np.asarray(saturated_efforts, dtype=np.float64)[-5:])
+    if effort.size == 0 or not np.all(np.isfinite(effort)) or float(np.mean(effort)) == 0.0:
+        raise ConfigError("force_limit: no effort seen under the over-limit command; "
+                          "nothing to measure it from")
+    return {"rate": float(f"{1.0 / period:.6g}"), "stroke": float(f"{2.0 * float(np.max(np.abs(x))):.6g}"),
+            "force_limit": float(f"{float(np.mean(effort)):.6g}")}
 
 
 def decision_samples(period: float, rate: float, key: str, source: str) -> int:
@@ -285,4 +313,4 @@ def _delay(params: Mapping[str, object], rate: float, source: str) -> int | None
 
 
 __all__ = ["FACES", "KEYS", "RigDescription", "decision_samples", "default_description",
-           "parse_description"]
+           "measured_parameters", "parse_description"]

@@ -11,6 +11,8 @@ reads the file, bounded, and names it in every error.
 
 from __future__ import annotations
 
+import os
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +20,8 @@ import yaml
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.rigs.description import RigDescription, parse_description
+from msd_bench.io.storage.atomic import write_text_atomic
+from msd_bench.io.storage.paths import writable_dir
 
 MAX_BYTES = 256 * 1024
 """Largest rig file read: a description is a few hundred bytes."""
@@ -67,3 +71,23 @@ def _section(document: object, path: Path) -> dict[str, Any]:
     if not isinstance(params, dict):
         raise ConfigError(f"rig file {path}: section {name!r} has no 'ros__parameters' mapping")
     return {str(key): value for key, value in params.items()}
+
+
+def probe_new_rig(path: Path) -> None:
+    """Before anything is measured: ``path`` must not exist (a description is never overwritten)
+    and its directory must be writable; one-line ConfigError otherwise."""
+    if os.path.lexists(path):
+        raise ConfigError(f"--write-rig {path}: already exists; refusing to overwrite it (name a new file)")
+    writable_dir(path.parent.absolute(), "--write-rig directory")
+
+
+def write_rig(path: Path, params: Mapping[str, Any], header: Sequence[str]) -> Path:
+    """Write ``params`` as a rig description (``/**: ros__parameters:``) to the new file ``path``,
+    atomically and never over an existing file; ``header`` lines become comments at the top. The
+    text is read back through :func:`parse_description` first, so a file is written only when
+    :func:`read_rig` will accept it."""
+    parse_description(dict(params), str(path))
+    body = yaml.safe_dump({"/**": {"ros__parameters": dict(params)}}, sort_keys=False,
+                          default_flow_style=False)
+    text = "".join(f"# {line}\n" for line in header) + body
+    return write_text_atomic(path, text, exclusive=True, error=ConfigError)
