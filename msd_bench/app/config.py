@@ -8,7 +8,7 @@ directory, stages, real-time mode). Budgets default to the paper's.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from msd_bench.app.agents import DEFAULT_AGENTS, SHAPINGS, check_agents, surrogates_of
 from msd_bench.core.errors import ConfigError
@@ -81,10 +81,10 @@ class RunConfig:
     def __post_init__(self) -> None:
         check_agents(self.agents)
         preset(self.preset)  # an unknown preset fails here, naming the choices
-        half = self.plant.x_max  # a rig whose limits the emulated plant cannot take fails here, in one line
-        if not abs(self.target) < half:
-            where = "" if self.rig is None else " of the rig"
-            raise ConfigError(f"set-point {self.target:g} m is outside the ±{half:g} m stroke{where}")
+        if self.rig is not None:  # limits the emulated plant cannot take fail here, in one line
+            half = self.plant.x_max
+            if not abs(self.target) < half:
+                raise ConfigError(f"set-point {self.target:g} m is outside the ±{half:g} m stroke of the rig")
         for name in _POSITIVE:
             if int(getattr(self, name)) < 1:
                 raise ConfigError(f"{name} must be >= 1, got {getattr(self, name)}")
@@ -109,6 +109,11 @@ class RunConfig:
         return suite(self.scenarios, self.scales if scales is None else scales)
 
     @property
+    def decision_samples(self) -> int:
+        """Rig samples per decision (the command held over them): the rig's, 1 on the paper's plant."""
+        return 1 if self.rig is None else self.rig.samples_per_decision
+
+    @property
     def scales(self) -> Scales:
         """The factors from the paper's plant to the run's rig (:data:`Scales.DEFAULT` without one)."""
         return Scales.DEFAULT if self.rig is None else self.rig.scales()
@@ -121,7 +126,7 @@ class RunConfig:
             raise ConfigError("the run is on a rig already")
         if rig.scales().is_default:  # config/rigs/default.yaml: the run as it is, bit for bit
             return self
-        return replace(self.scaled(rig.scales()), rig=rig)
+        return replace(self, rig=rig, **self._scaled_fields(rig.scales()))
 
     def scaled(self, scales: Scales) -> RunConfig:
         """These budgets, stated in paper samples and metres, on a rig of ``scales``
@@ -130,11 +135,15 @@ class RunConfig:
         and step scale with it. Itself on the paper's plant, bit for bit."""
         if scales.is_default:
             return self
+        return replace(self, **self._scaled_fields(scales))
+
+    def _scaled_fields(self, scales: Scales) -> dict[str, Any]:
+        """The fields :meth:`scaled` changes, on a rig of ``scales``."""
         n = scales.samples
-        return replace(self, steps=n(self.steps), samples=n(self.samples), val_samples=n(self.val_samples),
-                       validation_steps=n(self.validation_steps), window=n(self.window),
-                       target=scales.metres(self.target), record_noise=scales.metres(self.record_noise),
-                       record_quant=scales.metres(self.record_quant))
+        return {"steps": n(self.steps), "samples": n(self.samples), "val_samples": n(self.val_samples),
+                "validation_steps": n(self.validation_steps), "window": n(self.window),
+                "target": scales.metres(self.target), "record_noise": scales.metres(self.record_noise),
+                "record_quant": scales.metres(self.record_quant)}
 
     @property
     def sensor(self) -> SensorModel | None:
@@ -147,7 +156,7 @@ class RunConfig:
         """The supervisor's limits on the plant when runs are validated behind it, else None."""
         from msd_bench.core.safety.supervisor import SupervisorOptions
 
-        return SupervisorOptions().on_plant(self.plant).limits(self.plant) if self.supervisor else None
+        return SupervisorOptions().scaled_to(self.plant).limits(self.plant) if self.supervisor else None
 
     @property
     def plant(self) -> PlantParams:

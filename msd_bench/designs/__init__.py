@@ -8,6 +8,7 @@ heavy imports happen inside it.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -41,10 +42,34 @@ if TYPE_CHECKING:  # numba-compiled modules load only when a policy is made or r
     from msd_bench.core.physics.model import StepModel
     from msd_bench.core.physics.plant import PlantParams
 
-__all__ = ["AGENT_KINDS", "DESIGNS", "PLANT", "AgentKind", "Controller", "Design", "Drive", "Facts",
-           "KindSpec",
-           "Policy", "Request", "Settings", "Stepwise", "agent_kind", "budget_note", "design", "load",
-           "make", "members", "nominal_runs", "register", "request", "stepwise", "unregister"]
+__all__ = [
+    "AGENT_KINDS",
+    "DESIGNS",
+    "PLANT",
+    "AgentKind",
+    "Controller",
+    "Design",
+    "Drive",
+    "Facts",
+    "KindSpec",
+    "Policy",
+    "Request",
+    "Settings",
+    "Stepwise",
+    "agent_kind",
+    "at_decisions",
+    "budget_note",
+    "check_decisions",
+    "design",
+    "load",
+    "make",
+    "members",
+    "nominal_runs",
+    "register",
+    "request",
+    "stepwise",
+    "unregister",
+]
 
 
 def request(kind: str, model: StepModel | None, settings: Settings, seeds: Sequence[int],
@@ -53,7 +78,36 @@ def request(kind: str, model: StepModel | None, settings: Settings, seeds: Seque
     the drive (None: nothing)."""
     if not seeds:
         raise ConfigError(f"{kind}: need at least one learning seed")
+    model, settings, drive = at_decisions(kind, model, settings, drive)
     return Request(agent_kind(kind).spec, model, settings, tuple(int(s) for s in seeds), drive)
+
+
+def check_decisions(kind: str, samples_per_decision: int) -> None:
+    """One line when ``kind``'s design cannot decide every ``samples_per_decision`` samples (it has not
+    opted in with ``holds_decisions``): checked before a run starts anything."""
+    if samples_per_decision != 1 and not getattr(agent_kind(kind).design, "holds_decisions", False):
+        raise ConfigError(f"{kind}: a decision period of {samples_per_decision} rig samples is not supported "
+                          f"by its design yet (the Q-learning kinds hold their command); drop the kind or "
+                          f"give decision_period = the sample period")
+
+
+def at_decisions(kind: str, model: StepModel | None, settings: Settings,
+                 drive: Drive | None) -> tuple[StepModel | None, Settings, Drive | None]:
+    """The request as a design deciding every ``settings.decision_samples`` rig samples sees it: the
+    model held over them (:func:`msd_bench.core.physics.model.held`), the decision period as ``dt``,
+    episodes of as many decisions as fit in the samples, a drive's dead time in decisions. Unchanged
+    (the same objects) at one sample per decision. Why here: one place for every engine (in-process,
+    the agent node), and no design's loop changes. A design that has not opted in (``holds_decisions``)
+    is one line."""
+    n = int(settings.decision_samples)
+    if n == 1:
+        return model, settings, drive
+    check_decisions(kind, n)
+    from msd_bench.core.physics.model import held  # numba: loaded only when a model is held
+
+    told = None if drive is None else Drive(round(drive.delay_samples / n), drive.lag_s)
+    decided = replace(settings, dt=settings.dt * n, steps=max(1, settings.steps // n), decision_samples=1)
+    return None if model is None else held(model, n), decided, told
 
 
 def make(kind: str, model: StepModel | None, settings: Settings, seeds: Sequence[int],

@@ -61,6 +61,10 @@ class Settings:
     """Nominal validation set-point, m."""
     shaping: str = "toward"
     """The run's reading of the paper's shaping term (a kind may pin its own)."""
+    decision_samples: int = 1
+    """Rig samples per decision: the command is held over them (docs/rig-description.md). A design
+    sees the decision period as its ``dt`` and the model held over them
+    (:func:`msd_bench.designs.request`)."""
 
 
 _SETTINGS_FIELDS = tuple(f.name for f in fields(Settings))

@@ -199,6 +199,9 @@ class QDesign:
     """Dyna-Q: plans between real steps on the plant, at the plant budget."""
     baseline: bool = False
     deterministic: bool = False
+    holds_decisions: bool = True
+    """It learns and acts at a decision period of several rig samples (:func:`msd_bench.designs.request`:
+    on the model held over them, :func:`msd_bench.core.physics.model.held`)."""
 
     @property
     def model_free(self) -> bool:

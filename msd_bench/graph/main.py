@@ -23,6 +23,7 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.job import agent_params
 from msd_bench.app.options import add_run_arguments, run_config_from_args
 from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.designs import check_decisions
 from msd_bench.designs.kinds import node_budget_note, on_node
 from msd_bench.designs.protocol import settings_from
 from msd_bench.graph import supervise
@@ -168,6 +169,8 @@ def config(args: argparse.Namespace) -> BenchConfig:
     run = run_config_from_args(args)
     if rig is not None:
         run = run.on_rig(rig)  # the rig's plant and scales; the budgets the same seconds
+        for kind in run.agents:  # a design that cannot hold its command between decisions: one line now
+            check_decisions(kind, run.decision_samples)
     extra: dict[str, Any] = {}
     if args.plant_ns is not None:
         run, extra = _plant_ns_fields(args, run)

@@ -37,11 +37,6 @@ def apply_rig(args: argparse.Namespace, given: frozenset[str]) -> RigDescription
     if args.rig is None:
         return None
     rig = read_rig(args.rig)
-    if rig.samples_per_decision != 1:
-        raise ConfigError(
-            f"--rig {args.rig}: bench.py decides every rig sample so far; this rig's decision period "
-            f"{rig.decision_period:g} s is {rig.samples_per_decision} samples at {rig.rate:g} Hz: give "
-            f"decision_period {rig.dt:g}")
     if rig.plant_ns and rig.plant_ns != args.plant_ns:
         raise ConfigError(f"--rig {args.rig} names plant_ns {rig.plant_ns!r} but the command line "
                           f"gives --plant-ns {args.plant_ns!r}: give --plant-ns {rig.plant_ns}")

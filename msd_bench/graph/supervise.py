@@ -102,7 +102,7 @@ class Supervision:
     def resolved(self, plant: PlantParams) -> SupervisorOptions:
         """The options: the file's (or the defaults), then the ``--supervisor-option`` items; with
         recording supervised and no envelope given, the recording's wider one (:data:`RECORDING_ENVELOPE`)."""
-        base = read_options(self.params) if self.params is not None else SupervisorOptions().on_plant(plant)
+        base = read_options(self.params) if self.params is not None else SupervisorOptions().scaled_to(plant)
         merged = {f.name: getattr(base, f.name) for f in fields(base)} | dict(self.options)
         if self.recording and merged["envelope"] is None:
             merged["envelope"] = RECORDING_ENVELOPE * plant.x_max

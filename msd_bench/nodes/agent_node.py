@@ -103,6 +103,9 @@ class AgentNodeConfig:
     """Force magnitude F of the action alphabet, N."""
     stroke: float = field(default=shared("stroke"), metadata={"range": (1e-6, 1e6)})
     """The plant's full travel, m: the learners' lengths are the paper's relative to it."""
+    decision_samples: int = field(default=1, metadata={"range": (1, 10_000)})
+    """Plant samples per decision: the agent decides every this many samples and holds its command
+    in between (its design learns on the model held over them; docs/rig-description.md)."""
     shaping: str = shared("shaping")
     """Reading of the paper's shaping penalty for the paper agent: ``away`` or ``toward``."""
     out_dir: str = ""
@@ -167,22 +170,35 @@ class AgentNodeConfig:
 
 
 class _Learn:
-    """Episode controller adapter for a stepwise learner; ``on_start`` runs as its episode starts."""
+    """Episode controller adapter for a stepwise learner; ``on_start`` runs as its episode starts.
 
-    def __init__(self, learner: StepwiseLearner, on_start: Callable[[], None] | None = None) -> None:
+    With ``hold`` > 1 the learner decides every ``hold`` samples (its command held in between) and
+    learns from the position at the next decision: the transitions it saw in-process on a held model.
+    """
+
+    def __init__(self, learner: StepwiseLearner, on_start: Callable[[], None] | None = None,
+                 hold: int = 1) -> None:
         self.learner = learner
         self.on_start = on_start
+        self.hold = hold
+        self.k = 0
+        self.u = 0.0
 
     def start(self, x0: float) -> None:
         if self.on_start is not None:
             self.on_start()
+        self.k = 0
         self.learner.start_episode(x0)
 
     def act(self) -> float:
-        return self.learner.act()
+        if self.k % self.hold == 0:
+            self.u = self.learner.act()
+        return self.u
 
     def observe(self, x: float) -> None:
-        self.learner.learn(x)
+        self.k += 1
+        if self.k % self.hold == 0:
+            self.learner.learn(x)
 
 
 class _Drive:
@@ -193,14 +209,17 @@ class _Drive:
     """
 
     def __init__(self, controller: Controller, target: float, announce: Callable[[float], None],
-                 disturbance: float = 0.0, disturbance_step: int = 0) -> None:
+                 disturbance: float = 0.0, disturbance_step: int = 0, hold: int = 1) -> None:
         self.controller = controller
         self.target = target
         self.announce = announce
         self.y = 0.0
         self.k = 0
+        self.u = 0.0
         self.disturbance = disturbance
         self.disturbance_step = disturbance_step
+        self.hold = hold
+        """Samples per decision: the controller is asked every ``hold`` samples, its command held between."""
 
     def start(self, x0: float) -> None:
         self.controller.reset()
@@ -209,7 +228,9 @@ class _Drive:
         self.announce(self.target)
 
     def act(self) -> float:
-        u = self.controller.act(self.y)
+        if self.k % self.hold == 0:
+            self.u = self.controller.act(self.y)
+        u = self.u
         return u + self.disturbance if self.k >= self.disturbance_step else u
 
     def observe(self, x: float) -> None:
@@ -295,7 +316,8 @@ class AgentNode(Node):
         for learner in over.learners:
             for _ in range(over.episodes):
                 announce = functools.partial(self._first_step, ns) if first else None
-                self._client.submit(Episode(_Learn(learner, announce), ns, over.steps))
+                n = self.config.decision_samples  # over.steps counts decisions
+                self._client.submit(Episode(_Learn(learner, announce, n), ns, over.steps * n))
                 first = False
         self._training = stepwise_training(self.config.kind, over)
         self._client.on_idle = lambda: self._trained(over.finish())
@@ -316,14 +338,15 @@ class AgentNode(Node):
         members = range(len(policy.members))
         self.get_logger().info(f"trained; validating {len(members)} member(s) on {cfg.plant_ns}")
         for i in members:
-            ctl = _Drive(policy.controller(i, cfg.target), cfg.target, self._announce)
+            ctl = _Drive(policy.controller(i, cfg.target), cfg.target, self._announce,
+                         hold=cfg.decision_samples)
             self._client.submit(Episode(ctl, cfg.plant_ns, cfg.validation_steps, record=True,
                                         on_done=functools.partial(self._validated, policy.members[i])))
         for text in cfg.scenario_ids:
             sc = hardware_scenario(text, cfg.scales)
             for i in members:
                 ctl = _Drive(policy.controller(i, sc.setpoint), sc.setpoint, self._announce, sc.disturbance,
-                             round(sc.disturbance_time / cfg.dt))
+                             round(sc.disturbance_time / cfg.dt), hold=cfg.decision_samples)
                 self._client.submit(Episode(ctl, cfg.plant_ns, cfg.validation_steps, record=True,
                                             on_done=functools.partial(self._scenario_done, sc,
                                                                       policy.members[i])))

@@ -107,7 +107,7 @@ class SupervisorNode(Node):
         self.config = declare_from_dataclass(self, SupervisorNodeConfig)
         self.iface = declare_interface(self)
         plant = rig_plant(preset(self.config.preset))  # a rig file wins over the preset
-        opts = (SupervisorOptions().on_plant(plant) if not self.config.options_file
+        opts = (SupervisorOptions().scaled_to(plant) if not self.config.options_file
                 else read_options(Path(self.config.options_file)))
         self.supervisor = Supervisor(opts, plant)
         self._wrong_clears = LogThrottle(1.0)

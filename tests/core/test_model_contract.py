@@ -34,7 +34,7 @@ from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.learning.qconfig import QConfig, improved_config
 from msd_bench.core.learning.qtrain import greedy_rollout, greedy_rollouts, train
 from msd_bench.core.physics import kernels
-from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.model import StepModel, held, plant_model
 from msd_bench.core.physics.plant import preset
 from msd_bench.io.storage.artifacts import load_model
 
@@ -60,6 +60,7 @@ CONTRACT_MODELS: dict[str, Callable[[], StepModel]] = {
                                      np.array([PLANT.m, PLANT.c, 0.0, 0.0, PLANT.h, PLANT.L, PLANT.F,
                                                PLANT.dt, PLANT.k, PLANT.g, 0.1, 0.01, 0.05, 2.0, 1.0]),
                                      "greybox-rk4", dt=PLANT.dt, force_limit=PLANT.F),
+    "held": lambda: held(load_model(PINNED / "glm.json"), 3),  # a decision held over 3 samples
 }
 """Every model kind under contract: the true plant and one stored artifact per surrogate kind."""
 
@@ -99,7 +100,8 @@ def test_every_model_kind_is_under_contract() -> None:
 
 
 def test_model_stands_for_the_plant(model: StepModel) -> None:
-    assert (model.x_max, model.force_limit, model.dt) == (PLANT.L / 2, PLANT.F, PLANT.dt)
+    held_over = int(model.params[0]) if model.kind == kernels.KIND_HELD else 1  # its dt: the decision's
+    assert (model.x_max, model.force_limit, model.dt) == (PLANT.L / 2, PLANT.F, PLANT.dt * held_over)
 
 
 def test_deterministic(model: StepModel) -> None:

@@ -52,7 +52,7 @@ def test_rig_file_fills_the_face_and_explicit_options_win(tmp_path: Path) -> Non
     ("/**:\n  ros__parameters:\n    rate: 100.0\n    strok: 5.0\n    force_limit: 10.0\n",
      "did you mean stroke?"),
     ("/**:\n  ros__parameters:\n    rate: 1000.0\n    stroke: 0.25\n    force_limit: 350.0\n"
-     "    decision_period: 0.01\n", "decides every rig sample so far"),
+     "    decision_period: 0.0015\n", "not a whole number of rig samples"),
     ("/**:\n  ros__parameters:\n    rate: 1000.0\n    position_min: -0.1\n    position_max: 0.15\n"
      "    force_limit: 350.0\n    decision_period: 0.001\n", "centred on 0"),
     ("/**:\n  ros__parameters:\n    rate: 250.0\n    stroke: 5.0\n    force_limit: 10.0\n"
@@ -98,6 +98,7 @@ def test_a_kilohertz_rig_runs_in_its_own_scales(tmp_path: Path) -> None:
     params = agent_params(cfg.run)
     assert (params["stroke"], params["force"], params["dt"]) == pytest.approx((0.25, 350.0, 0.001))
     assert params["rest_window"] == 3000  # the 3 s stillness window
+    assert params["decision_samples"] == cfg.run.decision_samples == 10  # 10 ms decisions, 10 samples each
     assert job_document("excitation", cfg.run, {})["params"]["dt"] == pytest.approx(0.001)
     assert cfg.rig_file == STAGE and cfg.rig is not None and cfg.rig["rate_hz"] == 1000.0
 
@@ -119,9 +120,18 @@ def test_the_run_target_must_lie_within_the_stroke() -> None:
     from msd_bench.core.errors import ConfigError
     from msd_bench.io.rigs.rig_file import read_rig
 
-    with pytest.raises(ConfigError, match=r"set-point 3 m is outside the ±2.5 m stroke"):
-        RunConfig(target=3.0)
     on_stage = RunConfig().on_rig(read_rig(STAGE))
     assert on_stage.target == pytest.approx(0.05)
     with pytest.raises(ConfigError, match=r"set-point 0.2 m is outside the ±0.125 m stroke of the rig"):
         replace(on_stage, target=0.2)  # a set-point typed in the rig's units
+
+
+def test_a_design_that_cannot_hold_its_command_is_one_line(tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """The stage decides every 10 samples; a PID baseline has not opted in to holding: refused up front."""
+    out = tmp_path / "out"
+    assert bench_main.main(["--plant-ns", "/rig", "--rig", str(STAGE), "--out", str(out),
+                            "--agents", "glm+pid,glm+improved"]) == 2
+    err = capsys.readouterr().err
+    assert "glm+pid: a decision period of 10 rig samples is not supported" in err
+    assert len(err.strip().splitlines()) == 1 and not out.exists()

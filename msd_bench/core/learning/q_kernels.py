@@ -380,7 +380,7 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
     if first:
         ost[:] = 0.0
         ost[kernels.POS] = y
-        ost[kernels.MOTION] = 0.0 if kernels.holds_velocity(obs.kind) else y
+        ost[kernels.MOTION] = 0.0 if kernels.holds_velocity(kernels.base_kind(obs)) else y
         return y, 0.0
     if lr.observer == OBS_NONE:
         return y, y - xh
@@ -409,7 +409,7 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
         ost[bias] = min(f_max, max(-f_max, ost[bias] + lr.obs_bias_gain * innovation))
     share = lr.obs_velocity_share
     x, motion = kernels.POS, kernels.MOTION
-    if kernels.holds_velocity(obs.kind):
+    if kernels.holds_velocity(kernels.base_kind(obs)):
         # Moving x by L·r moves an ARX model's implied displacement (x_k - x_{k-1}) by L·r too; a
         # plant-structure state holds the velocity apart, so it gets that correction explicitly
         # (plus any extra velocity gain), or an unmodelled force would bias the estimate for good.

@@ -96,9 +96,13 @@ KIND_PLM = 2
 KIND_NLARX = 3
 KIND_GREYBOX_RIG = 4
 KIND_RK4 = 5
+KIND_HELD = 6
 
 KIND_NAMES = {KIND_PLANT: "plant", KIND_LINEAR: "linear", KIND_PLM: "plm", KIND_NLARX: "nlarx",
-              KIND_GREYBOX_RIG: "greybox-rig", KIND_RK4: "rk4"}
+              KIND_GREYBOX_RIG: "greybox-rig", KIND_RK4: "rk4", KIND_HELD: "held"}
+HELD_HEAD = 2
+"""A held model's parameters: ``[n, inner kind, inner parameters...]`` — the inner model stepped ``n``
+times under one command per :func:`advance` (a decision held over ``n`` rig samples, issue 37 item 3)."""
 
 PLM_CENTRES = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
 """Nominal centres of f1..f5 (f1 is 1 below -2, f5 is 1 above 1.5)."""
@@ -171,7 +175,21 @@ def state_size(kind: int) -> int:
     """
     if kind == KIND_GREYBOX_RIG:
         return RIG_STATE_SIZE
+    if kind == KIND_HELD:  # any inner kind's state fits (its kernel uses its own leading slots)
+        return STATE_MAX
     return ARX_STATE_SIZE
+
+
+@numba.njit(cache=True)
+def held_inner(model: Kernel) -> Kernel:
+    """The model a held model steps (``params[HELD_HEAD:]`` under its inner kind)."""
+    return Kernel(int(model.params[1]), model.params[HELD_HEAD:], model.force_limit)
+
+
+@numba.njit(cache=True)
+def base_kind(model: Kernel) -> int:
+    """The kind whose state layout ``model``'s state has: a held model's inner kind, else its own."""
+    return int(model.params[1]) if model.kind == KIND_HELD else model.kind
 
 
 @numba.njit(cache=True)
@@ -405,7 +423,21 @@ def advance(model: Kernel, s: FloatArray, u: float) -> float:
 
     ``u`` is saturated to ±``model.force_limit`` (a non-finite one raises before
     ``s`` changes); an unknown kind raises rather than running another kind's maths.
+    A held model (:data:`KIND_HELD`) steps its inner model ``n`` times under ``u``: one
+    decision held over ``n`` samples. Every other kind runs exactly :func:`_advance_one`.
     """
+    if model.kind == KIND_HELD:
+        inner = held_inner(model)
+        x = float(s[0])
+        for _ in range(int(model.params[0])):
+            x = _advance_one(inner, s, u)
+        return x
+    return _advance_one(model, s, u)
+
+
+@numba.njit(cache=True)
+def _advance_one(model: Kernel, s: FloatArray, u: float) -> float:
+    """:func:`advance` of every kind but a held one."""
     u = saturate(u, model.force_limit)
     if model.kind == KIND_PLANT:
         x, v = plant_step(plant_of(model.params), s[0], s[1], u)
@@ -427,8 +459,21 @@ def advance_loaded(model: Kernel, s: FloatArray, u: float, load: float) -> float
     model takes it into its force balance (:func:`plant_step_loaded`); an
     ARX-type model takes it on its input (the total force is what its
     regressors see, so its input memory holds the sum). Beyond ±F an ARX
-    model extrapolates: it was identified on saturated commands only.
+    model extrapolates: it was identified on saturated commands only. A held model
+    steps its inner model ``n`` times under ``u`` and the load.
     """
+    if model.kind == KIND_HELD:
+        inner = held_inner(model)
+        x = float(s[0])
+        for _ in range(int(model.params[0])):
+            x = _advance_loaded_one(inner, s, u, load)
+        return x
+    return _advance_loaded_one(model, s, u, load)
+
+
+@numba.njit(cache=True)
+def _advance_loaded_one(model: Kernel, s: FloatArray, u: float, load: float) -> float:
+    """:func:`advance_loaded` of every kind but a held one."""
     if model.kind == KIND_PLANT:
         x, v = plant_step_loaded(plant_of(model.params), s[0], s[1], u, load, 0.0)
         s[0] = x

@@ -73,7 +73,10 @@ class StepModel:
             if not (math.isfinite(value) and 0 < value <= hi):
                 raise InvalidInputError(f"model {self.name!r}: {what} must be in (0, {hi:g}], "
                                         f"got {value}")
-        check_params(kernels.KIND_NAMES[self.kind], p, self.name)
+        if self.kind == kernels.KIND_HELD:
+            _check_held(p, self.name)
+        else:
+            check_params(kernels.KIND_NAMES[self.kind], p, self.name)
         if self.kind in PLANT_LIKE:
             _check_plant(p, self.dt, self.force_limit)
         object.__setattr__(self, "params", p)
@@ -81,13 +84,21 @@ class StepModel:
                            kernels.Kernel(self.kind, p, float(self.force_limit)))
 
     @property
+    def state_kind(self) -> int:
+        """The kind whose state layout this model's state has (a held model's inner kind)."""
+        return int(self.params[1]) if self.kind == kernels.KIND_HELD else self.kind
+
+    @property
     def x_max(self) -> float:
-        """Upper stroke limit the model's output is projected on."""
-        return 0.5 * float(self.params[5] if self.kind in PLANT_LIKE else self.params[0])
+        """Upper stroke limit the model's output is projected on (a held model's: its inner one's)."""
+        kind, p = self.kind, self.params
+        if kind == kernels.KIND_HELD:
+            kind, p = int(p[1]), p[kernels.HELD_HEAD:]
+        return 0.5 * float(p[5] if kind in PLANT_LIKE else p[0])
 
     def initial_state(self) -> FloatArray:
         """Rest at the origin (the paper's episodes start from x = 0, v = 0), actuator idle."""
-        return np.zeros(state_size(self.kind))
+        return np.zeros(state_size(self.state_kind))
 
     def step(self, state: FloatArray, u: float) -> float:
         """Advance ``state`` in place under force ``u``; return the new position."""
@@ -96,13 +107,14 @@ class StepModel:
     def simulate(self, u: FloatArray, state: FloatArray | None = None) -> FloatArray:
         """Free-run response to ``u`` from ``state`` (rest if None); ``x[0]`` is the start."""
         u = _as_signal(u, "force")
-        s = self.initial_state() if state is None else _as_state(state, state_size(self.kind))
+        s = self.initial_state() if state is None else _as_state(state, state_size(self.state_kind))
         return kernels.rollout(self.kernel, u, s)
 
     def predict_one_step(self, x: FloatArray, u: FloatArray) -> FloatArray:
         """One-step-ahead prediction from the measured history (ARX-type models)."""
-        if self.kind in PLANT_LIKE:
-            raise InvalidInputError("one-step prediction needs an ARX-type model, not a plant-structure one")
+        if self.kind in PLANT_LIKE or self.kind == kernels.KIND_HELD:
+            raise InvalidInputError("one-step prediction needs an ARX-type model, not a plant-structure "
+                                    "or held one")
         x, u = _as_signal(x, "position"), _as_signal(u, "force")
         if x.shape != u.shape:
             raise InvalidInputError(f"position and force lengths differ: {x.size} vs {u.size}")
@@ -135,6 +147,40 @@ class StepModel:
     def to_continuous(self) -> control.TransferFunction:
         """The continuous-time transfer function whose zero-order-hold image is this model."""
         return self.linear_fit().to_continuous()
+
+
+MAX_HELD = 10_000
+"""Most samples one decision may be held over (a 10 ms decision on a 1 MHz rig)."""
+
+
+def held(model: StepModel, n: int) -> StepModel:
+    """``model`` stepped ``n`` times under each command: the model a learner deciding every ``n`` rig
+    samples sees (issue 37 item 3: the command held between decisions). ``dt`` is the decision
+    period; ``model`` itself when ``n`` is 1, so a run deciding every sample is unchanged bit for bit.
+    """
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_HELD:
+        raise InvalidInputError(f"samples per decision must be a whole number in [1, {MAX_HELD}], got {n!r}")
+    if n == 1:
+        return model
+    if model.kind == kernels.KIND_HELD:
+        raise InvalidInputError(f"model {model.name!r} is held already")
+    params = np.concatenate([[float(n), float(model.kind)], model.params])
+    return StepModel(kernels.KIND_HELD, params, model.name, {**model.info, "held_samples": n},
+                     model.dt * n, model.force_limit)
+
+
+def _check_held(p: FloatArray, name: str) -> None:
+    """A held model's head (whole n in [2, MAX_HELD], a known inner kind that is not held) and its inner
+    parameters against the inner kind's layout."""
+    if p.size <= kernels.HELD_HEAD:
+        raise InvalidInputError(f"model {name!r} (held): no inner model")
+    n, inner = float(p[0]), float(p[1])
+    if n != int(n) or not 2 <= n <= MAX_HELD:
+        raise InvalidInputError(f"model {name!r} (held): samples per decision must be whole, "
+                                f"in [2, {MAX_HELD}]")
+    if inner != int(inner) or int(inner) not in kernels.KIND_NAMES or int(inner) == kernels.KIND_HELD:
+        raise InvalidInputError(f"model {name!r} (held): unknown inner kind {inner:g}")
+    check_params(kernels.KIND_NAMES[int(inner)], p[kernels.HELD_HEAD:], name)
 
 
 def check_rate(model: StepModel, dt: float, where: str) -> None:

@@ -146,7 +146,7 @@ class SupervisorOptions:
         if self.stale_timeout <= 0:
             raise ConfigError(f"supervisor option stale_timeout must be > 0, got {self.stale_timeout}")
 
-    def on_plant(self, plant: PlantParams) -> SupervisorOptions:
+    def scaled_to(self, plant: PlantParams) -> SupervisorOptions:
         """These options, stated in the paper's metres, on a rig of ``plant``'s stroke: the velocity
         margin and the divergence tolerance the same share of the stroke (docs/decisions.md §Scales;
         seconds stay seconds, and the envelope, brake and latency are derived from ``plant`` already).
