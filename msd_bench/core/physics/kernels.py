@@ -65,6 +65,9 @@ Parameter layouts (``Kernel.params``):
   one (``interp = 1``, a band-limited generator seen causally). Its state is ``[x, v, u_{k-1}, 0]``.
   L, F and dt sit where the plant's do, so code that reads a plant-like model's stroke and
   sample time reads them alike.
+* held: ``[n, inner kind, inner parameters...]`` — the inner model stepped ``n`` times under one
+  command (a decision held over ``n`` rig samples; its ``dt`` is the decision period); its state is
+  the inner kind's (:func:`state_size` gives :data:`STATE_MAX`, which holds any)
 * NLARX: ``[L, S, x_scale, u_scale, c0, w1, w2, w3, w4, S x (alpha, b1..b4, b0)]``
   with ``phi = [x_k/xs, x_{k-1}/xs, u_k/us, u_{k-1}/us]`` and
   ``x_{k+1} = xs (c0 + w.phi + sum_j alpha_j sigmoid(b_j.phi + b0_j))``.
