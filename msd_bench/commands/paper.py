@@ -27,6 +27,7 @@ from msd_bench.app.options import (
     executor_from_args,
     run_config_from_args,
 )
+from msd_bench.core.errors import ConfigError
 
 if TYPE_CHECKING:
     from msd_bench.app.config import RunConfig
@@ -45,8 +46,26 @@ def register(sub: Any) -> None:
     add_supervisor_argument(p)
     p.add_argument("--out", type=Path, required=True, help="output directory (created)")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    p.add_argument("--rig", type=Path, metavar="FILE",
+                   help="run on the emulated plant of this rig description (docs/rig-description.md): its "
+                        "rate, stroke and force limit; budgets stay in paper samples of 10 ms")
     add_executor_arguments(p)
     p.set_defaults(func=run)
+
+
+def on_rig(cfg: RunConfig, path: Path | None) -> RunConfig:
+    """``cfg`` on the rig of ``--rig`` (:meth:`RunConfig.on_rig`); one line when the file is bad or the
+    rig decides every several samples, which the in-process validation does not do yet (bench.py does)."""
+    if path is None:
+        return cfg
+    from msd_bench.io.rigs.rig_file import read_rig
+
+    rig = read_rig(path)
+    if rig.samples_per_decision != 1:
+        raise ConfigError(f"--rig {path}: msd-bench paper validates every sample so far; this rig decides "
+                          f"every {rig.samples_per_decision} samples (bench.py --rig holds the command "
+                          f"between them)")
+    return cfg.on_rig(rig)
 
 
 def run_facts(cfg: RunConfig, seconds: float, mode: str) -> dict[str, Any]:
@@ -76,7 +95,7 @@ def print_report(rd: RunDir, started: float) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Probe --out, run the pending tasks on the executor, write the reports, mark complete, print."""
-    cfg = run_config_from_args(args)
+    cfg = on_rig(run_config_from_args(args), args.rig)
     options = executor_from_args(args)
     figures = not args.no_figures
     from msd_bench.io.storage.run_dir import RunDir
