@@ -96,12 +96,6 @@ class RigDescription:
         """Refuse in one line a model identified at another sample period than this rig's."""
         check_rate(model, self.dt, f"the rig of {where}" if where else "the rig")
 
-    def paper_scaled(self) -> bool:
-        """Whether rate, stroke, force limit and decision period are exactly the paper plant's."""
-        paper = default_description()
-        return (self.rate, self.stroke, self.force_limit, self.decision_period) == (
-            paper.rate, paper.stroke, paper.force_limit, paper.decision_period)
-
     def facts(self) -> dict[str, object]:
         """What a run's report states about the rig it ran with (run.json ``rig``)."""
         return {"rate_hz": self.rate, "dt_s": self.dt, "stroke": self.stroke,
