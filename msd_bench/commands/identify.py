@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import math
 from pathlib import Path
 from typing import Any
 
@@ -66,11 +67,41 @@ def register(subparsers: Any) -> None:
     p.add_argument("--force", type=float, help="input limit F (input units): inputs saturate at +-F "
                    "(a file's default: 2 x its largest |u|)")
     p.add_argument("--nlarx-scale", type=float, default=1.0, help="multiplies the NLARX training iterations")
+    p.add_argument("--rig", type=Path, metavar="FILE",
+                   help="rig description (docs/rig-description.md): --stroke, --force, --units, the sample "
+                        "time and the bags' namespace from it; explicit options win; a record or bags at "
+                        "another sample time than the rig's are refused (their models would be)")
     p.set_defaults(func=run)
+
+
+def apply_rig(args: argparse.Namespace) -> None:
+    """Fill what the command line left unset from ``--rig``; one line when the record's sample time is
+    not the rig's, before anything is read or written: a model identified at another rate would be
+    refused on the rig (:meth:`RigDescription.check_model`), so it is not made."""
+    if getattr(args, "rig", None) is None:
+        return
+    from msd_bench.io.rigs.rig_file import read_rig
+
+    rig = read_rig(args.rig)
+    args.stroke = rig.stroke if args.stroke is None else args.stroke
+    args.force = rig.force_limit if args.force is None else args.force
+    args.units = args.units or f"{rig.force_unit},{rig.position_unit}"
+    if rig.plant_ns and args.namespace == PLANT_NAMESPACE:
+        args.namespace = rig.plant_ns
+    for option, value in (("--ts", args.ts), ("--dt", args.dt or None)):
+        if value is not None and not math.isclose(value, rig.dt, rel_tol=1e-9):
+            raise IdentifyError(f"{option} {value:g} s is not the sample time of the rig of {args.rig} "
+                                f"({rig.dt:g} s, {rig.rate:g} Hz): its models would be refused on the rig; "
+                                f"record at the rig's rate (models are never resampled)")
+    if args.ts is None:
+        args.ts = rig.dt
+    if not args.dt:
+        args.dt = rig.dt
 
 
 def run(args: argparse.Namespace) -> int:
     """Identify from the file or the bags given; 1 if any kind failed (the others are written)."""
+    apply_rig(args)
     files = [(fmt, getattr(args, fmt)) for fmt in FORMATS if getattr(args, fmt) is not None]
     default = [k for k in MODEL_KINDS if not (files and needs_bias_records([k]))]
     models = tuple(m.strip() for m in (args.models or ",".join(default)).split(",") if m.strip())

@@ -166,3 +166,31 @@ def test_a_second_run_into_the_same_directory_overwrites_nothing(npz, tmp_path, 
     assert _identify(src, tmp_path) == 2  # refused before any fit, not recorded as the kind's failure
     assert "glm.json: already exists; refusing to overwrite" in capsys.readouterr().err
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+SILVERBOX_RIG = ("/**:\n  ros__parameters:\n    rate: 610.3515625\n    stroke: 1.0\n    force_limit: 0.5\n"
+                 "    position_unit: V\n    force_unit: V\n    decision_period: 0.0016384\n")
+"""A Silverbox-like circuit as a rig description (volts, 610 Hz)."""
+
+
+def test_a_rig_description_gives_identify_its_rate_limits_and_units(npz, tmp_path, capsys):
+    """identify --rig FILE: --ts, --stroke, --force and --units from the description (issue 37)."""
+    rig = tmp_path / "rig.yaml"
+    rig.write_text(SILVERBOX_RIG)
+    out = tmp_path / "out"
+    assert main(["identify", "--npz", str(npz), "--u", "V1", "--y", "V2", "--train", "0:900",
+                 "--validation", "900:1200", "--models", "glm", "--rig", str(rig), "--out", str(out)]) == 0
+    doc = json.loads((out / "glm.json").read_text())
+    assert doc["dt"] == TS and doc["units"] == {"input": "V", "output": "V"}
+    assert (doc["force_limit"], doc["stroke"]) == (0.5, 1.0)
+
+
+def test_a_record_at_another_rate_than_the_rigs_is_one_line(npz, tmp_path, capsys):
+    """Its model would be refused on the rig, so it is not made: one line, nothing written."""
+    rig = tmp_path / "rig.yaml"
+    rig.write_text(SILVERBOX_RIG.replace("rate: 610.3515625", "rate: 1000.0").replace("0.0016384", "0.001"))
+    out = tmp_path / "out"
+    assert _identify(["--npz", str(npz), "--u", "V1", "--y", "V2"], out, "glm", "--rig", str(rig)) == 2
+    err = capsys.readouterr().err
+    assert "is not the sample time of the rig of" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
