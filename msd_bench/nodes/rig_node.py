@@ -45,6 +45,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.publisher import Publisher
 from std_msgs.msg import Float64
 
@@ -108,6 +109,7 @@ class RigNode(PlantNode):
 
     def __init__(self, *, node_name: str = "rig", namespace: str = RIG_NAMESPACE, **node_kwargs: Any) -> None:
         self._params: PlantParams | None = None
+        self._dropped = 0
         super().__init__(self._declare_plant, node_name=node_name, namespace=namespace, **node_kwargs)
 
     def _declare_config(self) -> PlantNodeConfig:
@@ -220,6 +222,17 @@ class RigNode(PlantNode):
         if self.counters["watchdog"] != trips:
             self.rig.cut()
 
+    def _dropped_sample(self) -> None:
+        """The middleware refused a sample (a reliable reader that stopped reading, on a loaded machine
+        at 1 kHz): a rig's driver drops it and keeps its clock; readers see the gap in the stamps.
+        Why not end the node, as an exception in the sample thread does: one slow reader would
+        otherwise stop the rig under every other reader. A refusal after shutdown still ends it."""
+        if not self.context.ok():
+            raise RCLError("context shut down")
+        self._dropped += 1
+        self.get_logger().warning(f"a sample could not be published (a reader is not keeping up); "
+                                  f"{self._dropped} dropped so far", throttle_duration_sec=1.0)
+
     def _tick(self, t_sched_ns: int) -> None:
         """Acquire sample k at ``t_sched_ns``, step the rig, publish after the jitter delay."""
         t_sched = t_sched_ns * 1e-9
@@ -232,11 +245,14 @@ class RigNode(PlantNode):
             time.sleep(wait)
         self._k += 1
         self.counters["steps"] += 1
-        if self._pub_x is not None:  # the plant node's order: position, then row
-            self._pub_x.publish(float64(row.measured_next))
-        self._pub_js.publish(self._state_message(stamp, row.measured, row.velocity, row.effort))
-        if self._pub_truth is not None:
-            self._pub_truth.publish(self._state_message(stamp, row.x, row.v, row.effort))
+        try:
+            if self._pub_x is not None:  # the plant node's order: position, then row
+                self._pub_x.publish(float64(row.measured_next))
+            self._pub_js.publish(self._state_message(stamp, row.measured, row.velocity, row.effort))
+            if self._pub_truth is not None:
+                self._pub_truth.publish(self._state_message(stamp, row.x, row.v, row.effort))
+        except RCLError:
+            self._dropped_sample()
         if self._live is not None:
             self._live.plant(stamp, row.measured, row.velocity, row.effort)
 

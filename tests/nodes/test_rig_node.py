@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 import time
@@ -189,3 +190,21 @@ def test_the_default_rig_is_the_reserved_member(ctx, executor):
     rig = make_rig(ctx, executor)
     assert rig.served().params == PRESETS["rig"] and rig.imperfections == RigImperfections()
     assert rig._sensor_text().startswith("rig 0: ")
+
+
+def test_a_sample_the_middleware_refuses_is_dropped_not_fatal(ctx: Any, executor: Any) -> None:
+    """At 1 kHz on a loaded machine a reliable reader that stops reading made publish raise in the sample
+    thread, which ended the rig under every other reader: the sample is dropped and counted instead."""
+    from rclpy._rclpy_pybind11 import RCLError
+
+    node = make_rig(ctx, executor, f"/droprig{os.getpid()}")
+
+    class _Refusing:
+        def publish(self, _msg: Any) -> None:
+            raise RCLError("Failed to publish: cannot publish data")
+
+    node._pub_js = _Refusing()  # type: ignore[assignment]
+    before = node._dropped
+    node._tick(time.monotonic_ns())
+    node._tick(time.monotonic_ns())
+    assert node._dropped >= before + 2 and node.context.ok()
