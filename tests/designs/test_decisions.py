@@ -69,3 +69,15 @@ def test_a_design_that_does_not_hold_is_one_line() -> None:
         designs.check_decisions("glm+pid", 10)
     designs.check_decisions("glm+pid", 1)
     designs.check_decisions("dyna-q", 10)
+
+
+def test_the_robust_learner_on_the_stage_keeps_its_gains_in_the_rigs_units() -> None:
+    """The robust agent's observer bias gain (8 N/m on the paper's plant) is 5,600 N/m on the stage: the
+    bound it is checked against (1000 N/m on the paper's plant) is in the rig's units too."""
+    from msd_bench.core.rigs.scales import Scales
+    from msd_bench.designs.qlearning import ROBUST
+
+    cfg = improved_config(Scales.of(0.25, 350.0, 0.01), **ROBUST)
+    assert cfg.obs_bias_gain == pytest.approx(8.0 * 35 / 0.05)
+    with pytest.raises(ConfigError, match=r"obs_bias_gain must be in \[0, 1000\] N/m"):
+        improved_config(**{**ROBUST, "obs_bias_gain": 1001.0})

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.rigs.scales import Scales
+from msd_bench.core.rigs.scales import DEFAULT_FORCE_LIMIT, Scales
 
 FloatArray = NDArray[np.float64]
 
@@ -191,9 +191,11 @@ class QConfig:
         _require(0.0 <= self.obs_drift_gain <= 1.0
                  and (self.obs_drift_gain == 0.0 or self.observer == "model"),
                  "obs_drift_gain must be in [0, 1], and only a model observer has one")
-        _require(math.isfinite(self.obs_bias_gain) and 0.0 <= self.obs_bias_gain <= 1000.0
+        top = 1000.0 * (self.force / DEFAULT_FORCE_LIMIT) / self.length_unit  # 1000 N/m in the rig's units
+        _require(math.isfinite(self.obs_bias_gain) and 0.0 <= self.obs_bias_gain <= top
                  and (self.obs_bias_gain == 0.0 or self.observer == "model"),
-                 "obs_bias_gain must be in [0, 1000] N/m, and only a model observer has one")
+                 f"obs_bias_gain must be in [0, {top:g}] N/m (1000 on the paper's plant), and only a model "
+                 f"observer has one")
         _require(0 <= self.obs_delay <= MAX_DELAY_SAMPLES
                  and (self.obs_delay == 0 or self.observer == "model"),
                  f"obs_delay must be in 0..{MAX_DELAY_SAMPLES} samples, and only a model observer "
