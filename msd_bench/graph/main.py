@@ -23,6 +23,7 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.job import agent_params
 from msd_bench.app.options import add_run_arguments, run_config_from_args
 from msd_bench.core.errors import ConfigError, MsdBenchError
+from msd_bench.core.rigs.description import RigDescription
 from msd_bench.designs import check_decisions
 from msd_bench.designs.kinds import node_budget_note, on_node
 from msd_bench.designs.protocol import settings_from
@@ -181,8 +182,14 @@ def config(args: argparse.Namespace) -> BenchConfig:
         via_ros=args.via_ros, bags=args.bags.absolute() if args.bags else None,
         stages=stages or tuple(args.stages.split(",")), interface=from_cli(args), live_port=args.live,
         live_wait_s=live_wait(args),
-        supervision=supervision(args), rig=None if rig is None else rig.facts(), refine=args.refine,
+        supervision=supervision(args), rig=rig_facts(rig, args), refine=args.refine,
         refine_weight=args.refine_weight, rig_file=None if rig is None else args.rig.absolute(), **extra)
+
+
+def rig_facts(rig: RigDescription | None, args: argparse.Namespace) -> dict[str, object] | None:
+    """What run.json and Table 1 state about ``--rig``: the file's facts, with the face the run used (an
+    explicit ``--interface`` wins over the file's)."""
+    return None if rig is None else {**rig.facts(), "interface": from_cli(args).kind}
 
 
 REPORT_MODULE = "msd_bench.graph.bench_report"
