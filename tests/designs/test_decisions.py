@@ -81,3 +81,14 @@ def test_the_robust_learner_on_the_stage_keeps_its_gains_in_the_rigs_units() -> 
     assert cfg.obs_bias_gain == pytest.approx(8.0 * 35 / 0.05)
     with pytest.raises(ConfigError, match=r"obs_bias_gain must be in \[0, 1000\] N/m"):
         improved_config(**{**ROBUST, "obs_bias_gain": 1001.0})
+
+
+def test_the_robust_agent_learns_and_rehearses_on_the_held_model() -> None:
+    """The robust agent's observer predicts with the held model and its table selection rehearses in the
+    closed loop on it: both step the held kind (a stale compiled loop once raised 'unknown model kind')."""
+    p = STAGE.emulated_plant()
+    policy = designs.make("greybox+robust", plant_model(p), _stage_settings(), [1])
+    assert isinstance(policy, QPolicy) and policy.observer is not None
+    assert policy.observer.kind == kernels.KIND_HELD
+    ctl = policy.controller(0, 0.05)
+    assert all(np.isfinite(ctl.act(0.0)) for _ in range(5))
