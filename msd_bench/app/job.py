@@ -83,6 +83,7 @@ def agent_params(run: RunConfig) -> dict[str, Any]:
         "steps": run.steps, "validation_steps": run.validation_steps, "window": run.window,
         "target": float(run.target), "dt": p.dt, "force": p.F, "shaping": run.shaping,
         "episodes": run.episodes, "plant_episodes": run.dyna_episodes, "planning_steps": run.planning_steps,
+        "stroke": p.L, "pace": 1.0,
     }
 
 

@@ -98,6 +98,10 @@ class AgentNodeConfig:
     """Terminal window of the SSE, samples."""
     dt: float = field(default=shared("dt"), metadata={"range": (1e-4, 1.0)})
     """Sample time of the plant, s (for settling times)."""
+    stroke: float = field(default=shared("stroke"), metadata={"range": (1e-3, 1e3)})
+    """Stroke of the plant, m: the design's paper lengths are relative to it."""
+    pace: float = field(default=1.0, metadata={"range": (1e-3, 1e3)})
+    """The plant's time unit against the paper's (1: durations in seconds; docs/decisions.md §Scales)."""
     force: float = field(default=shared("force"), metadata={"range": (1e-3, 1e4)})
     """Force magnitude F of the action alphabet, N."""
     shaping: str = shared("shaping")

@@ -46,9 +46,9 @@ shell a node holds, which calls the same compiled functions.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, fields
-from typing import Any, NamedTuple
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, fields, replace
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numba
 import numpy as np
@@ -56,6 +56,9 @@ from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics.plant import PlantParams
+
+if TYPE_CHECKING:
+    from msd_bench.core.rigs.scales import Scales
 
 FloatArray = NDArray[np.float64]
 
@@ -145,6 +148,22 @@ class SupervisorOptions:
             raise ConfigError(f"supervisor option mass_factor must be >= 1, got {self.mass_factor}")
         if self.stale_timeout <= 0:
             raise ConfigError(f"supervisor option stale_timeout must be > 0, got {self.stale_timeout}")
+
+    def scaled(self, scales: Scales) -> SupervisorOptions:
+        """These options, stated on the paper's plant, on a rig of ``scales`` (docs/decisions.md §Scales):
+        lengths × length, speeds × length / pace, times × pace; shares and factors are ratios and stay.
+        Itself on the paper's plant, bit for bit."""
+        if scales.is_default:
+            return self
+        m, s = scales.metres, scales.seconds
+
+        def opt(value: float | None, f: Callable[[float], float]) -> float | None:
+            return None if value is None else f(value)
+
+        return replace(self, envelope=opt(self.envelope, m), margin=opt(self.margin, m),
+                       v_max=opt(self.v_max, scales.speed), v_margin=scales.speed(self.v_margin),
+                       latency=s(self.latency), stale_timeout=s(self.stale_timeout),
+                       time_limit=s(self.time_limit), div_time=s(self.div_time), div_tol=m(self.div_tol))
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any], what: str = "supervisor options") -> SupervisorOptions:
