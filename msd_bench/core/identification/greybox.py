@@ -205,12 +205,12 @@ def equation_error_start(experiments: Sequence[Experiment], dt: float, cfg: Grey
         theta = theta / scale
         return float(np.sum((phi @ theta - u) ** 2)), theta
 
+    units = cfg.units()  # the grid in paper 1/m, then in the rig's: the same points on every rig
     lo, hi = cfg.g_range
-    grid = np.geomspace(lo, hi, 60)
+    grid = np.geomspace(lo / units[3], hi / units[3], 60) * units[3]
     costs = [solve(float(g))[0] for g in grid]
     i = int(np.argmin(costs))
     bracket = (float(grid[max(i - 1, 0)]), float(grid[min(i + 1, grid.size - 1)]))
-    units = cfg.units()
     best = minimize_scalar(lambda g: solve(g)[0], bounds=bracket, method="bounded",
                            options={"xatol": 1e-10 * units[3]})
     g = float(best.x)

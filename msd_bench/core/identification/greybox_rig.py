@@ -322,7 +322,10 @@ def actuated_start(train: IOData, cfg: GreyboxRigConfig, delay: int) -> FloatArr
         x, v, a, f = (np.concatenate([r[i] for r in rows]) for i in range(4))
         if x.size < 10:
             continue
-        for g in G_GRID / sc.length:
+        # solved in paper units (each column / its unit): the same system on every rig of any scale
+        x, v, a, f = x / sc.length, v / sc.speed(1.0), a / (sc.speed(1.0) / sc.pace), f / sc.force
+        to_rig = np.append(_units(sc)[:6], 1.0)  # m c k g h friction; the lag is the rig's
+        for g in G_GRID:
             phi = np.column_stack([a, v, np.sin(g * x), x**3, np.sign(v)])
             try:  # normal equations: five unknowns, well scaled; an SVD per grid point cost 5x more
                 theta = np.linalg.solve(phi.T @ phi, phi.T @ f)
@@ -331,7 +334,8 @@ def actuated_start(train: IOData, cfg: GreyboxRigConfig, delay: int) -> FloatArr
             cost = float(np.sum((phi @ theta - f) ** 2))
             if best is None or cost < best[0]:
                 m, c, k, h, fc = theta
-                best = (cost, np.array([m, c, k, g, h, fc, tau]))
+                best = (cost, np.array([m, c, k, g, h, fc, 1.0]) * to_rig)
+                best[1][6] = tau  # in the rig's seconds already
     if best is None:
         return _start(train, cfg)
     return _in_bounds(best[1], cfg)
