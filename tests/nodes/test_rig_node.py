@@ -184,7 +184,7 @@ def test_a_population_seed_serves_that_member_and_explicit_parameters_win(ctx, e
     rig.destroy_node()
 
 
-def test_a_family_member_is_served_with_its_units_even_beyond_the_usual_ranges(ctx, executor):
+def test_a_family_member_is_served_with_its_units_beyond_the_usual_ranges(ctx: Any, executor: Any) -> None:
     from msd_bench.core.rigs.families import draw
     from msd_bench.nodes.plant_node import PLANT_RANGES
 
