@@ -27,7 +27,7 @@ import numpy as np
 from msd_bench import designs
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.rig_cost import ACCOUNTING, spent
-from msd_bench.app.rig_scores import rig_limits, rig_scenario, rig_settings, run_member, scores
+from msd_bench.app.rig_scores import paper_risk, rig_limits, rig_scenario, rig_settings, run_member, scores
 from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError, IdentificationError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
@@ -139,7 +139,7 @@ def _run(cfg: RigsConfig, rig: Rig, member: Member, sc: Scenario, stream: str) -
 
 
 def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:
-    return trace_risk(r.x, rig.params, limits_of(cfg), r.reason, r.abort).as_dict()
+    return paper_risk(trace_risk(r.x, rig.params, limits_of(cfg), r.reason, r.abort).as_dict(), cfg.scales)
 
 
 def _as_try(cfg: RigsConfig, rig: Rig, r: RigRun, name: str) -> Try:

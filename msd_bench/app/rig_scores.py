@@ -66,6 +66,19 @@ def rig_limits(run: RunConfig, scales: Scales) -> Limits | None:
     return SupervisorOptions().scaled(scales).limits(scales.plant(run.plant))
 
 
+def paper_risk(risk: dict[str, Any], scales: Scales) -> dict[str, Any]:
+    """A run's risk record in the paper's units (lengths / length, speeds / speed, times / pace), so the
+    risk of rigs in other units pools with the default family's; itself on the paper's scales. Why:
+    a family's peak |x| pooled in each rig's own metres would compare a 0.25 m stage with a 100 m
+    runway."""
+    if scales.is_default:
+        return risk
+    speed = scales.speed(1.0)
+    return {**risk, "peak_x": risk["peak_x"] / scales.length, "peak_v": risk["peak_v"] / speed,
+            "time_at_stop": risk["time_at_stop"] / scales.pace,
+            "time_outside": risk["time_outside"] / scales.pace}
+
+
 def run_member(rig: Rig, policy: Policy, member: int, sc: Scenario, steps: int, rng: np.random.Generator,
                limits: Limits | None, rest: RestConfig | None = None) -> RigRun:
     """One run of ``policy``'s member ``member`` on the rig under ``sc`` (a set-point and a load), from

@@ -38,7 +38,7 @@ from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
 from msd_bench.app.plan import paper_plan
 from msd_bench.app.rig_cost import spent
-from msd_bench.app.rig_scores import rig_limits, rig_scenario, rig_settings, run_member, scores
+from msd_bench.app.rig_scores import paper_risk, rig_limits, rig_scenario, rig_settings, run_member, scores
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
 from msd_bench.core.evaluation.risk import trace_risk
@@ -339,8 +339,10 @@ def _one_run(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy, member: int, 
 
 def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:
     """A run's risk record: its true positions on the rig's stroke, and the supervisor's reasons and
-    abort when it guarded the run (its limits are the nominal plant's: all a rig's supervisor is told)."""
-    return trace_risk(r.x, rig.params, rig_limits(cfg.run, cfg.scales), r.reason, r.abort).as_dict()
+    abort when it guarded the run (its limits are the nominal plant's: all a rig's supervisor is told),
+    in the paper's units (:func:`~msd_bench.app.rig_scores.paper_risk`)."""
+    risk = trace_risk(r.x, rig.params, rig_limits(cfg.run, cfg.scales), r.reason, r.abort).as_dict()
+    return paper_risk(risk, cfg.scales)
 
 
 def rig_success(part: Mapping[str, Any], kind: str) -> tuple[int, int]:

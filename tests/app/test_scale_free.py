@@ -70,6 +70,8 @@ def test_a_rig_in_exact_other_units_gives_its_twins_runs_for_every_kind(exact_fa
         where = f"{a['kind']} seed {a['seed']}"
         assert b["success"] == a["success"], where
         assert b["sse"] == pytest.approx(a["sse"], rel=1e-9), where
+        for key in ("peak_x", "peak_v", "contacts", "time_at_stop"):  # risk in the paper's units
+            assert b["risk"][key] == pytest.approx(a["risk"][key], rel=1e-9), f"{where} {key}"
         assert b["ts"] == pytest.approx(a["ts"] * EXACT.time, rel=1e-9, nan_ok=True), where  # s x the unit
         for sid, cell in a["scenarios"].items():
             assert b["scenarios"][sid]["success"] == cell["success"], f"{where} {sid}"
