@@ -4,6 +4,9 @@
 DISTRO ?= kilted
 VENV := $(if $(filter kilted,$(DISTRO)),.venv,.venv-$(DISTRO))
 PY := $(VENV)/bin/python
+# Parallel pytest-xdist workers for `make test` (docs/testing.md §Workers); most of the suite waits
+# on processes, discovery and real time, so more workers than cores pay. JOBS= runs one process.
+JOBS ?= -n 3 --dist loadgroup
 STAMP := $(VENV)/.installed
 
 .PHONY: bench test lint setup
@@ -12,7 +15,7 @@ bench: $(STAMP)
 	$(PY) launch_scripts/bench.py $(ARGS)
 
 test: $(STAMP)
-	$(PY) -m pytest $(ARGS)
+	$(PY) -m pytest $(JOBS) $(ARGS)
 
 lint: $(STAMP)
 	$(PY) -m ruff check .

@@ -14,13 +14,28 @@ from typing import TYPE_CHECKING
 import pytest
 
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+MAX_DOMAIN = 232
+"""Largest ROS domain id Fast DDS maps to ports with its defaults."""
 if "MSD_TEST_DOMAIN_ID" not in os.environ:
     # One domain for the whole run, shared with the node processes tests start.
     os.environ["MSD_TEST_DOMAIN_ID"] = str(random.Random(os.getpid()).randint(1, 200))
+
+
+def worker_domain(base: int, worker: str | None) -> int:
+    """The domain of one pytest-xdist worker (``gw0``, ``gw1`` ...): the run's domain plus the
+    worker's index, wrapped into 1..MAX_DOMAIN. Why: workers inherit the run's domain, and two
+    workers in one domain would see each other's plants (namespace claims, topics) mid-test."""
+    if not worker or not worker.startswith("gw"):
+        return base
+    return 1 + (base - 1 + int(worker[2:])) % MAX_DOMAIN
+
+
+os.environ["MSD_TEST_DOMAIN_ID"] = str(worker_domain(int(os.environ["MSD_TEST_DOMAIN_ID"]),
+                                                     os.environ.get("PYTEST_XDIST_WORKER")))
 os.environ["ROS_DOMAIN_ID"] = os.environ["MSD_TEST_DOMAIN_ID"]
 
 if TYPE_CHECKING:
-    from tests.e2e.realtime_runs import BackgroundPair
+    from tests.e2e.realtime_runs import BackgroundPair, Run
 
 REALTIME = "realtime_runs"
 """The e2e fixture of the two real-time ``--plant-ns`` runs (tests/e2e/realtime_runs.py)."""
@@ -36,13 +51,70 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     rest of the selected tests spend working. They are the realtime tier (docs/testing.md §Tiers),
     not in the default ``make test``."""
     items.sort(key=_reads_realtime_runs)
+    for item in items:
+        group = _worker_group(item)
+        if group:
+            item.add_marker(pytest.mark.xdist_group(group))
+
+
+SHARED_SCOPES = frozenset({"module", "class", "package"})
+"""Fixture scopes whose value several tests of one file share."""
+
+
+def _worker_group(item: pytest.Item) -> str | None:
+    """The pytest-xdist group (``--dist loadgroup``, the Makefile's JOBS) an item must share a
+    worker with, or None to go to any worker; the marker is inert without workers.
+
+    The readers of the real-time runs share one worker, which starts the runs once; the tests of a
+    file that share a module- or class-scoped fixture (one identification, one bench run) share
+    one worker, so the fixture is computed once, not once per worker."""
+    if _reads_realtime_runs(item):
+        return REALTIME
+    info = getattr(item, "_fixtureinfo", None)
+    defs = info.name2fixturedefs.values() if info is not None else ()
+    if any(d.scope in SHARED_SCOPES for chain in defs for d in chain):
+        return item.nodeid.split("::", 1)[0]
+    return None
+
+
+class OnDemandPair:
+    """The real-time runs of one pytest-xdist worker, started by the first test that reads them.
+
+    Why not at the session's start as without workers: every worker collects every test, so
+    each would start its own runs; the readers share one worker (``xdist_group``) and only that
+    worker asks."""
+
+    def __init__(self, tmp_path_factory: pytest.TempPathFactory) -> None:
+        self._tmp = tmp_path_factory
+        self._pair: BackgroundPair | None = None
+
+    def result(self) -> dict[str, Run]:
+        """The runs' results, starting them on the first call; waits for them to end."""
+        if self._pair is None:
+            from tests.e2e.realtime_runs import BackgroundPair
+
+            self._pair = BackgroundPair(self._tmp.mktemp("realtime")).start()
+        return self._pair.result()
+
+    def close(self) -> None:
+        """Stops the runs if they were started."""
+        if self._pair is not None:
+            self._pair.close()
 
 
 @pytest.fixture(scope="session", autouse=True)
 def realtime_pair(request: pytest.FixtureRequest,
-                  tmp_path_factory: pytest.TempPathFactory) -> Iterator[BackgroundPair | None]:
+                  tmp_path_factory: pytest.TempPathFactory) -> Iterator[BackgroundPair | OnDemandPair | None]:
     """The real-time runs, started in the background at the first test if any selected test reads
-    them (None otherwise); stopped at the end of the session whatever happened."""
+    them (None otherwise); stopped at the end of the session whatever happened. In a
+    pytest-xdist worker, started by the first reader instead (:class:`OnDemandPair`)."""
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        on_demand = OnDemandPair(tmp_path_factory)
+        try:
+            yield on_demand
+        finally:
+            on_demand.close()
+        return
     if not any(_reads_realtime_runs(item) for item in request.session.items):
         yield None
         return

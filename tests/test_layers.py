@@ -39,6 +39,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.syntax import parse_source
+
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("msd_bench", "msd_msgs_py", "launch_scripts")
 """The top-level trees checked (benchmarks/, scripts/ and tests/ stand above every layer)."""
@@ -119,7 +121,7 @@ class Edge:
 @functools.cache
 def _parse(path: Path) -> ast.Module:
     """The syntax tree of ``path`` (parsed once per run: several tests walk the same files)."""
-    return ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    return parse_source(path.read_text(encoding="utf-8"), filename=str(path))
 
 
 def modules(root: Path, packages: Iterable[str] = PACKAGES) -> dict[str, Path]:
@@ -380,7 +382,7 @@ def test_only_the_contract_spells_a_message_type() -> None:
 
 def _config_fields(path: Path, cls: str) -> set[str]:
     """The annotated fields of dataclass ``cls`` in ``path`` (by ast: no rclpy import)."""
-    tree = ast.parse(path.read_text(encoding="utf-8"))
+    tree = parse_source(path.read_text(encoding="utf-8"))
     body = next(n for n in ast.walk(tree) if isinstance(n, ast.ClassDef) and n.name == cls).body
     return {n.target.id for n in body if isinstance(n, ast.AnnAssign) and isinstance(n.target, ast.Name)}
 
@@ -390,7 +392,7 @@ def test_the_agent_script_documents_parameters_the_node_takes() -> None:
     ``-p name:=`` it shows is a field of the node's config (or ``job``), every kind it shows a kind."""
     from msd_bench.designs.registry import AGENT_KINDS
 
-    script = ast.parse((ROOT / "launch_scripts" / "agent.py").read_text(encoding="utf-8"))
+    script = parse_source((ROOT / "launch_scripts" / "agent.py").read_text(encoding="utf-8"))
     doc = ast.get_docstring(script) or ""
     fields = _config_fields(ROOT / "msd_bench" / "nodes" / "agent_node.py", "AgentNodeConfig") | {"job"}
     shown = set(re.findall(r"-p \"?(\w+):=", doc))

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.syntax import parse_source
+
 ROOT = Path(__file__).resolve().parents[1] / "msd_bench"
 
 READERS = [
@@ -41,7 +43,7 @@ def broad_handlers(source: str) -> list[tuple[int, str]]:
     """``(line, what)`` of each bare ``except:`` and each handler naming Exception or BaseException
     (alone or in a tuple), unless it ends by re-raising what it caught."""
     found = []
-    for node in ast.walk(ast.parse(source)):
+    for node in ast.walk(parse_source(source)):
         if not isinstance(node, ast.ExceptHandler) or _reraises(node):
             continue
         if node.type is None:

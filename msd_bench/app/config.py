@@ -156,7 +156,7 @@ class RunConfig:
         """The supervisor's limits on the plant when runs are validated behind it, else None."""
         from msd_bench.core.safety.supervisor import SupervisorOptions
 
-        return SupervisorOptions().scaled_to(self.plant).limits(self.plant) if self.supervisor else None
+        return SupervisorOptions().scaled(self.scales).limits(self.plant) if self.supervisor else None
 
     @property
     def plant(self) -> PlantParams:

@@ -85,7 +85,7 @@ def agent_params(run: RunConfig) -> dict[str, Any]:
         "target": float(run.target), "dt": p.dt, "force": p.F, "stroke": p.L, "shaping": run.shaping,
         "decision_samples": run.decision_samples,
         "episodes": run.episodes, "plant_episodes": run.dyna_episodes, "planning_steps": run.planning_steps,
-        **rest_params(run),
+        "pace": 1.0, **rest_params(run),
     }
 
 

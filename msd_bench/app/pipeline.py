@@ -40,6 +40,7 @@ from msd_bench.core.identification.records import Records
 from msd_bench.core.physics.model import StepModel, plant_model
 from msd_bench.core.physics.plant import PlantParams
 from msd_bench.core.physics.sensor import SensorModel
+from msd_bench.core.rigs.scales import Scales
 from msd_bench.designs import Policy, Settings
 from msd_bench.designs.protocol import settings_from
 
@@ -95,6 +96,7 @@ def identify_surrogates(
     nlarx_scale: float = shared("nlarx_scale"),
     on_model: Callable[[str, StepModel, FitReport], None] | None = None,
     units: tuple[str, str] = ("N", "m"),
+    scales: Scales | None = None,
 ) -> tuple[dict[str, StepModel], dict[str, FitReport]]:
     """Fit the requested model kinds and score each on the broad validation record.
 
@@ -103,7 +105,7 @@ def identify_surrogates(
     and flatter it. ``on_model`` hears of each model as soon as it is fitted and
     scored (the identifier node saves it then, so agents on it can start).
     """
-    req = FitRequest(records, seed, plant.L, plant.F, nlarx_scale, dt=plant.dt, units=units)
+    req = FitRequest(records, seed, plant.L, plant.F, nlarx_scale, dt=plant.dt, units=units, scales=scales)
     models: dict[str, StepModel] = {}
     fits: dict[str, FitReport] = {}
     for name in names:
@@ -124,6 +126,7 @@ def identify_each(
     nlarx_scale: float = shared("nlarx_scale"),
     on_model: Callable[[str, StepModel, FitReport], None] | None = None,
     units: tuple[str, str] = ("N", "m"),
+    scales: Scales | None = None,
 ) -> tuple[dict[str, StepModel], dict[str, FitReport], dict[str, str]]:
     """:func:`identify_surrogates` one kind at a time, so a kind that cannot be fitted fails alone.
 
@@ -136,7 +139,8 @@ def identify_each(
     failed: dict[str, str] = {}
     for name in names:
         try:
-            got, scored = identify_surrogates(records, [name], seed, plant, nlarx_scale, on_model, units)
+            got, scored = identify_surrogates(records, [name], seed, plant, nlarx_scale, on_model, units,
+                                              scales)
         except FIT_FAILURES as err:
             failed[name] = one_line(err)
             continue

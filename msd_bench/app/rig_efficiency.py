@@ -31,20 +31,19 @@ import numpy as np
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.efficiency import EPISODES, RECORD_SAMPLES, settle_for, validation_samples
 from msd_bench.app.executor import task_name
-from msd_bench.app.job import agent_params
 from msd_bench.app.rig_cost import ACCOUNTING
 from msd_bench.app.rig_refine import base_kind
+from msd_bench.app.rig_scores import rig_settings
 from msd_bench.app.rigs import RigsConfig, kind_label, rig_success, rig_task, validate_on_rig
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
-from msd_bench.core.rigs import population
+from msd_bench.core.rigs import families
 from msd_bench.core.rigs.rig import Rig
 from msd_bench.core.rigs.rig_stats import rate_summary
 from msd_bench.designs import kinds
-from msd_bench.designs.protocol import settings_from
 
-FAMILIES = ("default",)
-"""Rig families a curve can be drawn on: the default population (``core/rigs/population.py``)."""
+FAMILIES = tuple(families.FAMILIES)
+"""Rig families a curve can be drawn on: every family of :mod:`msd_bench.core.rigs.families`."""
 
 
 @dataclass(frozen=True)
@@ -67,8 +66,10 @@ class RigEfficiencyConfig:
     def __post_init__(self) -> None:
         if self.rigs.ceiling:
             raise ConfigError("--ceiling is not a route of the curve (it spends no real samples to learn)")
-        if self.family not in FAMILIES:
-            raise ConfigError(f"--family must be one of {', '.join(FAMILIES)}, got {self.family!r}")
+        families.family(self.family)  # an unknown family: one line, with the nearest name
+        if self.rigs.family != self.family:
+            raise ConfigError(f"the population run draws family {self.rigs.family!r}, the curve "
+                              f"{self.family!r}: give the same to both")
         on_model = kinds.split_by_model(self.plant_agents)[0]
         if on_model:
             raise ConfigError(f"on-plant learners must learn on the plant, not {', '.join(on_model)}")
@@ -110,12 +111,14 @@ def rig_plant_point(cfg: RigEfficiencyConfig, episodes: int, kind: str, seed: in
     from msd_bench import designs
     from msd_bench.core.rigs.truth import rig_model
 
-    drawn = population.draw(seed)
+    drawn = families.draw(cfg.family, seed)
     rig = Rig(drawn.params, drawn.imperfections, seed=seed)
     run = replace(cfg.rigs.run, episodes=episodes, dyna_episodes=episodes)
-    pcfg = replace(cfg.rigs, run=run, scenarios=())
+    pcfg = replace(cfg.rigs, run=run, scenarios=()).on_rig(drawn)
+    run = pcfg.run
     simulator = rig_model(drawn.params, drawn.imperfections)
-    policy = designs.make(kind, simulator, settings_from(agent_params(run)), run.learning_seeds(0), None)
+    settings = rig_settings(run, drawn.params, pcfg.scales)
+    policy = designs.make(kind, simulator, settings, run.learning_seeds(0), None)
     rows = validate_on_rig(pcfg, rig, kind, policy, seed)
     outcomes = [{k: o[k] for k in ("kind", "seed", "success", "sse", "identified") if k in o} for o in rows]
     real = policy.facts.real_interactions // max(len(policy.members), 1)

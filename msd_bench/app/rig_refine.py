@@ -26,9 +26,8 @@ import numpy as np
 
 from msd_bench import designs
 from msd_bench.app.agents import agent_kind
-from msd_bench.app.job import agent_params
 from msd_bench.app.rig_cost import ACCOUNTING, spent
-from msd_bench.app.rig_scores import rig_scenario, run_member, scores
+from msd_bench.app.rig_scores import paper_risk, rig_limits, rig_scenario, rig_settings, run_member, scores
 from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError, IdentificationError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
@@ -39,14 +38,16 @@ from msd_bench.core.identification.model_kinds import model_kind
 from msd_bench.core.rigs.refine import Refined, Try, refine
 from msd_bench.core.rigs.rig_loop import RigRun
 from msd_bench.designs import kinds
-from msd_bench.designs.protocol import settings_from
 
 if TYPE_CHECKING:
     from msd_bench.app.config import RunConfig
     from msd_bench.core.identification.records import Records
     from msd_bench.core.physics.model import StepModel
+    from msd_bench.core.physics.plant import PlantParams
+    from msd_bench.core.rigs.rest import RestConfig
     from msd_bench.core.rigs.rig import Rig
     from msd_bench.core.rigs.rig_play import PlayedExperiment
+    from msd_bench.core.rigs.scales import Scales
     from msd_bench.core.safety.supervisor import Limits
     from msd_bench.designs import Drive, Policy
 
@@ -65,6 +66,10 @@ class RigsConfig(Protocol):
     def refine_weight(self) -> int: ...
     @property
     def scenarios(self) -> tuple[str, ...]: ...
+    @property
+    def scales(self) -> Scales: ...
+    @property
+    def rest(self) -> RestConfig: ...
 
 
 Member = tuple["Policy", int]
@@ -89,10 +94,11 @@ def base_kind(row: str) -> str | None:
 
 def limits_of(cfg: RigsConfig) -> Limits:
     """Every on-rig try and the fresh validation run behind the supervisor (the run's limits, or its
-    default limits on the nominal plant: all a rig's supervisor is told)."""
+    default limits on the nominal plant: all a rig's supervisor is told), in the rig's scales."""
     from msd_bench.core.safety.supervisor import SupervisorOptions
 
-    return cfg.run.supervisor_limits or SupervisorOptions().limits(cfg.run.plant)
+    limits = rig_limits(cfg.run, cfg.scales)
+    return limits or SupervisorOptions().scaled(cfg.scales).limits(cfg.scales.plant(cfg.run.plant))
 
 
 def with_closed_loop(records: Records, tries: Sequence[Experiment], weight: int) -> Records:
@@ -106,15 +112,20 @@ def with_closed_loop(records: Records, tries: Sequence[Experiment], weight: int)
 
 
 def refit(records: Records, tries: Sequence[Experiment], weight: int, surrogate: str,
-          run: RunConfig) -> tuple[StepModel, dict[str, Any]]:
+          run: RunConfig, plant: PlantParams | None = None,
+          scales: Scales | None = None) -> tuple[StepModel, dict[str, Any]]:
     """Model ``surrogate`` fitted by its registered fitter from the open-loop ``records`` plus the
     closed-loop ``tries`` (each ``weight`` times), and its fit on the open-loop validation record; an
     IdentificationError naming the kind when it cannot be. The one refit of ``rigs --refine`` and of
-    ``bench.py --refine`` (which reads ``records`` and the tries from bags)."""
+    ``bench.py --refine`` (which reads ``records`` and the tries from bags). ``plant``: the rig's stroke,
+    force limit and sample time (None: the run's plant's); ``scales``: the rig's (None: the paper's
+    constants as they are)."""
     from msd_bench.app.pipeline import identify_each
 
     data = with_closed_loop(records, tries, weight)
-    models, fits, failed = identify_each(data, [surrogate], run.id_first_seed, run.plant, run.nlarx_scale)
+    models, fits, failed = identify_each(data, [surrogate], run.id_first_seed,
+                                         run.plant if plant is None else plant, run.nlarx_scale,
+                                         scales=scales)
     if surrogate in failed:
         raise IdentificationError(f"refit of {surrogate}: {failed[surrogate]}")
     return models[surrogate], fits[surrogate].as_row()
@@ -124,18 +135,18 @@ def _run(cfg: RigsConfig, rig: Rig, member: Member, sc: Scenario, stream: str) -
     """One supervised run of a member on the rig under ``sc`` (noise stream named by ``stream``)."""
     policy, j = member
     rng = np.random.default_rng(noise_seed(policy.members[j], stream))
-    return run_member(rig, policy, j, sc, cfg.run.validation_steps, rng, limits_of(cfg))
+    return run_member(rig, policy, j, sc, cfg.run.validation_steps, rng, limits_of(cfg), cfg.rest)
 
 
 def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:
-    return trace_risk(r.x, rig.params, limits_of(cfg), r.reason, r.abort).as_dict()
+    return paper_risk(trace_risk(r.x, rig.params, limits_of(cfg), r.reason, r.abort).as_dict(), cfg.scales)
 
 
 def _as_try(cfg: RigsConfig, rig: Rig, r: RigRun, name: str) -> Try:
     """A try as the choice may read it (the measured record) and the report shows it (risk, truth)."""
     run = cfg.run
-    seen = metric_row(r.y, run.target, run.plant.dt, run.window)["sse"]
-    true = metric_row(r.x, run.target, run.plant.dt, run.window)["sse"]
+    seen = metric_row(r.y, run.target, rig.params.dt, run.window)["sse"]
+    true = metric_row(r.x, run.target, rig.params.dt, run.window)["sse"]
     report = {"sse": true, "success": bool(true < SUCCESS_SSE), "risk": _risk(cfg, rig, r)}
     return Try(Experiment(r.effort, r.y, name=name, truth=r.x), float(seen), r.abort != 0, int(r.x.size),
                r.rest.samples, report)
@@ -147,7 +158,7 @@ def refine_kind(cfg: RigsConfig, rig: Rig, rig_seed: int, kind: str, policy: Pol
     (``played``: the rig's plan as played, what the row is charged of it and its rests)."""
     run = cfg.run
     surrogate = agent_kind(kind).surrogate
-    settings = settings_from(agent_params(run))
+    settings = rig_settings(run, rig.params, cfg.scales)
     rows = []
     for j, seed in enumerate(policy.members):
         def try_(member: Member, r: int, seed: int = seed) -> Try:
@@ -156,7 +167,8 @@ def refine_kind(cfg: RigsConfig, rig: Rig, rig_seed: int, kind: str, policy: Pol
                            f"closed-loop try {r}, seed {seed}")
 
         def refit_(tries: Sequence[Experiment]) -> tuple[StepModel, dict[str, Any]]:
-            return refit(records, tries, cfg.refine_weight, surrogate, run)
+            return refit(records, tries, cfg.refine_weight, surrogate, run, rig.params,
+                         None if cfg.scales.is_default else cfg.scales)
 
         def retrain(model: StepModel, seed: int = seed) -> Member:
             return designs.make(kind, model, settings, [seed], told), 0
@@ -175,12 +187,12 @@ def _fresh(cfg: RigsConfig, rig: Rig, rig_seed: int, kind: str, seed: int, got: 
     row_kind = f"{kind}{SUFFIX}"
     nominal = _run(cfg, rig, got.policy, Scenario(setpoint=run.target), f"rig{rig_seed}/{row_kind}/nominal")
     row: dict[str, Any] = {"kind": row_kind, "seed": seed, "identified": True,
-                           **scores(nominal, run.target, run), "start_x": float(nominal.x[0]),
-                           "risk": _risk(cfg, rig, nominal), "scenarios": {}}
+                           **scores(nominal, run.target, run, dt=rig.params.dt),
+                           "start_x": float(nominal.x[0]), "risk": _risk(cfg, rig, nominal), "scenarios": {}}
     for sid in cfg.scenarios:
-        sc = rig_scenario(sid)
+        sc = rig_scenario(sid).scaled(cfg.scales)
         got_sc = _run(cfg, rig, got.policy, sc, f"rig{rig_seed}/{row_kind}/{sc.id}")
-        row["scenarios"][sid] = scores(got_sc, sc.setpoint, run, brief=True)
+        row["scenarios"][sid] = scores(got_sc, sc.setpoint, run, brief=True, dt=rig.params.dt)
     fresh = int(nominal.x.size)
     bill = spent(played, model_kind(agent_kind(kind).surrogate).records,
                  [*got.try_runs, (fresh, nominal.rest.samples)])

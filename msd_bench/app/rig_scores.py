@@ -17,10 +17,13 @@ if TYPE_CHECKING:
     import numpy as np
 
     from msd_bench.app.config import RunConfig
+    from msd_bench.core.physics.plant import PlantParams
+    from msd_bench.core.rigs.rest import RestConfig
     from msd_bench.core.rigs.rig import Rig
     from msd_bench.core.rigs.rig_loop import RigRun
+    from msd_bench.core.rigs.scales import Scales
     from msd_bench.core.safety.supervisor import Limits
-    from msd_bench.designs import Policy
+    from msd_bench.designs import Policy, Settings
 
 RIG_KEYS = ("setpoint", "disturbance")
 """What a rig scenario may set."""
@@ -37,26 +40,69 @@ def rig_scenario(sid: str) -> Scenario:
 
 
 
+def rig_settings(run: RunConfig, params: PlantParams, scales: Scales) -> Settings:
+    """What a design takes from a run on a rig: the run's budgets (in the rig's scales already), the
+    rig's sample time, force limit and stroke, and its time unit; on the default family's rigs exactly
+    what :func:`msd_bench.app.job.agent_params` gives (same dt, F and stroke)."""
+    from dataclasses import replace
+
+    from msd_bench.app.job import agent_params
+    from msd_bench.designs.protocol import settings_from
+
+    return replace(settings_from(agent_params(run)), dt=params.dt, force=params.F, stroke=params.L,
+                   pace=scales.pace)
+
+
+def rig_limits(run: RunConfig, scales: Scales) -> Limits | None:
+    """The supervisor's limits on a rig when the run is supervised (else None): the default options in
+    the rig's scales, resolved against the nominal plant in the rig's units (all a rig's supervisor is
+    told: not the rig's drawn values)."""
+    if not run.supervisor:
+        return None
+    from msd_bench.core.safety.supervisor import SupervisorOptions
+
+    if scales.is_default:
+        return run.supervisor_limits
+    return SupervisorOptions().scaled(scales).limits(scales.plant(run.plant))
+
+
+def paper_risk(risk: dict[str, Any], scales: Scales) -> dict[str, Any]:
+    """A run's risk record in the paper's units (lengths / length, speeds / speed, times / pace), so the
+    risk of rigs in other units pools with the default family's; itself on the paper's scales. Why:
+    a family's peak |x| pooled in each rig's own metres would compare a 0.25 m stage with a 100 m
+    runway."""
+    if scales.is_default:
+        return risk
+    speed = scales.speed(1.0)
+    return {**risk, "peak_x": risk["peak_x"] / scales.length, "peak_v": risk["peak_v"] / speed,
+            "time_at_stop": risk["time_at_stop"] / scales.pace,
+            "time_outside": risk["time_outside"] / scales.pace}
+
+
 def run_member(rig: Rig, policy: Policy, member: int, sc: Scenario, steps: int, rng: np.random.Generator,
-               limits: Limits | None) -> RigRun:
-    """One run of ``policy``'s member ``member`` on the rig under ``sc`` (a set-point and a load):
-    a Q-table with its observer through the compiled greedy loop, any other policy through its
-    controller. Every row of ``msd-bench rigs`` runs through here, open loop or refined."""
+               limits: Limits | None, rest: RestConfig | None = None) -> RigRun:
+    """One run of ``policy``'s member ``member`` on the rig under ``sc`` (a set-point and a load), from
+    rest as ``rest`` judges it (None: the paper's plant's): a Q-table with its observer through the
+    compiled greedy loop, any other policy through its controller. Every row of ``msd-bench rigs``
+    runs through here, open loop or refined."""
     from msd_bench.core.rigs.rig_loop import run_controller_on_rig, run_on_rig
     from msd_bench.designs.qlearning import QPolicy
 
     load_step = round(sc.disturbance_time / rig.params.dt)
     if isinstance(policy, QPolicy) and policy.observer is not None:
         return run_on_rig(rig, policy.q[member], policy.learner, policy.observer, sc.setpoint, steps, rng,
-                          load=sc.disturbance, load_step=load_step, limits=limits)
+                          load=sc.disturbance, load_step=load_step, rest_config=rest, limits=limits)
     return run_controller_on_rig(rig, policy.controller(member, sc.setpoint), sc.setpoint, steps, rng,
-                                 load=sc.disturbance, load_step=load_step, limits=limits)
+                                 load=sc.disturbance, load_step=load_step, rest_config=rest, limits=limits)
 
 
-def scores(r: RigRun, target: float, run: RunConfig, brief: bool = False) -> dict[str, Any]:
-    """Metrics on the true position (success) and, beside them, on the measured one."""
-    true = metric_row(r.x, target, run.plant.dt, run.window)
-    seen = metric_row(r.y, target, run.plant.dt, run.window)
+def scores(r: RigRun, target: float, run: RunConfig, brief: bool = False,
+           dt: float | None = None) -> dict[str, Any]:
+    """Metrics on the true position (success) and, beside them, on the measured one (times in the rig's
+    sample time ``dt``; None: the run's plant's)."""
+    dt = run.plant.dt if dt is None else dt
+    true = metric_row(r.x, target, dt, run.window)
+    seen = metric_row(r.y, target, dt, run.window)
     if brief:
         return {"sse": true["sse"], "success": bool(true["sse"] < SUCCESS_SSE), "sse_measured": seen["sse"]}
     return {"success": bool(true["sse"] < SUCCESS_SSE), **true,

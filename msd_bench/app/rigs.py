@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -36,10 +36,9 @@ from msd_bench import designs
 from msd_bench.app import rig_refine, rig_routes
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
-from msd_bench.app.job import agent_params
 from msd_bench.app.plan import paper_plan
 from msd_bench.app.rig_cost import spent
-from msd_bench.app.rig_scores import rig_scenario, run_member, scores
+from msd_bench.app.rig_scores import paper_risk, rig_limits, rig_scenario, rig_settings, run_member, scores
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
 from msd_bench.core.evaluation.risk import trace_risk
@@ -49,14 +48,15 @@ from msd_bench.core.identification.excitation import PrbsConfig
 from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.identification.model_kinds import model_kind
 from msd_bench.core.physics.model import StepModel
-from msd_bench.core.rigs import population
+from msd_bench.core.rigs import families, population
+from msd_bench.core.rigs.rest import RestConfig
 from msd_bench.core.rigs.rig import Rig
 from msd_bench.core.rigs.rig_loop import RigRun
 from msd_bench.core.rigs.rig_play import PlayedExperiment, measured_actuator, play_plan, records_of
 from msd_bench.core.rigs.rig_stats import DEFAULT_RESAMPLES, rate_summary
+from msd_bench.core.rigs.scales import Scales
 from msd_bench.designs import Drive, Policy, kinds
 from msd_bench.designs.kinds import split_by_model
-from msd_bench.designs.protocol import settings_from
 
 RIG_SCENARIOS = ("setpoint=-1.5", "setpoint=-0.5", "setpoint=0.5", "setpoint=1.5",
                  "disturbance=2@15", "disturbance=-2@15")
@@ -81,7 +81,8 @@ class RigsConfig:
     """What a population run does."""
 
     run: RunConfig
-    """Agents, learning seeds, budgets, record and validation lengths (one identification seed)."""
+    """Agents, learning seeds, budgets, record and validation lengths (one identification seed), stated
+    on the paper's plant: each rig runs them in its own scales (:meth:`RunConfig.scaled`)."""
     rigs: int = 20
     """Rigs in the run."""
     first_rig: int = population.HELD_OUT_RIGS.start
@@ -106,8 +107,14 @@ class RigsConfig:
     and the ceiling were validated; 0: none (every other row is the run it would be without it)."""
     refine_weight: int = 1
     """How many times each closed-loop record enters a refit beside the open-loop broad record."""
+    family: str = families.DEFAULT_FAMILY
+    """The rig family the rigs are drawn from (:mod:`msd_bench.core.rigs.families`)."""
+    scales: Scales = Scales.DEFAULT
+    """The scales of the one rig this config is on (:meth:`on_rig` sets them; the paper's before):
+    scenarios, supervisor limits and the designs' constants are scaled by them."""
 
     def __post_init__(self) -> None:
+        families.family(self.family)  # an unknown family: one line, with the nearest name
         if self.rigs < 1 or self.first_rig < 0:
             raise ConfigError(f"--rigs must be >= 1 and --first-rig >= 0, got {self.rigs} and "
                               f"{self.first_rig}")
@@ -139,13 +146,18 @@ class RigsConfig:
         refined = rig_refine.refined_kinds(self.run.agents) if self.refine else []
         return (*self.run.agents, *(CEILING if self.ceiling else ()), *refined)
 
+    @property
+    def rest(self) -> RestConfig:
+        """When the rig counts as at rest before each record and run, in its scales."""
+        return RestConfig().scaled(self.scales)
+
     def rig_seeds(self) -> list[int]:
         """The rigs of the run."""
         return list(range(self.first_rig, self.first_rig + self.rigs))
 
     def check_rig_set(self) -> None:
         """Design and held-out rigs never mix, and a design rig is never reported as held out."""
-        held = population.HELD_OUT_RIGS
+        held = families.family(self.family).held_out
         span = f"0-{held.start - 1}"
         last = self.first_rig + self.rigs - 1
         if self.design and last >= held.start:
@@ -155,28 +167,40 @@ class RigsConfig:
             raise ConfigError(f"rig {self.first_rig} is a design rig (seeds {span}): held-out rigs start at "
                               f"{held.start}; pass --design to run design rigs")
         if last >= held.stop:
+            named = "" if self.family == families.DEFAULT_FAMILY else f" (family {self.family})"
             raise ConfigError(f"rig {last} is beyond the population's held-out seeds "
-                              f"{held.start}-{held.stop - 1}")
+                              f"{held.start}-{held.stop - 1}{named}")
+
+    def on_rig(self, spec: population.RigSpec) -> RigsConfig:
+        """This run on one rig: its budgets, set-point and window in the rig's scales (itself on a rig of
+        the paper's scales, so the default family runs as it always did)."""
+        scales = spec.scales()
+        if scales.is_default:
+            return self
+        return replace(self, run=self.run.scaled(scales), settle=scales.samples(self.settle), scales=scales)
 
 
 def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
     """Everything one rig gives: its parameters, fits, every (kind, seed) outcome and the times taken."""
     t0 = time.perf_counter()
-    drawn = population.draw(seed)
+    drawn = families.draw(cfg.family, seed)
     rig = Rig(drawn.params, drawn.imperfections, seed=seed)  # the sensor's noise stream is the rig's own
+    cfg = cfg.on_rig(drawn)
     run = cfg.run
-    played = play_plan(rig, paper_plan(run.id_first_seed, run.samples, run.val_samples, cfg.settle))
+    scales = drawn.scales()
+    played = play_plan(rig, paper_plan(run.id_first_seed, run.samples, run.val_samples, cfg.settle,
+                                       scales=scales), cfg.rest)
     records = records_of(played, drawn.params.dt)
     drive = measured_actuator(played, drawn.params.dt)
     told = Drive(drive.delay_samples, drive.time_constant_s) if cfg.actuator == "measured" else None
     t_play = time.perf_counter()
-    models, fits, failed = _identify(records, run, drawn.params, seed)
+    models, fits, failed = _identify(records, run, drawn.params, seed, scales)
     t_id = time.perf_counter()
     outcomes, t_train, not_made, made = [], 0.0, {}, {}
     for kind in run.agents:
         surrogate = models.get(agent_kind(kind).surrogate)
         t = time.perf_counter()
-        policy, why = _make(surrogate, run, kind, told) if surrogate is not None else (None, "")
+        policy, why = _make(surrogate, run, drawn, kind, told) if surrogate is not None else (None, "")
         t_train += time.perf_counter() - t
         if why:
             not_made[kind] = f"rig {seed}: {why}"
@@ -186,7 +210,8 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
         outcomes += validate_on_rig(cfg, rig, kind, policy, seed)
     for name in CEILING if cfg.ceiling else ():
         t = time.perf_counter()
-        ceiling = rig_routes.route(name).make(drawn, settings_from(agent_params(run)), run.learning_seeds(0))
+        ceiling = rig_routes.route(name).make(drawn, rig_settings(run, rig.params, cfg.scales),
+                                              run.learning_seeds(0))
         t_train += time.perf_counter() - t
         outcomes += validate_on_rig(cfg, rig, name, ceiling, seed)
     t_refine = time.perf_counter()
@@ -194,7 +219,8 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
         outcomes += _refine_all(cfg, rig, seed, made, records, told, played)
     done = time.perf_counter()
     return {
-        "rig": seed, "design": seed not in population.HELD_OUT_RIGS, "parameters": rig_parameters(drawn),
+        "rig": seed, "design": seed not in families.family(cfg.family).held_out,
+        "parameters": rig_parameters(drawn),
         "rests": {"before_experiments": [p.rest.samples for p in played],
                   "not_still": sum(not p.rest.still for p in played)},
         "charged": _bills(run.agents, played),
@@ -233,31 +259,41 @@ def _refine_all(cfg: RigsConfig, rig: Rig, seed: int, made: Mapping[str, Policy 
 
 
 def rig_parameters(spec: population.RigSpec) -> dict[str, Any]:
-    """Every drawn parameter by the report's names: the plant's multipliers, then the imperfections."""
+    """Every drawn parameter by the report's names: the plant's multipliers, then the imperfections, in
+    the units of the rig's default-family twin (so every family's figure reads alike), then (a rig in
+    other units) its unit factors."""
     mult = spec.multipliers()
-    imp = spec.imperfections
-    return {"mass": mult["m"], "damping": mult["c"], "spring": mult["k"], "hardening": mult["h"],
-            "friction": imp.friction, "delay": imp.delay_samples, "lag": imp.actuator_tau,
-            "noise": imp.sensor_noise, "quant": imp.sensor_quant}
+    imp, u = spec.imperfections, spec.units
+    doc = {"mass": mult["m"], "damping": mult["c"], "spring": mult["k"], "hardening": mult["h"],
+           "friction": imp.friction, "delay": imp.delay_samples, "lag": imp.actuator_tau,
+           "noise": imp.sensor_noise, "quant": imp.sensor_quant}
+    if u.is_identity:
+        return doc
+    return {**doc, "friction": imp.friction / u.force, "lag": imp.actuator_tau / u.time,
+            "noise": imp.sensor_noise / u.length, "quant": imp.sensor_quant / u.length,
+            "length_unit": u.length, "mass_unit": u.mass, "time_unit": u.time}
 
 
-def _identify(records: Any, run: RunConfig, params: Any,
-              seed: int) -> tuple[dict[str, StepModel], dict[str, FitReport], dict[str, str]]:
-    """Every model kind the agents need, from the rig's records; a kind that cannot be identified says why."""
+def _identify(records: Any, run: RunConfig, params: Any, seed: int,
+              scales: Scales) -> tuple[dict[str, StepModel], dict[str, FitReport], dict[str, str]]:
+    """Every model kind the agents need, from the rig's records, fitted in the rig's scales; a kind that
+    cannot be identified says why."""
     from msd_bench.app.pipeline import identify_each
 
     models, fits, failed = identify_each(records, run.surrogates_needed(), run.id_first_seed, params,
-                                         run.nlarx_scale)
+                                         run.nlarx_scale, scales=None if scales.is_default else scales)
     # its agents then count as failures on this rig, with the reason
     return models, fits, {name: f"rig {seed}: {why}" for name, why in failed.items()}
 
 
-def _make(surrogate: StepModel, run: RunConfig, kind: str, drive: Drive | None) -> tuple[Policy | None, str]:
+def _make(surrogate: StepModel, run: RunConfig, spec: population.RigSpec, kind: str,
+          drive: Drive | None) -> tuple[Policy | None, str]:
     """The kind's policy made by its design on its surrogate only, one member per learning seed (a
-    deterministic design: one), told the rig's ``drive`` (None: nothing); or why its design could not
-    be made on this rig's surrogate (a baseline's tuning rule may find no gains for it: a result)."""
+    deterministic design: one), in the rig's scales, told the rig's ``drive`` (None: nothing); or why
+    its design could not be made on this rig's surrogate (a baseline's tuning rule may find no gains
+    for it: a result)."""
     try:
-        settings = settings_from(agent_params(run))
+        settings = rig_settings(run, spec.params, spec.scales())
         return designs.make(kind, surrogate, settings, run.learning_seeds(0), drive), ""
     except ConfigError as exc:
         return None, str(exc)
@@ -280,13 +316,14 @@ def validate_on_rig(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy | None,
     out = []
     for j, seed in enumerate(policy.members):
         nominal = _one_run(cfg, rig, kind, policy, j, seed, rig_seed, Scenario(setpoint=run.target))
-        row = {"kind": kind, "seed": seed, "identified": True, **scores(nominal, run.target, run),
+        row = {"kind": kind, "seed": seed, "identified": True,
+               **scores(nominal, run.target, run, dt=rig.params.dt),
                "start_x": float(nominal.x[0]), "risk": _risk(cfg, rig, nominal),
                "scenarios": {}}
         for sid in cfg.scenarios:
-            sc = rig_scenario(sid)
+            sc = rig_scenario(sid).scaled(cfg.scales)
             got = _one_run(cfg, rig, kind, policy, j, seed, rig_seed, sc)
-            row["scenarios"][sid] = scores(got, sc.setpoint, run, brief=True)
+            row["scenarios"][sid] = scores(got, sc.setpoint, run, brief=True, dt=rig.params.dt)
         out.append(row)
     return out
 
@@ -296,14 +333,16 @@ def _one_run(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy, member: int, 
     """One validation run of member ``member`` on the rig under ``sc`` (its noise stream named by rig,
     kind, seed): :func:`msd_bench.app.rig_scores.run_member`."""
     rng = np.random.default_rng(noise_seed(seed, f"rig{rig_seed}/{kind}/{sc.id}"))
-    return run_member(rig, policy, member, sc, cfg.run.validation_steps, rng, cfg.run.supervisor_limits)
+    limits = rig_limits(cfg.run, cfg.scales)
+    return run_member(rig, policy, member, sc, cfg.run.validation_steps, rng, limits, cfg.rest)
 
 
 def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:
     """A run's risk record: its true positions on the rig's stroke, and the supervisor's reasons and
-    abort when it guarded the run (its limits are the nominal plant's: all a rig's supervisor is told)."""
-    lim = cfg.run.supervisor_limits
-    return trace_risk(r.x, rig.params, lim, r.reason, r.abort).as_dict()
+    abort when it guarded the run (its limits are the nominal plant's: all a rig's supervisor is told),
+    in the paper's units (:func:`~msd_bench.app.rig_scores.paper_risk`)."""
+    risk = trace_risk(r.x, rig.params, rig_limits(cfg.run, cfg.scales), r.reason, r.abort).as_dict()
+    return paper_risk(risk, cfg.scales)
 
 
 def rig_success(part: Mapping[str, Any], kind: str) -> tuple[int, int]:
@@ -353,6 +392,14 @@ def worst_rigs(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]]) -> list[dict
             for _, rig, k, n, p in scored[:WORST]]
 
 
+def population_doc(name: str) -> dict[str, Any]:
+    """What ``rigs.json`` says of the family its rigs were drawn from (the default family's record is
+    as it was before families existed, the family's name added)."""
+    fam = families.family(name)
+    return {"module": fam.module, "design_seeds": [0, fam.held_out.start - 1],
+            "held_out_first": fam.held_out.start, "family": fam.name}
+
+
 def document(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """``rigs.json`` from every rig's task result (in rig order)."""
     parts = sorted(parts, key=lambda p: int(p["rig"]))
@@ -361,8 +408,7 @@ def document(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]]) -> dict[str, A
     return {
         "schema": "msd-bench/rigs", "schema_version": 1,
         "rig_set": "design" if cfg.design else "held-out",
-        "population": {"module": population.__name__, "design_seeds": [0, population.HELD_OUT_RIGS.start - 1],
-                       "held_out_first": population.HELD_OUT_RIGS.start},
+        "population": population_doc(cfg.family),
         "rigs_run": [int(p["rig"]) for p in parts],
         "learning_seeds": cfg.run.learning_seeds(0), "agents": list(cfg.run.agents),
         "success_sse_percent": SUCCESS_SSE,

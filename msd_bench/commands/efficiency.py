@@ -165,7 +165,8 @@ def rig_efficiency_config(args: argparse.Namespace) -> RigEfficiencyConfig:
         raise ConfigError("the curve on rigs draws on-plant learners beside a surrogate route: add a kind "
                           f"on an identified model to --agents (e.g. {kinds.RIG_EFFICIENCY[-1]})")
     rigs = RigsConfig(replace(run_cfg, agents=tuple(on_model)), rigs=filled.rigs, first_rig=args.first_rig,
-                      design=args.design, scenarios=(), resamples=args.bootstrap, refine=args.refine)
+                      design=args.design, scenarios=(), resamples=args.bootstrap, refine=args.refine,
+                      family=filled.family)
     return RigEfficiencyConfig(rigs, record_samples=_ints(args.record_samples, "--record-samples"),
                                family=filled.family, plant_agents=tuple(on_plant),
                                episodes=_ints(args.budgets, "--budgets"))

@@ -38,6 +38,7 @@ if TYPE_CHECKING:
 def register(sub: Any) -> None:
     """Add the ``rigs`` subcommand."""
     from msd_bench.app.rigs import ACTUATOR_CHOICES, DEFAULT_AGENTS, RIG_SCENARIOS
+    from msd_bench.core.rigs.families import DEFAULT_FAMILY, FAMILIES
     from msd_bench.core.rigs.population import HELD_OUT_RIGS
     from msd_bench.core.rigs.rig_stats import DEFAULT_RESAMPLES
 
@@ -45,6 +46,9 @@ def register(sub: Any) -> None:
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_run_arguments(p, seeds=4, agents=DEFAULT_AGENTS)
     add_supervisor_argument(p)
+    p.add_argument("--family", default=DEFAULT_FAMILY,
+                   help=f"the rig family to draw, one of {', '.join(FAMILIES)} ({DEFAULT_FAMILY}; "
+                        "docs/rig-families.md)")
     p.add_argument("--rigs", type=int, default=20, help="rigs in the run (20)")
     p.add_argument("--first-rig", type=int, default=HELD_OUT_RIGS.start,
                    help=f"seed of the first rig ({HELD_OUT_RIGS.start}, the first held-out rig)")
@@ -82,13 +86,15 @@ def rigs_config(args: argparse.Namespace) -> RigsConfig:
     return RigsConfig(run_config_from_args(args), rigs=args.rigs, first_rig=args.first_rig,
                       design=args.design, scenarios=scenarios, resamples=args.bootstrap,
                       actuator=args.robust_actuator, ceiling=args.ceiling,
-                      refine=args.refine, refine_weight=args.refine_weight)
+                      refine=args.refine, refine_weight=args.refine_weight, family=args.family)
 
 
 def routes_doc(cfg: RigsConfig) -> dict[str, Any]:
     """What the manifest adds for the ceiling and refinement (nothing without them: a run directory
     written before they existed resumes as it was)."""
     extra: dict[str, Any] = {"ceiling": True} if cfg.ceiling else {}
+    if cfg.family != "default":  # the default family's manifest is as it was: its run directories resume
+        extra["family"] = cfg.family
     if cfg.refine:
         extra.update(refine=cfg.refine, refine_weight=cfg.refine_weight)
     return extra

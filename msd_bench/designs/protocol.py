@@ -33,6 +33,7 @@ if TYPE_CHECKING:  # numba-compiled modules load only when a policy is made or r
     from msd_bench.core.evaluation.closed_loop import Conditions
     from msd_bench.core.physics.kernels import Kernel
     from msd_bench.core.physics.model import StepModel
+    from msd_bench.core.rigs.scales import Scales
 
 
 FloatArray = NDArray[np.float64]
@@ -65,6 +66,15 @@ class Settings:
     """Rig samples per decision: the command is held over them (docs/rig-description.md). A design
     sees the decision period as its ``dt`` and the model held over them
     (:func:`msd_bench.designs.request`)."""
+    pace: float = 1.0
+    """The rig's time unit against the paper's (:attr:`msd_bench.core.rigs.scales.Scales.pace`; 1.0:
+    durations in seconds)."""
+
+    def scales(self) -> Scales:
+        """The scales of the plant these settings describe (exactly the default's on the paper's plant)."""
+        from msd_bench.core.rigs.scales import Scales
+
+        return Scales.of(self.stroke, self.force, self.dt, self.pace)
 
 
 _SETTINGS_FIELDS = tuple(f.name for f in fields(Settings))

@@ -18,7 +18,6 @@ from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.learning.qconfig import MAX_DELAY_SAMPLES, QConfig, improved_config
-from msd_bench.core.rigs.scales import Scales
 from msd_bench.designs.protocol import Controller, Facts, KindSpec, Request, Settings
 from msd_bench.designs.registry import PLANT, plus_kinds
 
@@ -60,8 +59,9 @@ PAPER_BUDGET_EPISODES = 300
 
 def learner(spec: KindSpec, design_name: str, s: Settings, episodes: int) -> QConfig:
     """The learner of a kind at the given budget: a pinned shaping wins; on the plant no rehearsal
-    (it would cost real samples), so the final table is kept."""
-    base = LEARNERS[design_name]().scaled(Scales.of(s.stroke, s.force, s.dt))  # itself on the paper's plant
+    (it would cost real samples), so the final table is kept. Its paper constants are on the plant of
+    ``s`` (:meth:`Settings.scales`: itself on the paper's plant); steps and force are ``s``'s own."""
+    base = LEARNERS[design_name]().scaled(s.scales())
     if design_name == "paper":
         base = replace(base, shaping=spec.shaping or s.shaping)
     if spec.surrogate == PLANT:

@@ -34,6 +34,8 @@ from msd_bench.dds import confine_to_loopback
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = REPO_ROOT / "launch_scripts"
+OUTPUT_DRAIN_S = 20.0
+"""Longest wait for a process's last output lines once it has ended (its reader thread drains the pipe)."""
 SHM = Path("/dev/shm")
 SHM_PREFIXES = ("/dev/shm/fastdds", "/dev/shm/fastrtps")
 """Fast DDS 3 (Kilted) names its segments fastdds_*, Fast DDS 2 (Jazzy) fastrtps_*."""
@@ -107,7 +109,9 @@ class NodeProcess:
         """Collect the last lines and close the pipes (the process has ended)."""
         self.end_input()
         if self.reader is not None:
-            self.reader.join(timeout=2.0)
+            # A deadline, not an expectation: the reader ends at once on the pipe's end, but on a
+            # loaded machine it drained a stopped plant's last lines (its shutdown line) after 2 s.
+            self.reader.join(timeout=OUTPUT_DRAIN_S)
         if self.popen.stdout is not None and not self.popen.stdout.closed:
             self.popen.stdout.close()
 

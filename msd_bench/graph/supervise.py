@@ -29,6 +29,7 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.serve_protocol import parse_event
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.rigs.scales import Scales
 from msd_bench.core.safety.supervisor import Limits, SupervisorOptions
 from msd_bench.graph.jobs import Job, JobServer
 from msd_bench.graph.launch import NodeProcess, ProcessSet, stop
@@ -102,7 +103,8 @@ class Supervision:
     def resolved(self, plant: PlantParams) -> SupervisorOptions:
         """The options: the file's (or the defaults), then the ``--supervisor-option`` items; with
         recording supervised and no envelope given, the recording's wider one (:data:`RECORDING_ENVELOPE`)."""
-        base = read_options(self.params) if self.params is not None else SupervisorOptions().scaled_to(plant)
+        scales = Scales.of(plant.L, plant.F, plant.dt)
+        base = read_options(self.params) if self.params is not None else SupervisorOptions().scaled(scales)
         merged = {f.name: getattr(base, f.name) for f in fields(base)} | dict(self.options)
         if self.recording and merged["envelope"] is None:
             merged["envelope"] = RECORDING_ENVELOPE * plant.x_max

@@ -99,6 +99,8 @@ class AgentNodeConfig:
     """Terminal window of the SSE, samples."""
     dt: float = field(default=shared("dt"), metadata={"range": (1e-4, 1.0)})
     """Sample time of the plant, s (for settling times)."""
+    pace: float = field(default=1.0, metadata={"range": (1e-3, 1e3)})
+    """The plant's time unit against the paper's (1: durations in seconds; docs/decisions.md §Scales)."""
     force: float = field(default=shared("force"), metadata={"range": (1e-3, 1e4)})
     """Force magnitude F of the action alphabet, N."""
     stroke: float = field(default=shared("stroke"), metadata={"range": (1e-6, 1e6)})

@@ -24,9 +24,12 @@ drive's own watchdog does. ``truth/joint_states`` (true position and velocity)
 exists only with ``publish_truth`` (tests and scoring; a real rig has none).
 
 ``population_seed`` picks a member of the rig population
-(:mod:`msd_bench.core.rigs.population`): its plant and imperfections become the
-parameters' defaults, so explicit parameters still win; the start-up line
-prints the served rig with every parameter.
+(:mod:`msd_bench.core.rigs.population`), of the family ``family``
+(:mod:`msd_bench.core.rigs.families`; ``default`` unless given): its plant and
+imperfections become the parameters' defaults, so explicit parameters still
+win; the start-up line prints the served rig with every parameter. A member
+whose value lies outside a parameter's usual range (a ``scaled`` rig's force)
+widens that range to hold it.
 
 With ``-p interface:=ros2_control`` it shows the face of a forward effort
 controller and a joint state broadcaster instead (docs/ros2-control.md §Face):
@@ -51,7 +54,7 @@ from std_msgs.msg import Float64
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics.plant import PRESETS, PlantParams
-from msd_bench.core.rigs import population
+from msd_bench.core.rigs import families
 from msd_bench.core.rigs.population import EMULATOR_SEED, MAX_SEED, RigSpec
 from msd_bench.core.rigs.rig import Rig, RigImperfections
 from msd_bench.io.reports.live_server import OFF
@@ -91,6 +94,9 @@ class RigNodeConfig:
     """Which member of the rig population to serve (docs/rig.md §Population): its plant and
     imperfections become the defaults, explicit parameters still win; 0 = the emulator's own
     defaults."""
+    family: str = families.DEFAULT_FAMILY
+    """The rig family ``population_seed`` is drawn from (docs/rig-families.md); an unknown name is one
+    line naming the families."""
     publish_truth: bool = False
     """Also publish the true position and velocity on truth/joint_states (tests and scoring only:
     a real rig has no truth)."""
@@ -100,6 +106,15 @@ class RigNodeConfig:
     live_port: int = field(default=OFF, metadata={"range": (OFF, 65535)})
     """Serve the live view (a Foxglove WebSocket server on 127.0.0.1, docs/live.md) on this port: the
     rig's measured rows decimated to 50 Hz and the set-point; 0 picks a free port; -1 serves none."""
+
+
+def holding(ranges: dict[str, tuple[float, float]], member: object) -> dict[str, tuple[float, float]]:
+    """``ranges`` widened, where the served member's value of a field lies outside, to hold it."""
+    out = {}
+    for name, (lo, hi) in ranges.items():
+        value = getattr(member, name, None)
+        out[name] = (lo, hi) if value is None else (type(lo)(min(lo, value)), type(hi)(max(hi, value)))
+    return out
 
 
 class RigNode(PlantNode):
@@ -117,12 +132,15 @@ class RigNode(PlantNode):
             raise ConfigError("the rig emulator runs in real time only (no lock-step, no /clock): "
                               "drop -p lockstep")
         self.rig_config = declare_from_dataclass(self, RigNodeConfig)
-        self.member = population.draw(self.rig_config.population_seed)
+        self.member = families.draw(self.rig_config.family, self.rig_config.population_seed)
         rig = params_file_rig()  # a described rig: the member's imperfections in its scales and rate
         imperfections = self.member.imperfections
         if rig is not None:
             imperfections = imperfections.scaled(rig.scales())
-        self.imperfections = declare_from_dataclass(self, RigImperfections, defaults=imperfections)
+        self.imperfections = declare_from_dataclass(
+            self, RigImperfections, defaults=imperfections,
+            ranges=holding({f.name: f.metadata["range"] for f in dataclasses.fields(RigImperfections)
+                            if "range" in f.metadata}, imperfections))
         self.interface = declare_interface(self)
         self._names = self.interface.state_names(self.rig_config.extra_joints)
         if self._names.count(self.interface.joint) > 1:
@@ -174,8 +192,9 @@ class RigNode(PlantNode):
             name="preset", type=ParameterType.PARAMETER_STRING, read_only=True,
             description="Named plant parameter set the fields default to instead of the population "
                         f"member's, read once at start-up: {', '.join(sorted(PRESETS))}."))
-        return declare_from_dataclass(self, PlantParams, defaults=rig_plant(self.member.params),
-                                      ranges=PLANT_RANGES)
+        plant = rig_plant(self.member.params)
+        return declare_from_dataclass(self, PlantParams, defaults=plant,
+                                      ranges=holding(PLANT_RANGES, plant))
 
     def _explicit(self) -> set[str]:
         """Names of the parameters given on the command line (or as overrides)."""
@@ -184,7 +203,7 @@ class RigNode(PlantNode):
     def served(self) -> RigSpec:
         """The rig this node serves: the member with every explicit parameter applied."""
         assert self._params is not None
-        return RigSpec(self.member.seed, self._params, self.imperfections)
+        return replace(self.member, params=self._params, imperfections=self.imperfections)
 
     def _init_sensor(self) -> None:
         """The core rig (sensor, actuator, friction, jitter) and, if asked, the truth topic."""

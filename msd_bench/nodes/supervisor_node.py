@@ -50,6 +50,7 @@ from std_msgs.msg import Empty, Float64, String
 from msd_bench.app.serve_protocol import event_line
 from msd_bench.core.errors import InterfaceError
 from msd_bench.core.physics.plant import preset
+from msd_bench.core.rigs.scales import Scales
 from msd_bench.core.safety.supervisor import (
     MAX_LATCH_TEXT,
     NONE,
@@ -107,7 +108,8 @@ class SupervisorNode(Node):
         self.config = declare_from_dataclass(self, SupervisorNodeConfig)
         self.iface = declare_interface(self)
         plant = rig_plant(preset(self.config.preset))  # a rig file wins over the preset
-        opts = (SupervisorOptions().scaled_to(plant) if not self.config.options_file
+        scales = Scales.of(plant.L, plant.F, plant.dt)
+        opts = (SupervisorOptions().scaled(scales) if not self.config.options_file
                 else read_options(Path(self.config.options_file)))
         self.supervisor = Supervisor(opts, plant)
         self._wrong_clears = LogThrottle(1.0)

@@ -12,6 +12,8 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+from tests.syntax import parse_source
+
 ROOT = Path(__file__).resolve().parents[2]
 OWNERS = {ROOT / "msd_bench" / "app" / "scoring.py",
           ROOT / "msd_bench" / "core" / "evaluation" / "robustness.py"}
@@ -32,8 +34,9 @@ def assemblies(tree: ast.AST) -> list[tuple[int, str]]:
 
 
 def test_the_scan_finds_each_assembly():
-    tree = ast.parse("a = agent_result(k, rows)\nb = robustness.evaluate_policy(p)\nc = robustness.merge(x)\n"
-                     "d = scoring.agent_result(k)\ne = other.merge(x)\nf = assemble(k, r)\n")
+    tree = parse_source("a = agent_result(k, rows)\nb = robustness.evaluate_policy(p)\n"
+                        "c = robustness.merge(x)\nd = scoring.agent_result(k)\ne = other.merge(x)\n"
+                        "f = assemble(k, r)\n")
     assert [n for _, n in assemblies(tree)] == ["agent_result", "evaluate_policy", "merge", "agent_result"]
 
 
@@ -44,6 +47,6 @@ def test_table1_and_robustness_are_assembled_only_by_scoring():
             if path in OWNERS:
                 continue
             hits += [f"{path.relative_to(ROOT)}:{line}: {name}"
-                     for line, name in assemblies(ast.parse(path.read_text(), str(path)))]
+                     for line, name in assemblies(parse_source(path.read_text(), str(path)))]
     assert hits == [], "Table 1 or robustness assembled outside app/scoring.py:\n" + "\n".join(hits)
 

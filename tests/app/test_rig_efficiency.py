@@ -93,7 +93,7 @@ def test_on_plant_learners_train_on_each_rig_and_are_charged_every_step(curve: d
     (["--design"], "--design apply to the curve on rigs: add --rigs N or --family NAME"),
     (["--refine", "1"], "--refine apply to the curve on rigs"),
     (["--rigs", "2", "--budgets", "0"], "budgets must be >= 1 episode"),
-    (["--family", "stage"], "--family must be one of default, got 'stage'"),
+    (["--family", "stage"], "unknown rig family 'stage'"),
     (["--rigs", "2", "--agents", "plant,dyna-q"], "draws on-plant learners beside a surrogate route"),
     (["--rigs", "2", "--record-samples", "50"], "record samples must be >= 100"),
     (["--rigs", "2", "--record-samples", "300,300"], "record samples repeat"),

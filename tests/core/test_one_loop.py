@@ -25,6 +25,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.syntax import parse_source
+
 ROOT = Path(__file__).resolve().parents[2]
 
 KERNELS = frozenset({
@@ -117,7 +119,7 @@ def scan(root: Path = ROOT) -> dict[str, list[str]]:
         rel = path.relative_to(root).as_posix()
         if rel in LOOP_MODULES:
             continue
-        for fn, line, kernel in stepping_loops(ast.parse(path.read_text(), rel)):
+        for fn, line, kernel in stepping_loops(parse_source(path.read_text(), rel)):
             hits.setdefault(f"{rel}::{fn}", []).append(f"{rel}:{line}: {kernel}")
     return hits
 
@@ -130,7 +132,7 @@ def test_the_scan_finds_each_kind_of_stepping_loop() -> None:
         "def d(self, us):\n    for u in us:\n        self.model.step(u)\n"
         "def e(m, s):\n    for _ in range(3):\n        def inner():\n            return advance(m, s, 0.0)\n"
         "def f(m, s, opt):\n    advance(m, s, 0.0)\n    for _ in range(3):\n        opt.step()\n")
-    assert stepping_loops(ast.parse(planted)) == [
+    assert stepping_loops(parse_source(planted)) == [
         ("a", 3, "plant_step"), ("b", 6, "advance"), ("c", 8, "step"), ("d", 11, "step")]
 
 

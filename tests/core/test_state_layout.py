@@ -29,6 +29,7 @@ from msd_bench.core.learning.qconfig import improved_config, packed
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.model import StepModel, plant_model
 from msd_bench.core.physics.plant import PlantParams
+from tests.syntax import parse_source
 
 ROOT = Path(__file__).resolve().parents[2]
 P = PlantParams()
@@ -127,7 +128,7 @@ SCANNED = ("msd_bench/designs", "msd_bench/core/baselines", "msd_bench/core/lear
 def _literal_slots(path: Path) -> list[str]:
     """``name[<int literal>]`` or a slice with an int-literal bound, on a state-holding name."""
     out = []
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in ast.walk(parse_source(path.read_text())):
         if not (isinstance(node, ast.Subscript) and isinstance(node.value, ast.Name)
                 and node.value.id in STATE_NAMES):
             continue

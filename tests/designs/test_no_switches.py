@@ -23,6 +23,7 @@ from pathlib import Path
 
 from msd_bench.designs import AGENT_KINDS
 from msd_bench.designs.registry import PLANT
+from tests.syntax import parse_source
 
 ROOT = Path(__file__).resolve().parents[2]
 SCANNED = ("msd_bench", "scripts", "launch_scripts", "benchmarks")
@@ -81,18 +82,18 @@ def _scan(tops: tuple[str, ...], find) -> list[str]:  # type: ignore[no-untyped-
             if DESIGNS in path.parents:
                 continue
             hits += [f"{path.relative_to(ROOT)}:{line}: {what}"
-                     for line, what in find(ast.parse(path.read_text(), str(path)))]
+                     for line, what in find(parse_source(path.read_text(), str(path)))]
     return hits
 
 
 def test_the_scan_finds_each_switch():
-    tree = ast.parse("a = k.dyna\nz = self.dyna\nb = k.surrogate == PLANT\nc = PLANT != x\n"
+    tree = parse_source("a = k.dyna\nz = self.dyna\nb = k.surrogate == PLANT\nc = PLANT != x\n"
                      "d = agents.LEARNERS[k.agent]()\n")
     assert [w for _, w in switches(tree)] == [".dyna", "== PLANT", "== PLANT", "LEARNERS["]
 
 
 def test_the_scan_finds_each_property_check():
-    tree = ast.parse("a = [k for k in ks if agent_kind(k).on_plant]\nb = k.design.model_free\n"
+    tree = parse_source("a = [k for k in ks if agent_kind(k).on_plant]\nb = k.design.model_free\n"
                      "c = facts.baseline\nd = policy.facts.deterministic\ne = self.baseline\n")
     assert [w for _, w in sorted(switches(tree))] == [
         ".on_plant", ".model_free", ".baseline", ".deterministic"]
@@ -101,7 +102,7 @@ def test_the_scan_finds_each_property_check():
 def test_the_scan_finds_literal_kind_names_but_not_docstrings_or_model_names():
     names = only_kind_names()
     assert {"plm+robust", "dyna-q", "glm+pid", "plm@away"} <= names and not {"plm", "glm", "plant"} & names
-    tree = ast.parse('"""Docstring naming plm+robust."""\nA = ("plm+robust", "plm")\n'
+    tree = parse_source('"""Docstring naming plm+robust."""\nA = ("plm+robust", "plm")\n'
                      'B = "glm+improved,dyna-q"\nif "dyna-q" in free:\n    pass\nC = "plant.py"\n')
     assert [w for _, w in sorted(literal_kinds(tree, names))] == [
         "literal 'plm+robust'", "literal 'dyna-q'", "literal 'glm+improved'", "literal 'dyna-q'"]

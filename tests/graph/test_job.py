@@ -40,6 +40,7 @@ from msd_bench.nodes.excitation_node import ExcitationNodeConfig
 from msd_bench.nodes.params import config_from_job
 from msd_bench.nodes.recorder_node import RecorderConfig
 from msd_bench.nodes.surrogate_node import SurrogateConfig
+from tests.syntax import parse_source
 
 NODE_CONFIGS = (AgentNodeConfig, IdentifierConfig, ExcitationNodeConfig, RecorderConfig, SurrogateConfig)
 HOMONYMS = {ExcitationNodeConfig: {"window"}, IdentifierConfig: {"dt"}}
@@ -58,7 +59,7 @@ RUN = RunConfig(seeds=2, episodes=7, steps=50, dyna_episodes=3, planning_steps=4
 
 def _literal_defaults(cls: type) -> dict[str, object]:
     """Fields of ``cls`` whose default is written as a literal in its source."""
-    body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0]
+    body = parse_source(textwrap.dedent(inspect.getsource(cls))).body[0]
     found: dict[str, object] = {}
     for stmt in getattr(body, "body", []):
         if not (isinstance(stmt, ast.AnnAssign) and isinstance(stmt.target, ast.Name) and stmt.value):
@@ -111,7 +112,7 @@ def literal_job_defaults(tree: ast.AST, homonyms: frozenset[str] = frozenset()) 
 
 
 def test_the_module_scan_finds_each_literal_default():
-    tree = ast.parse("class C:\n    dt: float = 0.01\n    force_limit: float = field(default=10.0)\n"
+    tree = parse_source("class C:\n    dt: float = 0.01\n    force_limit: float = field(default=10.0)\n"
                      "    episodes: int = shared('episodes')\n    seed: int = 0\n"
                      "def f(steps: int = 3000, *, target=-1.0, window=RECORD_WINDOW): ...\n")
     assert [n for _, n in literal_job_defaults(tree)] == ["dt", "force_limit", "steps", "target"]
@@ -125,7 +126,7 @@ def test_no_node_module_declares_a_default_for_a_job_field():
     for path in sorted(p for d in SCANNED for p in d.glob("*.py")):
         homonyms = frozenset({"window"}) if path.name == "excitation_node.py" else frozenset()
         hits += [f"{path.relative_to(PACKAGE)}:{line}: {name}"
-                 for line, name in literal_job_defaults(ast.parse(path.read_text(), str(path)), homonyms)]
+                 for line, name in literal_job_defaults(parse_source(path.read_text(), str(path)), homonyms)]
     assert hits == [], "literal defaults of job fields in msd_bench/nodes or graph:\n" + "\n".join(hits)
 
 

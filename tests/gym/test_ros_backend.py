@@ -58,8 +58,10 @@ def test_real_time_node_episodes_start_from_rest(realtime_plant: str) -> None:
         assert [r[3] for r in rows] == [False] * 29 + [True]
         xs = np.array([r[4]["x"] for r in rows])
         assert xs[-1] - xs[0] > 0.005  # +F moved the mass up
-        # A fresh sample per step, never a repeated one (the first may still be from before +F acted).
-        assert np.all(np.diff(xs[2:]) > 0)
+        # A fresh sample per step, never a repeated one, once +F acts: the samples before it acted
+        # read the rest position (two idle, more on a loaded machine, where the command travels late).
+        moving = xs[int(np.argmax(xs > xs[0])):]
+        assert moving.size >= 10 and np.all(np.diff(moving) > 0)
     env.close()
 
 

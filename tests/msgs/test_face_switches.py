@@ -22,6 +22,7 @@ import pytest
 from msd_bench.core.errors import InterfaceError
 from msd_msgs_py import interface
 from msd_msgs_py.interface import FACES, INTERFACE_KINDS, PlantInterface, make
+from tests.syntax import parse_source
 
 ROOT = Path(__file__).resolve().parents[2]
 SCANNED = ("msd_bench", "msd_msgs_py", "launch_scripts", "scripts", "benchmarks")
@@ -67,7 +68,7 @@ def _scanned_files() -> list[Path]:
 
 def test_no_module_branches_on_a_face() -> None:
     found = [f"{p.relative_to(ROOT)}:{line}: {what}" for p in _scanned_files()
-             for line, what in switches(ast.parse(p.read_text(), str(p)))]
+             for line, what in switches(parse_source(p.read_text(), str(p)))]
     assert found == [], "branches on a plant face outside its class:\n" + "\n".join(found)
 
 
@@ -89,7 +90,7 @@ def test_the_scan_reads_the_faces_module_and_its_classes() -> None:
     "if isinstance(iface, (interface.MsdFace, int)):\n    pass\n",
 ])
 def test_the_scan_catches_a_planted_branch(planted: str) -> None:
-    assert switches(ast.parse(planted)), planted
+    assert switches(parse_source(planted)), planted
 
 
 @pytest.mark.parametrize("neutral", [
@@ -99,7 +100,7 @@ def test_the_scan_catches_a_planted_branch(planted: str) -> None:
     "class MsdFace(PlantInterface):\n    def f(self):\n        return self.kind == MSD\n",
 ])
 def test_the_scan_leaves_questions_to_the_face_and_the_face_classes_alone(neutral: str) -> None:
-    assert switches(ast.parse(neutral)) == [], neutral
+    assert switches(parse_source(neutral)) == [], neutral
 
 
 def test_faces_are_one_registry() -> None:

@@ -153,6 +153,7 @@ def test_second_node_on_the_namespace_refuses_to_start(ctx, executor):
     (["-p", "population_seed:=-1"], "population_seed"),
     (["-p", "population_seed:=2147483648"], "population_seed"),
     (["-p", "population_seed:=abc"], "population_seed"),
+    (["-p", "family:=scaeld"], "unknown rig family 'scaeld' (did you mean 'scaled'?)"),
 ])
 def test_bad_parameters_are_one_line_errors_in_a_real_process(args, needle):
     proc = subprocess.run([sys.executable, "launch_scripts/rig.py", "--ros-args", *args], cwd=REPO,
@@ -181,6 +182,20 @@ def test_a_population_seed_serves_that_member_and_explicit_parameters_win(ctx, e
     rig.destroy_node()
     rig = make_rig(ctx, executor, "/pop_c", population_seed=1001, preset="default")
     assert rig.served().params == PlantParams() and rig.served().imperfections == member.imperfections
+    rig.destroy_node()
+
+
+def test_a_family_member_is_served_with_its_units_beyond_the_usual_ranges(ctx: Any, executor: Any) -> None:
+    from msd_bench.core.rigs.families import draw
+    from msd_bench.nodes.plant_node import PLANT_RANGES
+
+    seed = next(s for s in range(1000, 1100) if PLANT_RANGES["F"][1] < draw("scaled", s).params.F)
+    member = draw("scaled", seed)  # a force limit beyond the usual range: the range widens to hold it
+    rig = make_rig(ctx, executor, "/fam_a", family="scaled", population_seed=seed)
+    assert rig.served() == member and rig.rig.params == member.params
+    assert rig.rig.imperfections == member.imperfections
+    assert rig._sensor_text().startswith(member.line() + " (population member)")
+    assert "[scaled: length x" in rig._sensor_text()
     rig.destroy_node()
 
 

@@ -117,6 +117,6 @@ def trace_risk(x: ArrayLike, plant: PlantParams, limits: Limits | None = None,
     default supervisor's on ``plant`` (so an unsupervised row says how long a supervised run
     would have been outside it).
     """
-    lim = limits if limits is not None else SupervisorOptions().scaled_to(plant).limits(plant)
+    lim = limits if limits is not None else SupervisorOptions().limits(plant)
     return run_risk(x, velocity_of(x, plant.dt), dt=plant.dt, half_stroke=plant.x_max,
                     envelope=lim.envelope, margin=lim.margin, reasons=reasons, abort=abort)

@@ -78,14 +78,16 @@ class Scenario:
     def scaled(self, scales: Scales) -> Scenario:
         """This paper condition on a rig of ``scales`` (docs/decisions.md §Scales), under the same id:
         set-point, noise and quantisation relative to the stroke, load and friction to the force
-        limit, the delay the same seconds; lag and load time are seconds already. Itself on the
-        paper's plant, bit for bit."""
+        limit, the delay the same seconds; lag and load time are seconds already (× the rig's
+        ``pace``, 1 unless its dynamics run slower: :class:`Scales`). Itself on the paper's plant, bit
+        for bit."""
         if scales.is_default:
             return self
-        m, n = scales.metres, scales.newtons
+        m, n, s = scales.metres, scales.newtons, scales.seconds
         return replace(self, setpoint=m(self.setpoint), noise=m(self.noise), quant=m(self.quant),
                        disturbance=n(self.disturbance), friction=n(self.friction),
-                       delay=scales.samples(self.delay) if self.delay else 0)
+                       delay=scales.samples(self.delay) if self.delay else 0, lag=s(self.lag),
+                       disturbance_time=s(self.disturbance_time))
 
     @property
     def has_sensor(self) -> bool:

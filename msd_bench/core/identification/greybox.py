@@ -35,7 +35,7 @@ regression).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,6 +46,7 @@ from msd_bench.core.identification.data import Experiment
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.plant import PlantParams
 from msd_bench.core.physics.sensor import clear_of_stops, lowpass, lowpass_reach
+from msd_bench.core.rigs.scales import Scales
 
 FloatArray = NDArray[np.float64]
 
@@ -67,6 +68,9 @@ class GreyboxConfig:
     """Cut-off of the zero-phase low-pass applied before the equation-error start, Hz."""
     g_range: tuple[float, float] = (0.05, 5.0)
     """Search interval of the spring's spatial frequency g in the start, rad/m."""
+    scales: Scales = Scales.DEFAULT
+    """The rig's scales (:meth:`scaled` sets them): the refinement works in the paper's units, every
+    parameter and residual divided by its unit, so its steps and tolerances are the paper's."""
 
     def __post_init__(self) -> None:
         for name in ("stroke", "force", "filter_hz"):
@@ -78,6 +82,27 @@ class GreyboxConfig:
         lo, hi = self.g_range
         if not (0 < lo < hi and np.isfinite(hi)):
             raise ConfigError(f"grey-box g_range must satisfy 0 < low < high, got {self.g_range}")
+
+    def scaled(self, scales: Scales) -> GreyboxConfig:
+        """This fit, stated on the paper's plant, on a rig of ``scales`` (docs/decisions.md §Scales): the
+        filter's cut-off in the rig's time unit, g's search range per rig metre, the refinement in paper
+        units. Itself on the paper's plant."""
+        if scales.is_default:
+            return self
+        lo, hi = self.g_range
+        return replace(self, filter_hz=self.filter_hz / scales.pace,
+                       g_range=(lo / scales.length, hi / scales.length), scales=scales)
+
+    def units(self) -> FloatArray:
+        """The unit of each of (m, c, k, g, h) on the rig: what a paper value is multiplied by."""
+        return param_units(self.scales)
+
+
+def param_units(scales: Scales) -> FloatArray:
+    """The unit of each of (m, c, k, g, h) on a rig of ``scales``: the similarity transform of
+    docs/decisions.md §Scales (all 1.0 on the paper's plant)."""
+    ln, f, t = scales.length, scales.force, scales.pace
+    return np.array([f * t * t / ln, f * t / ln, f, 1.0 / ln, f / (ln * ln * ln)])
 
 
 @dataclass(frozen=True)
@@ -104,31 +129,37 @@ def fit_greybox(experiments: Sequence[Experiment], dt: float, cfg: GreyboxConfig
         raise IdentificationError("grey-box fit needs at least one experiment")
     start = equation_error_start(experiments, dt, cfg)
     x_inits = [_initial_guess(e, dt, cfg) for e in experiments]
-    theta0 = np.concatenate([np.log(start), np.ravel(x_inits)])
+    units, sc = cfg.units(), cfg.scales  # the refinement in paper units: each value / its unit
+    lu, vu = sc.length, sc.speed(1.0)
+    paper_start = start / units
+    state_units = np.tile([lu, vu], len(experiments))
+    theta0 = np.concatenate([np.log(paper_start), np.ravel(x_inits) / state_units])
     n_samples = sum(len(e) for e in experiments)
 
     def residuals(theta: FloatArray) -> FloatArray:
-        p = _plant_array(np.exp(theta[:5]), dt, cfg)
+        p = _plant_array(np.exp(theta[:5]) * units, dt, cfg)
         parts = []
         for i, e in enumerate(experiments):
-            x0, v0 = theta[5 + 2 * i], theta[6 + 2 * i]
+            x0, v0 = theta[5 + 2 * i] * lu, theta[6 + 2 * i] * vu
             x, _ = kernels.simulate_plant(kernels.Plant(*(float(v) for v in p)), e.u, float(x0), float(v0))
-            parts.append(x - e.y)
+            parts.append((x - e.y) / lu)
         return np.concatenate(parts)
 
     sol = least_squares(residuals, theta0, method="trf", x_scale="jac", max_nfev=cfg.max_nfev)
-    if not _plausible(sol.x[:5], start):  # a record that does not pin a parameter down (friction)
-        lo, hi = _log_bounds(theta0, start, cfg)
+    if not _plausible(sol.x[:5], paper_start):  # a record that does not pin a parameter down (friction)
+        lo, hi = _log_bounds(theta0, paper_start, cfg.g_range[0] / units[3], cfg.g_range[1] / units[3])
         sol = least_squares(residuals, theta0, method="trf", x_scale="jac", max_nfev=cfg.max_nfev,
                             bounds=(lo, hi))
     theta = sol.x
     if not np.all(np.isfinite(theta)):
         raise IdentificationError("grey-box refinement diverged (non-finite parameters)")
-    m, c, k, g, h = (float(v) for v in np.exp(theta[:5]))
+    m, c, k, g, h = (float(v) for v in np.exp(theta[:5]) * units)
     params = PlantParams(m=m, c=c, k=k, g=g, h=h, L=cfg.stroke, F=cfg.force, dt=dt)
-    states = tuple((float(theta[5 + 2 * i]), float(theta[6 + 2 * i])) for i in range(len(experiments)))
-    rms = float(np.sqrt(2.0 * sol.cost / n_samples))
-    return GreyboxFit(params, tuple(float(v) for v in start), states, float(sol.cost), rms, int(sol.nfev))
+    states = tuple((float(theta[5 + 2 * i] * lu), float(theta[6 + 2 * i] * vu))
+                   for i in range(len(experiments)))
+    cost = float(sol.cost) * lu * lu
+    rms = float(np.sqrt(2.0 * cost / n_samples))
+    return GreyboxFit(params, tuple(float(v) for v in start), states, cost, rms, int(sol.nfev))
 
 
 RETRY_SPAN = 1e3
@@ -146,13 +177,15 @@ def _plausible(log_params: FloatArray, start: FloatArray) -> bool:
     return bool(np.all(np.abs(log_params - np.log(start)) <= np.log(RETRY_SPAN)))
 
 
-def _log_bounds(theta0: FloatArray, start: FloatArray, cfg: GreyboxConfig) -> tuple[FloatArray, FloatArray]:
+def _log_bounds(theta0: FloatArray, start: FloatArray, g_low: float,
+                g_high: float) -> tuple[FloatArray, FloatArray]:
     """Bounds of the retry: parameters within :data:`BOUND_SPAN` of the start (g also within
-    ``g_range``, widened to hold the start), initial states free."""
+    ``g_low``-``g_high``, the config's ``g_range`` in the units of ``start``, widened to hold the start),
+    initial states free."""
     lo = np.full(theta0.size, -np.inf)
     hi = np.full(theta0.size, np.inf)
     lo[:5], hi[:5] = np.log(start) - np.log(BOUND_SPAN), np.log(start) + np.log(BOUND_SPAN)
-    g_lo, g_hi = np.log(min(cfg.g_range[0], start[3])), np.log(max(cfg.g_range[1], start[3]))
+    g_lo, g_hi = np.log(min(g_low, start[3])), np.log(max(g_high, start[3]))
     lo[3], hi[3] = max(lo[3], g_lo), min(hi[3], g_hi)
     return lo, hi
 
@@ -172,19 +205,20 @@ def equation_error_start(experiments: Sequence[Experiment], dt: float, cfg: Grey
         theta = theta / scale
         return float(np.sum((phi @ theta - u) ** 2)), theta
 
+    units = cfg.units()  # the grid in paper 1/m, then in the rig's: the same points on every rig
     lo, hi = cfg.g_range
-    grid = np.geomspace(lo, hi, 60)
+    grid = np.geomspace(lo / units[3], hi / units[3], 60) * units[3]
     costs = [solve(float(g))[0] for g in grid]
     i = int(np.argmin(costs))
     bracket = (float(grid[max(i - 1, 0)]), float(grid[min(i + 1, grid.size - 1)]))
     best = minimize_scalar(lambda g: solve(g)[0], bounds=bracket, method="bounded",
-                           options={"xatol": 1e-10})
+                           options={"xatol": 1e-10 * units[3]})
     g = float(best.x)
     m, c, k, h = solve(g)[1]
     start = np.array([m, c, k, g, h])
     # A non-positive estimate has no log: start it at a small positive value instead
     # (the refinement moves it; a physical plant has every parameter > 0).
-    return np.where(start > 0, start, 1e-3)
+    return np.where(start > 0, start, 1e-3 * units)
 
 
 def _regression_data(

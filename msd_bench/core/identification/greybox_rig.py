@@ -47,7 +47,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -56,11 +56,12 @@ from numpy.typing import NDArray
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.identification import lm
 from msd_bench.core.identification.data import Experiment, IOData
-from msd_bench.core.identification.greybox import GreyboxConfig, equation_error_start
+from msd_bench.core.identification.greybox import GreyboxConfig, equation_error_start, param_units
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.model import StepModel
 from msd_bench.core.physics.sensor import lowpass
 from msd_bench.core.rigs.rig import Rig
+from msd_bench.core.rigs.scales import Scales
 
 FloatArray = NDArray[np.float64]
 
@@ -118,6 +119,22 @@ class GreyboxRigConfig:
     """Further iterations for the winning delay (each costs one simulation per free number)."""
     filter_hz: float = 5.0
     """Low-pass cut-off of the equation-error start (as the plain grey-box's)."""
+    scales: Scales = Scales.DEFAULT
+    """The rig's scales (:meth:`scaled` sets them): the start's grids and thresholds are the paper's in
+    the rig's units, and the fit runs on every parameter, state and residual divided by its unit, so
+    its steps, floors and stopping rule are the paper's."""
+
+    def scaled(self, scales: Scales) -> GreyboxRigConfig:
+        """This fit, stated on the paper's plant, on a rig of ``scales`` (docs/decisions.md §Scales): the
+        default bounds and given values in the rig's units, the filter's cut-off in its time unit.
+        Itself on the paper's plant."""
+        if scales.is_default:
+            return self
+        units = dict(zip(PARAM_NAMES, _units(scales), strict=True))
+        specs = {**_default_specs(), **self.params}
+        rig = {n: ParamSpec(s.minimum * units[n], s.maximum * units[n], s.fixed,
+                            None if s.value is None else s.value * units[n]) for n, s in specs.items()}
+        return replace(self, params=rig, filter_hz=self.filter_hz / scales.pace, scales=scales)
 
     def __post_init__(self) -> None:
         unknown = sorted(set(self.params) - set(PARAM_NAMES))
@@ -280,6 +297,11 @@ def _slot(name: str) -> int:
     return i if i < 5 else i + 3
 
 
+def _units(scales: Scales) -> FloatArray:
+    """The unit of each of :data:`PARAM_NAMES` on a rig of ``scales`` (all 1.0 on the paper's plant)."""
+    return np.concatenate([param_units(scales), [scales.force, scales.pace]])
+
+
 LAG_GRID = (0.0, 0.01, 0.02, 0.03, 0.04)
 """Lags (s) the start compares for each delay (the refinement moves it freely within its bounds)."""
 G_GRID = np.geomspace(0.05, 5.0, 24)
@@ -291,13 +313,18 @@ MOVING = 0.02
 def actuated_start(train: IOData, cfg: GreyboxRigConfig, delay: int) -> FloatArray:
     """Equation-error start of the seven parameters for ``delay`` (module docstring), in bounds."""
     best: tuple[float, FloatArray] | None = None
-    for tau in LAG_GRID:
+    sc = cfg.scales
+    for paper_tau in LAG_GRID:  # paper seconds, paper 1/m: the same grids in the rig's units
+        tau = sc.seconds(paper_tau)
         p = _kernel_params(np.array([1.0, 1.0, 1.0, 1.0, 1.0, 0.0, tau]), delay, train.dt, cfg)
         kern = kernels.Kernel(kernels.KIND_GREYBOX_RIG, p, cfg.force)
         rows = [_moving_rows(e, kernels.rig_forces(kern, e.u), train.dt, cfg) for e in train.experiments]
         x, v, a, f = (np.concatenate([r[i] for r in rows]) for i in range(4))
         if x.size < 10:
             continue
+        # solved in paper units (each column / its unit): the same system on every rig of any scale
+        x, v, a, f = x / sc.length, v / sc.speed(1.0), a / (sc.speed(1.0) / sc.pace), f / sc.force
+        to_rig = np.append(_units(sc)[:6], 1.0)  # m c k g h friction; the lag is the rig's
         for g in G_GRID:
             phi = np.column_stack([a, v, np.sin(g * x), x**3, np.sign(v)])
             try:  # normal equations: five unknowns, well scaled; an SVD per grid point cost 5x more
@@ -307,7 +334,8 @@ def actuated_start(train: IOData, cfg: GreyboxRigConfig, delay: int) -> FloatArr
             cost = float(np.sum((phi @ theta - f) ** 2))
             if best is None or cost < best[0]:
                 m, c, k, h, fc = theta
-                best = (cost, np.array([m, c, k, g, h, fc, tau]))
+                best = (cost, np.array([m, c, k, g, h, fc, 1.0]) * to_rig)
+                best[1][6] = tau  # in the rig's seconds already
     if best is None:
         return _start(train, cfg)
     return _in_bounds(best[1], cfg)
@@ -320,7 +348,7 @@ def _moving_rows(e: Experiment, force: FloatArray, dt: float,
     v = (y[1:-1] - y[:-2]) / dt
     a = (y[2:] - 2 * y[1:-1] + y[:-2]) / dt**2
     x = y[1:-1]
-    keep = (np.abs(v) > MOVING) & (np.abs(x) < 0.45 * cfg.stroke)
+    keep = (np.abs(v) > cfg.scales.speed(MOVING)) & (np.abs(x) < 0.45 * cfg.stroke)
     return x[keep], v[keep], a[keep], f[1:-1][keep]
 
 
@@ -335,8 +363,10 @@ def _in_bounds(guess: FloatArray, cfg: GreyboxRigConfig) -> FloatArray:
 
 def _start(train: IOData, cfg: GreyboxRigConfig) -> FloatArray:
     """Starts of the seven parameters: given values first, else the equation-error start, in bounds."""
-    plain = GreyboxConfig(stroke=cfg.stroke, force=cfg.force, filter_hz=cfg.filter_hz)
-    guess = np.concatenate([equation_error_start(train.experiments, train.dt, plain), [0.05, 0.01]])
+    plain = GreyboxConfig(stroke=cfg.stroke, force=cfg.force).scaled(cfg.scales)
+    plain = replace(plain, filter_hz=cfg.filter_hz)
+    guess = np.concatenate([equation_error_start(train.experiments, train.dt, plain),
+                            [cfg.scales.newtons(0.05), cfg.scales.seconds(0.01)]])
     out = np.empty(len(PARAM_NAMES))
     for i, name in enumerate(PARAM_NAMES):
         s = cfg.spec(name)
@@ -353,29 +383,36 @@ def _fit_delay(train: IOData, cfg: GreyboxRigConfig, start: FloatArray, delay: i
     free = [i for i, n in enumerate(PARAM_NAMES) if not cfg.spec(n).fixed]
     exps = train.experiments
     x_inits = [_initial_guess(e, train.dt, cfg.filter_hz) for e in exps]
-    theta0 = np.concatenate([start[free], np.ravel(x_inits)])
+    # the fit in paper units: each parameter, state and residual divided by its unit (1.0 on the paper's)
+    sc = cfg.scales
+    lu = sc.length
+    units = np.concatenate([_units(sc)[free], np.tile([lu, sc.speed(1.0)], len(exps))])
+    theta0 = np.concatenate([start[free], np.ravel(x_inits)]) / units
     lo = np.concatenate([[cfg.spec(PARAM_NAMES[i]).minimum for i in free], np.full(2 * len(exps), -np.inf)])
     hi = np.concatenate([[cfg.spec(PARAM_NAMES[i]).maximum for i in free], np.full(2 * len(exps), np.inf)])
+    lo, hi = lo / units, hi / units
     theta0 = _inside(theta0 if theta_init is None else theta_init, lo, hi)
 
     def unpack(theta: FloatArray) -> FloatArray:
         phys = start.copy()
-        phys[free] = theta[:len(free)]
+        phys[free] = theta[:len(free)] * units[:len(free)]
         return _kernel_params(phys, delay, train.dt, cfg)
 
     def residuals(theta: FloatArray) -> FloatArray:
         kern = kernels.Kernel(kernels.KIND_GREYBOX_RIG, unpack(theta), cfg.force)
+        rig_theta = theta * units
         parts = []
         for i, e in enumerate(exps):
             state = np.zeros(kernels.RIG_STATE_SIZE)
-            state[0], state[1] = theta[len(free) + 2 * i], theta[len(free) + 2 * i + 1]
-            parts.append(kernels.rollout(kern, e.u, state) - e.y)
+            state[0], state[1] = rig_theta[len(free) + 2 * i], rig_theta[len(free) + 2 * i + 1]
+            parts.append((kernels.rollout(kern, e.u, state) - e.y) / lu)
         return np.concatenate(parts)
 
     theta, cost, nfev = bounded_lm(residuals, theta0, lo, hi, iters, fd_step)
-    states = tuple((float(theta[len(free) + 2 * i]), float(theta[len(free) + 2 * i + 1]))
+    rig_theta = theta * units
+    states = tuple((float(rig_theta[len(free) + 2 * i]), float(rig_theta[len(free) + 2 * i + 1]))
                    for i in range(len(exps)))
-    return RigFit(unpack(theta), states, cost, nfev, theta)
+    return RigFit(unpack(theta), states, cost * lu * lu, nfev, theta)
 
 
 def bounded_lm(residuals: Callable[[FloatArray], FloatArray], theta0: FloatArray, lo: FloatArray,

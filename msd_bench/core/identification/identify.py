@@ -243,9 +243,11 @@ def identify_glm(train: IOData, cfg: GlmConfig | None = None,
 
 def identify_plm(
     records: Mapping[float, IOData] | Sequence[tuple[float, IOData]], cfg: PlmConfig | None = None,
-    force_limit: float = NOMINAL_FORCE,
+    force_limit: float = NOMINAL_FORCE, units: tuple[float, float, float] = (1.0, 1.0, 1.0),
 ) -> StepModel:
-    """Five local models, one per bias record, blended (see :mod:`msd_bench.core.identification.plm`)."""
+    """Five local models, one per bias record, blended (see :mod:`msd_bench.core.identification.plm`);
+    ``units`` are a rig's length, force and time unit (:func:`~msd_bench.core.identification.plm.fit_local`),
+    all 1.0 on the paper's plant."""
     cfg = cfg or PlmConfig()
     items = records.items() if isinstance(records, Mapping) else records
     pairs = sorted(((float(b), r) for b, r in items), key=lambda p: p[0])
@@ -258,12 +260,12 @@ def identify_plm(
     if len(dts) != 1:
         raise InvalidInputError(f"PLM records have different sample times: {sorted(dts)}")
     t0 = time.perf_counter()
-    local = [fit_local(b, r, max_nfev=cfg.max_nfev) for b, r in pairs]
+    local = [fit_local(b, r, max_nfev=cfg.max_nfev, units=units) for b, r in pairs]
     centres = operating_centres(local) if cfg.scheduling == "operating-points" else None
     model = blend(local, cfg.stroke, centres=centres, force_limit=force_limit)
     if cfg.refine:
         model, ref = refine_global(
-            model, [r for _, r in pairs], max_nfev=cfg.max_nfev, jacobian=cfg.jacobian
+            model, [r for _, r in pairs], max_nfev=cfg.max_nfev, jacobian=cfg.jacobian, units=units
         )
         final = local_from_params(model.params, local[0].dt)
         model.info.update(blend(final, cfg.stroke, centres=centres, force_limit=force_limit).info)

@@ -176,8 +176,14 @@ def oe_fit(
     dt: float,
     max_nfev: int = 200,
     fit_offset: bool = False,
+    units: tuple[float, float, float] = (1.0, 1.0, 1.0),
 ) -> LinearFit:
     """Output-error fit: ARX start, then least squares on the joint free-run error.
+
+    ``units`` (metres per paper metre, newtons per paper newton, the time unit: a rig's
+    :class:`~msd_bench.core.rigs.scales.Scales` length, force and pace) put the refinement in paper
+    units (each coefficient, output and residual divided by its unit) and the prefilter's cut-off in
+    the rig's time unit; all 1.0, the paper's plant, change nothing.
 
     The two initial outputs of every experiment are estimated too (see the
     module docstring). ``fit_offset`` also estimates ``y0`` (starting from the
@@ -186,25 +192,31 @@ def oe_fit(
     :class:`IdentificationError` when neither estimate is stable.
     """
     _check_experiments(experiments)
-    start = _best_start(experiments, u0, y0, dt, fit_offset)
+    length, force, pace = units
+    start = _best_start(experiments, u0, y0, dt, fit_offset, PREFILTER_HZ / pace)
     n_head = 5 if fit_offset else 4
+    gain = length / force  # n1, n2 are metres per newton
+    scale = np.array([gain, gain, 1.0, 1.0] + ([length] if fit_offset else [])
+                     + [length] * (2 * len(experiments)))
 
     def unpack(theta: FloatArray) -> tuple[FloatArray, float]:
         return theta[:4], (float(theta[4]) if fit_offset else y0)
 
-    def residuals(theta: FloatArray) -> FloatArray:
+    def residuals(z: FloatArray) -> FloatArray:
+        theta = z * scale
         coef, off = unpack(theta)
         parts = []
         for i, e in enumerate(experiments):
             init = (float(theta[n_head + 2 * i]), float(theta[n_head + 2 * i + 1]))
-            parts.append(simulate_deviation(coef, e, u0, off, init) - e.y)
+            with np.errstate(over="ignore"):  # a diverging trial: clamped below, as before
+                parts.append((simulate_deviation(coef, e, u0, off, init) - e.y) / length)
         r = np.concatenate(parts)
         return np.clip(np.nan_to_num(r, nan=_SIM_CLAMP), -_SIM_CLAMP, _SIM_CLAMP)
 
     inits = [v for e in experiments for v in (float(e.y[0]), float(e.y[1]))]
-    x0 = np.array([*start.coefficients] + ([start.y0] if fit_offset else []) + inits)
+    x0 = np.array([*start.coefficients] + ([start.y0] if fit_offset else []) + inits) / scale
     sol = least_squares(residuals, x0, x_scale="jac", method="trf", max_nfev=max_nfev)
-    coef, off = unpack(sol.x)
+    coef, off = unpack(sol.x * scale)
     n1, n2, d1, d2 = (float(c) for c in coef)
     refined = LinearFit(n1, n2, d1, d2, u0, off, dt, method="oe")
     if refined.is_stable:
@@ -215,22 +227,24 @@ def oe_fit(
 
 
 def _best_start(
-    experiments: Sequence[Experiment], u0: float, y0: float, dt: float, fit_offset: bool
+    experiments: Sequence[Experiment], u0: float, y0: float, dt: float, fit_offset: bool,
+    prefilter_hz: float = PREFILTER_HZ,
 ) -> LinearFit:
     """The raw or the prefiltered ARX estimate (stabilised), whichever simulates the record better."""
     candidates = [arx_fit(experiments, u0, y0, dt, fit_offset)]
-    filtered = [_prefiltered(e, dt) for e in experiments]
+    filtered = [_prefiltered(e, dt, prefilter_hz) for e in experiments]
     if all(f is not None for f in filtered):
         candidates.append(arx_fit([f for f in filtered if f is not None], u0, y0, dt, fit_offset))
     candidates = [c if c.is_stable else _stabilised(c) for c in candidates]
     return min(candidates, key=lambda c: _sim_cost(c, experiments))
 
 
-def _prefiltered(e: Experiment, dt: float) -> Experiment | None:
-    """Force and position through the same zero-phase low-pass (None if too short or dt too coarse)."""
-    if 0.5 / dt <= PREFILTER_HZ or len(e) < 60:
+def _prefiltered(e: Experiment, dt: float, hz: float = PREFILTER_HZ) -> Experiment | None:
+    """Force and position through the same zero-phase low-pass at ``hz`` (None if too short or dt too
+    coarse)."""
+    if 0.5 / dt <= hz or len(e) < 60:
         return None
-    return Experiment(lowpass(e.u, dt, PREFILTER_HZ), lowpass(e.y, dt, PREFILTER_HZ), e.name)
+    return Experiment(lowpass(e.u, dt, hz), lowpass(e.y, dt, hz), e.name)
 
 
 def _sim_cost(fit: LinearFit, experiments: Sequence[Experiment]) -> float:

@@ -41,6 +41,7 @@ from msd_bench.core.physics.layouts import (  # re-exported: the layouts were de
 if TYPE_CHECKING:  # the compiled kernels load numba: not needed to list or check kinds
     from msd_bench.core.identification.records import Records
     from msd_bench.core.physics.model import StepModel
+    from msd_bench.core.rigs.scales import Scales
 
 __all__ = ["COEF_MAX", "KERNELS", "KERNEL_LAYOUTS", "MODEL_KINDS", "NLARX_MAX_UNITS", "RIG_DELAY_MAX",
            "STROKE_MAX", "FitRequest", "Fitter", "KernelLayout", "ModelKind", "Slot", "check_models",
@@ -68,6 +69,10 @@ class FitRequest:
     units: tuple[str, str] = ("N", "m")
     """Units of the input and output as the records give them (``("V", "V")`` for a circuit):
     recorded in the model file, never converted."""
+    scales: Scales | None = None
+    """The scales of the rig the records come from (docs/decisions.md §Scales): the fitters' paper
+    constants (filter cut-offs, search ranges, bounds) are scaled by them. None: the paper's constants
+    as they are (every path but ``msd-bench rigs``, which knows each rig's)."""
 
 
 Fitter = Callable[[FitRequest], "StepModel"]
@@ -107,8 +112,10 @@ def _fit_glm(req: FitRequest) -> StepModel:
 def _fit_plm(req: FitRequest) -> StepModel:
     from msd_bench.core.identification import identify
 
+    sc = req.scales
+    units = (1.0, 1.0, 1.0) if sc is None else (sc.length, sc.force, sc.pace)
     return identify.identify_plm(req.records.bias_train, identify.PlmConfig(stroke=req.stroke),
-                                 force_limit=req.force)
+                                 force_limit=req.force, units=units)
 
 
 def _nlarx_fitter(form: str) -> Fitter:
@@ -119,6 +126,7 @@ def _nlarx_fitter(form: str) -> Fitter:
         from msd_bench.core.identification.nlarx import NlarxConfig
 
         base = NlarxConfig(form=form, seed=req.seed)
+        base = base if req.scales is None else base.scaled(req.scales)
         cfg = replace(base, one_step_iters=max(1, round(base.one_step_iters * req.nlarx_scale)),
                       sim_iters=round(base.sim_iters * req.nlarx_scale))
         return identify.identify_nlarx(req.records.broad_train, cfg, req.stroke, force_limit=req.force)
@@ -132,6 +140,7 @@ def _fit_greybox(req: FitRequest) -> StepModel:
     from msd_bench.core.identification.integrator_choice import with_integrator_choice
 
     cfg = GreyboxConfig(stroke=req.stroke, force=req.force)
+    cfg = cfg if req.scales is None else cfg.scaled(req.scales)
     train = req.records.broad_train
     return with_integrator_choice(train, lambda: identify.identify_greybox(train, cfg),
                                   req.stroke, req.force)
@@ -142,6 +151,7 @@ def _fit_greybox_rig(req: FitRequest) -> StepModel:
     from msd_bench.core.identification.integrator_choice import with_integrator_choice
 
     cfg = greybox_rig.GreyboxRigConfig(stroke=req.stroke, force=req.force)
+    cfg = cfg if req.scales is None else cfg.scaled(req.scales)
     train = req.records.broad_train
     return with_integrator_choice(train, lambda: greybox_rig.identify_greybox_rig(train, cfg),
                                   req.stroke, req.force)

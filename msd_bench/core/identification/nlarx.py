@@ -27,7 +27,8 @@ Two forms (docs/decisions.md §NLARX):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
@@ -39,6 +40,9 @@ from msd_bench.core.identification.data import Experiment
 from msd_bench.core.identification.fit import fit_percent
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.sensor import clear_of_stops, lowpass, lowpass_reach, noise_level
+
+if TYPE_CHECKING:
+    from msd_bench.core.rigs.scales import Scales
 
 FloatArray = NDArray[np.float64]
 FORMS = ("paper", "improved")
@@ -96,6 +100,16 @@ class NlarxConfig:
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise ConfigError(f"NLARX {name} must be finite and >= 0, got {value}")
+
+
+    def scaled(self, scales: Scales) -> NlarxConfig:
+        """This training on a rig of ``scales`` (docs/decisions.md §Scales): the prefilter's cut-off the
+        same in the rig's time unit, the rollout horizon the same duration. Positions and forces are
+        normalised by the record's own spread already. Itself on the paper's plant."""
+        if scales.is_default:
+            return self
+        return replace(self, prefilter_hz=self.prefilter_hz / scales.pace,
+                       horizon=scales.samples(self.horizon))
 
 
 class NlarxNet(torch.nn.Module):

@@ -86,10 +86,12 @@ class Refinement:
     """False when the refinement ended with an unstable local model or no improvement."""
 
 
-def fit_local(bias: float, record: IOData, max_nfev: int = 200) -> LinearFit:
-    """One local model around ``u0 = bias``, ``y0`` from the mean position refined jointly."""
+def fit_local(bias: float, record: IOData, max_nfev: int = 200,
+              units: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> LinearFit:
+    """One local model around ``u0 = bias``, ``y0`` from the mean position refined jointly (in paper
+    units on a rig of ``units``: :func:`~msd_bench.core.identification.linear.oe_fit`)."""
     y0 = float(np.mean(np.concatenate([e.y for e in record.experiments])))
-    return oe_fit(record.experiments, float(bias), y0, record.dt, max_nfev, fit_offset=True)
+    return oe_fit(record.experiments, float(bias), y0, record.dt, max_nfev, fit_offset=True, units=units)
 
 
 def blend(
@@ -174,7 +176,8 @@ def local_from_params(params: np.ndarray, dt: float) -> list[LinearFit]:
 
 
 def refine_global(
-    model: StepModel, records: Sequence[IOData], max_nfev: int = 200, jacobian: Jacobian = "exact"
+    model: StepModel, records: Sequence[IOData], max_nfev: int = 200, jacobian: Jacobian = "exact",
+    units: tuple[float, float, float] = (1.0, 1.0, 1.0),
 ) -> tuple[StepModel, Refinement]:
     """Refine every local model's ``(n1, n2, d1, d2, y0)`` on the free-run error of the *blend*.
 
@@ -191,12 +194,16 @@ def refine_global(
     stays stable. ``jacobian="exact"`` (a scheduled PLM only; the paper's
     memberships always use finite differences) gives the optimiser the
     derivative of the same free run instead of approximating it, which is
-    what makes the PLM fast enough for a population of rigs.
+    what makes the PLM fast enough for a population of rigs. ``units`` (a rig's length, force and
+    time unit) state the floor of each parameter's scale in its own unit (1.0: the paper's).
     """
     exps = [e for r in records for e in r.experiments]
     base = np.array(model.params, dtype=float)
     idx = np.array([1 + kernels.PLM_LOCAL_SIZE * i + j for i in range(len(PLM_BIASES)) for j in _REFINED])
-    scale = np.abs(base[idx]) + 1e-6
+    length, force, _ = units
+    slot_unit = {0: length / force, 1: length / force, 2: 1.0, 3: 1.0, 5: length}  # n1 n2 d1 d2 y0
+    floor = np.array([slot_unit[int(j)] for _ in range(len(PLM_BIASES)) for j in _REFINED])
+    scale = np.abs(base[idx]) + 1e-6 * floor
 
     def unpack(z: FloatArray) -> FloatArray:
         p = base.copy()

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
-from msd_bench.core.rigs.scales import DEFAULT_FORCE_LIMIT, Scales
+from msd_bench.core.rigs.scales import Scales
 
 FloatArray = NDArray[np.float64]
 
@@ -151,6 +151,13 @@ class QConfig:
     """Metres of the rig per paper metre (:attr:`Scales.length`): the reward's closeness term g/(1+E) counts
     E in paper metres, E / length_unit, so it rewards the same fraction of the stroke on every rig
     (docs/decisions.md §Scales). Set by :meth:`QConfig.scaled`; exactly 1.0 on the paper's plant."""
+    force_unit: float = 1.0
+    """Newtons of the rig per paper newton (:attr:`Scales.force`): the bounds on ``obs_bias_gain`` are
+    checked in paper units. Set by :meth:`QConfig.scaled`; exactly 1.0 on the paper's plant."""
+    sample_unit: float = 1.0
+    """Rig samples per paper sample (:meth:`Scales.steps` of 1): a rehearsal's SSE window, stated in
+    paper samples, lasts the same on the rig. Set by :meth:`QConfig.scaled`; exactly 1.0 on the paper's
+    plant."""
     select_every: int = 0
     """Keep, instead of the final table, the best of the tables taken every ``select_every`` episodes over
     the second half of training, judged by greedy rehearsals on the model trained on
@@ -161,7 +168,7 @@ class QConfig:
         _require(0.0 < self.alpha <= 1.0, f"alpha must be in (0, 1], got {self.alpha}")
         _require(0.0 <= self.gamma < 1.0, f"gamma must be in [0, 1), got {self.gamma}")
         _require(0.0 <= self.epsilon <= 1.0, f"epsilon must be in [0, 1], got {self.epsilon}")
-        for name in ("reward_gain", "g", "e_max", "force", "length_unit"):
+        for name in ("reward_gain", "g", "e_max", "force", "length_unit", "force_unit", "sample_unit"):
             value = getattr(self, name)
             _require(math.isfinite(value) and value > 0, f"{name} must be finite and > 0")
         for name in ("zeta", "eta", "direction_tol", "lead_steps"):
@@ -180,8 +187,8 @@ class QConfig:
         _require((self.observer == "none") == (self.obs_gain == 0.0) and 0.0 <= self.obs_gain <= 1.0
                  and 0.0 <= self.obs_velocity_gain <= 1.0,
                  "an observer needs a gain in (0, 1] (and none without one); velocity gain in [0, 1]")
-        _require(math.isfinite(self.train_noise) and 0.0 <= self.train_noise <= 0.1,
-                 "train_noise must be in [0, 0.1] m")
+        _require(math.isfinite(self.train_noise) and 0.0 <= self.train_noise / self.length_unit <= 0.1,
+                 "train_noise must be in [0, 0.1] m on the paper's plant (x length_unit on a rig)")
         _require(0 <= self.train_delay <= MAX_DELAY_SAMPLES,
                  f"train_delay must be in 0..{MAX_DELAY_SAMPLES} samples")
         _require(0 <= self.select_every <= 100_000, "select_every must be in 0..100000 episodes")
@@ -191,11 +198,11 @@ class QConfig:
         _require(0.0 <= self.obs_drift_gain <= 1.0
                  and (self.obs_drift_gain == 0.0 or self.observer == "model"),
                  "obs_drift_gain must be in [0, 1], and only a model observer has one")
-        top = 1000.0 * (self.force / DEFAULT_FORCE_LIMIT) / self.length_unit  # 1000 N/m in the rig's units
-        _require(math.isfinite(self.obs_bias_gain) and 0.0 <= self.obs_bias_gain <= top
+        _require(math.isfinite(self.obs_bias_gain)
+                 and 0.0 <= self.obs_bias_gain * self.length_unit / self.force_unit <= 1000.0
                  and (self.obs_bias_gain == 0.0 or self.observer == "model"),
-                 f"obs_bias_gain must be in [0, {top:g}] N/m (1000 on the paper's plant), and only a model "
-                 f"observer has one")
+                 "obs_bias_gain must be in [0, 1000] N/m on the paper's plant (x force_unit / length_unit "
+                 "on a rig), and only a model observer has one")
         _require(0 <= self.obs_delay <= MAX_DELAY_SAMPLES
                  and (self.obs_delay == 0 or self.observer == "model"),
                  f"obs_delay must be in 0..{MAX_DELAY_SAMPLES} samples, and only a model observer "
@@ -240,9 +247,10 @@ class QConfig:
             reference_edges=tuple(m(e) for e in self.reference_edges),
             target_low=m(self.target_low), target_high=m(self.target_high),
             direction_tol=scales.per_sample(m(self.direction_tol)), force=scales.newtons(self.force),
-            steps=scales.samples(self.steps), lead_steps=self.lead_steps / scales.time,
+            steps=scales.samples(self.steps), lead_steps=scales.steps(self.lead_steps),
             train_noise=m(self.train_noise), obs_bias_gain=scales.newtons(self.obs_bias_gain) / scales.length,
-            length_unit=self.length_unit * scales.length)
+            length_unit=self.length_unit * scales.length, force_unit=self.force_unit * scales.force,
+            sample_unit=self.sample_unit * scales.steps(1.0))
 
     def actions(self) -> FloatArray:
         """The force alphabet {-F, -F/2, 0, F/2, F} in N."""

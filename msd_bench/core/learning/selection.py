@@ -41,13 +41,14 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 REHEARSAL_TARGETS: tuple[float, ...] = (-1.5, -1.0, -0.5, 0.5, 1.0, 1.5)
-"""Set-points (m) each candidate table is rehearsed at: both signs and three sizes inside the ±2 m
-training range, so no single validation target decides which table is kept."""
+"""Set-points (paper m; × the learner's ``length_unit`` on a rig) each candidate table is rehearsed at:
+both signs and three sizes inside the ±2 m training range, so no single validation target decides which
+table is kept."""
 
 
 REHEARSAL_WINDOW = 500
-"""Terminal window (samples) of a rehearsal's SSE: the validation's default, or the whole episode of a
-shortened run (``steps`` below it)."""
+"""Terminal window (paper samples; the same duration on a rig) of a rehearsal's SSE: the validation's
+default, or the whole episode of a shortened run (``steps`` below it)."""
 
 
 class Selection(NamedTuple):
@@ -69,11 +70,17 @@ def rehearsal_successes(model: StepModel, cfg: QConfig, q: FloatArray) -> IntArr
     if cfg.steps < 2:  # no trajectory to score: every table ties, so the final one is kept
         return wins
     quiet = np.zeros((tables.shape[0], cfg.steps))
-    window = min(REHEARSAL_WINDOW, cfg.steps)
-    for target in REHEARSAL_TARGETS:
+    window = min(_rig_samples(REHEARSAL_WINDOW, cfg.sample_unit), cfg.steps)
+    for paper_target in REHEARSAL_TARGETS:  # paper metres: the same fractions of a rig's stroke
+        target = paper_target * cfg.length_unit
         xs, _ = greedy_under(model.kernel, lr, tables, nominal(target), quiet, model.kernel)
         wins += np.array([compute(x, target, model.dt, window).success for x in xs], dtype=np.int64)
     return wins
+
+
+def _rig_samples(paper_samples: int, sample_unit: float) -> int:
+    """A paper count of samples on a rig of ``sample_unit`` rig samples per paper sample (itself at 1)."""
+    return paper_samples if sample_unit == 1.0 else max(1, round(paper_samples * sample_unit))
 
 
 def select_tables(model: StepModel, cfg: QConfig, snapshots: FloatArray,

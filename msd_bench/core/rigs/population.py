@@ -31,6 +31,8 @@ from msd_bench.core.evaluation.closed_loop import Conditions
 from msd_bench.core.physics.plant import PRESETS, PlantParams
 from msd_bench.core.physics.sensor import sensor_rng
 from msd_bench.core.rigs.rig import RigImperfections, lag_samples
+from msd_bench.core.rigs.scales import DEFAULT_DT, Scales
+from msd_bench.core.rigs.units import RigUnits
 
 FloatArray = NDArray[np.float64]
 
@@ -95,17 +97,31 @@ class RigSpec:
     """The rig's plant (the pipeline is never told these)."""
     imperfections: RigImperfections = field(default_factory=RigImperfections)
     """The rig's sensor, actuator, friction and jitter."""
+    family: str = "default"
+    """The family the rig was drawn from (:mod:`msd_bench.core.rigs.families`)."""
+    units: RigUnits = field(default_factory=RigUnits)
+    """The rig's units against its default-family twin (the identity in the default family)."""
 
     def multipliers(self) -> dict[str, float]:
-        """m, c, k, h relative to the ``default`` preset."""
-        base = PRESETS["default"]
-        return {f: getattr(self.params, f) / getattr(base, f) for f in _MULTIPLIED}
+        """m, c, k, h relative to the ``default`` preset, in the rig's own units (its twin's multipliers)."""
+        base, k = PRESETS["default"], self.units.plant_factors()
+        return {f: getattr(self.params, f) / (getattr(base, f) * k[f]) for f in _MULTIPLIED}
+
+    def scales(self) -> Scales:
+        """The scales the method runs this rig in: its stroke, force limit and sample time, and (a rig in
+        other units than its twin's) its dynamics' time unit, which is its sample time's
+        (:class:`~msd_bench.core.rigs.scales.Scales`; exactly the default's in the default family)."""
+        p = self.params
+        pace = 1.0 if self.units.time == 1.0 else p.dt / DEFAULT_DT
+        return Scales.of(p.L, p.F, p.dt, pace)
 
     def line(self) -> str:
         """Every parameter on one line, for logs, reports and tables."""
-        p, i = self.params, self.imperfections
+        p, i, u = self.params, self.imperfections, self.units
         mult = " ".join(f"{f}={getattr(p, f):.4g}(x{r:.3f})" for f, r in self.multipliers().items())
-        return (f"rig {self.seed}: {mult} g={p.g:g} L={p.L:g} F={p.F:g} dt={p.dt:g}; "
+        units = "" if u.is_identity else (f" [{self.family}: length x{u.length:.4g}, mass x{u.mass:.4g}, "
+                                          f"time x{u.time:.4g}]")
+        return (f"rig {self.seed}{units}: {mult} g={p.g:g} L={p.L:g} F={p.F:g} dt={p.dt:g}; "
                 f"friction {i.friction:.3f} N, delay {i.delay_samples} samples, "
                 f"lag {i.actuator_tau * 1e3:.1f} ms, noise {i.sensor_noise * 1e3:.2f} mm, "
                 f"quantisation {i.sensor_quant * 1e3:g} mm, jitter {i.jitter * 1e3:g} ms")

@@ -47,14 +47,8 @@ class RestConfig:
     """Largest standard deviation (and half-window mean shift) of a still position, m."""
     timeout: float = 30.0
     """Seconds after which the wait ends even if the mass never looked still."""
-
-    def scaled(self, scales: Scales) -> RestConfig:
-        """This test, stated on the paper's plant, on a rig of ``scales``: the window the same seconds,
-        the threshold the same share of the stroke (itself on the paper's plant)."""
-        if scales.is_default:
-            return self
-        return replace(self, window=max(4, scales.samples(self.window)),
-                       threshold=scales.metres(self.threshold))
+    x0_samples: int = X0_SAMPLES
+    """Positions averaged into ``x0`` (:data:`X0_SAMPLES` on the paper's plant)."""
 
     def __post_init__(self) -> None:
         if self.window < 4:
@@ -63,6 +57,18 @@ class RestConfig:
             raise ConfigError(f"rest threshold must be > 0 m, got {self.threshold}")
         if not self.timeout > 0.0:
             raise ConfigError(f"rest timeout must be > 0 s, got {self.timeout}")
+        if self.x0_samples < 1:
+            raise ConfigError(f"rest x0_samples must be at least 1, got {self.x0_samples}")
+
+    def scaled(self, scales: Scales) -> RestConfig:
+        """This rest, stated on the paper's plant, on a rig of ``scales`` (docs/decisions.md §Scales): the
+        window and the ``x0`` average the same duration, the threshold the same fraction of the stroke,
+        the timeout the same duration. Itself on the paper's plant, bit for bit."""
+        if scales.is_default:
+            return self
+        return replace(self, window=max(4, scales.samples(self.window)),
+                       threshold=scales.metres(self.threshold), timeout=scales.seconds(self.timeout),
+                       x0_samples=scales.samples(self.x0_samples))
 
 
 def is_still(positions: np.ndarray, threshold: float) -> bool:
@@ -103,7 +109,7 @@ class RestDetector:
         """Best estimate of the rest position so far (mean of the last positions), m."""
         if not self._window:
             raise ConfigError("no position measured yet: the initial position is unknown")
-        return float(np.mean(np.fromiter(self._window, float)[-X0_SAMPLES:]))
+        return float(np.mean(np.fromiter(self._window, float)[-self.config.x0_samples:]))
 
     def spread(self) -> float:
         """Standard deviation of the last window, m (for the timeout message)."""

@@ -46,9 +46,9 @@ shell a node holds, which calls the same compiled functions.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields, replace
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numba
 import numpy as np
@@ -56,6 +56,9 @@ from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics.plant import PlantParams
+
+if TYPE_CHECKING:
+    from msd_bench.core.rigs.scales import Scales
 
 FloatArray = NDArray[np.float64]
 
@@ -146,15 +149,21 @@ class SupervisorOptions:
         if self.stale_timeout <= 0:
             raise ConfigError(f"supervisor option stale_timeout must be > 0, got {self.stale_timeout}")
 
-    def scaled_to(self, plant: PlantParams) -> SupervisorOptions:
-        """These options, stated in the paper's metres, on a rig of ``plant``'s stroke: the velocity
-        margin and the divergence tolerance the same share of the stroke (docs/decisions.md §Scales;
-        seconds stay seconds, and the envelope, brake and latency are derived from ``plant`` already).
-        Itself on the paper's stroke, bit for bit."""
-        length = plant.L / PlantParams().L
-        if length == 1.0:
+    def scaled(self, scales: Scales) -> SupervisorOptions:
+        """These options, stated on the paper's plant, on a rig of ``scales`` (docs/decisions.md §Scales):
+        lengths × length, speeds × length / pace, times × pace; shares and factors are ratios and stay.
+        Itself on the paper's plant, bit for bit."""
+        if scales.is_default:
             return self
-        return replace(self, v_margin=self.v_margin * length, div_tol=self.div_tol * length)
+        m, s = scales.metres, scales.seconds
+
+        def opt(value: float | None, f: Callable[[float], float]) -> float | None:
+            return None if value is None else f(value)
+
+        return replace(self, envelope=opt(self.envelope, m), margin=opt(self.margin, m),
+                       v_max=opt(self.v_max, scales.speed), v_margin=scales.speed(self.v_margin),
+                       latency=s(self.latency), stale_timeout=s(self.stale_timeout),
+                       time_limit=s(self.time_limit), div_time=s(self.div_time), div_tol=m(self.div_tol))
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any], what: str = "supervisor options") -> SupervisorOptions:
