@@ -6,7 +6,7 @@ VENV := $(if $(filter kilted,$(DISTRO)),.venv,.venv-$(DISTRO))
 PY := $(VENV)/bin/python
 # Parallel pytest-xdist workers for `make test` (docs/testing.md §Workers); most of the suite waits
 # on processes, discovery and real time, so more workers than cores pay. JOBS= runs one process.
-JOBS ?= -n 3 --dist loadgroup
+JOBS ?= -n 3 --dist loadfile
 STAMP := $(VENV)/.installed
 
 .PHONY: bench test lint setup

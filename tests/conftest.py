@@ -51,38 +51,14 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     rest of the selected tests spend working. They are the realtime tier (docs/testing.md §Tiers),
     not in the default ``make test``."""
     items.sort(key=_reads_realtime_runs)
-    for item in items:
-        group = _worker_group(item)
-        if group:
-            item.add_marker(pytest.mark.xdist_group(group))
-
-
-SHARED_SCOPES = frozenset({"module", "class", "package"})
-"""Fixture scopes whose value several tests of one file share."""
-
-
-def _worker_group(item: pytest.Item) -> str | None:
-    """The pytest-xdist group (``--dist loadgroup``, the Makefile's JOBS) an item must share a
-    worker with, or None to go to any worker; the marker is inert without workers.
-
-    The readers of the real-time runs share one worker, which starts the runs once; the tests of a
-    file that share a module- or class-scoped fixture (one identification, one bench run) share
-    one worker, so the fixture is computed once, not once per worker."""
-    if _reads_realtime_runs(item):
-        return REALTIME
-    info = getattr(item, "_fixtureinfo", None)
-    defs = info.name2fixturedefs.values() if info is not None else ()
-    if any(d.scope in SHARED_SCOPES for chain in defs for d in chain):
-        return item.nodeid.split("::", 1)[0]
-    return None
 
 
 class OnDemandPair:
     """The real-time runs of one pytest-xdist worker, started by the first test that reads them.
 
-    Why not at the session's start as without workers: every worker collects every test, so
-    each would start its own runs; the readers share one worker (``xdist_group``) and only that
-    worker asks."""
+    Why not at the session's start as without workers: every worker collects every test, so each
+    would start its own runs; only a worker that is given a reader asks. (CI runs the realtime tier
+    in one process, where the runs start with the session and overlap the other tests.)"""
 
     def __init__(self, tmp_path_factory: pytest.TempPathFactory) -> None:
         self._tmp = tmp_path_factory

@@ -29,7 +29,9 @@ def _pinned(name: str) -> np.ndarray:
 
 
 def test_layouts_agree_with_the_kernels() -> None:
-    assert tuple(kernels.KIND_NAMES.values()) == KERNELS
+    # a held model (issue 37's decision period) wraps another model at run time and is never read
+    # from a file, so it has no layout of its own to check
+    assert tuple(k for k in kernels.KIND_NAMES.values() if k != "held") == KERNELS
     assert KERNEL_LAYOUTS["plant"].sizes(0) == (kernels.PLANT_SIZE,)
     assert [s.name for s in KERNEL_LAYOUTS["plant"].head] == list(kernels.Plant._fields)
     assert KERNEL_LAYOUTS["linear"].sizes(0) == (kernels.LINEAR_SIZE,)
