@@ -71,6 +71,7 @@ def test_no_supervisor_runs_without_it_and_says_so(realtime_runs: dict[str, Run]
 
 
 ESTOPPER = """
+import sys
 import time
 import rclpy
 from std_msgs.msg import Empty
@@ -78,6 +79,9 @@ rclpy.init()
 node = rclpy.create_node("estopper")
 pub = node.create_publisher(Empty, "/msd/supervisor/estop", 10)
 try:
+    while pub.get_subscription_count() == 0:
+        time.sleep(0.05)
+    sys.stdin.readline()
     while True:
         pub.publish(Empty())
         time.sleep(0.2)
@@ -87,7 +91,10 @@ finally:
     node.destroy_node()
     rclpy.try_shutdown()
 """
-"""Latches the supervisor's e-stop from outside, five times a second (each latch is counted)."""
+"""Latches the supervisor's e-stop from outside, five times a second (each latch is counted), from
+the line it is given on stdin on. It starts with the bench and matches the supervisor while the bench
+records, so the latch reaches the supervisor as soon as it is given (a process started at that moment
+spends seconds on its own start and discovery, and a loaded machine let validation end before it)."""
 
 
 @pytest.mark.slow
@@ -101,25 +108,31 @@ def test_an_estop_during_validation_aborts_the_runs_and_bench_completes(tmp_path
             "--seeds", "3", "--episodes", "5", "--samples", "600", "--val-samples", "400",
             "--validation-steps", "600", "--domain-id", str(domain)]
     err: list[str] = []
-    estopper = None
-    with subprocess.Popen(argv, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                          env=launch.ros_env(domain)) as bench:
-        assert bench.stderr is not None
-        try:
-            for line in bench.stderr:
-                err.append(line)
-                if "identifying surrogates" in line and estopper is None:  # recording is over
-                    estopper = subprocess.Popen([sys.executable, "-c", ESTOPPER], cwd=REPO,
-                                                env=launch.ros_env(domain))
-            assert bench.wait(600) == 0, "".join(err)[-3000:]
-        finally:
-            if bench.poll() is None:
-                bench.send_signal(signal.SIGINT)
-                bench.wait(60)
-            if estopper is not None:
-                estopper.send_signal(signal.SIGINT)
-                estopper.wait(30)
-    assert estopper is not None and "Traceback" not in "".join(err)
+    given = False
+    estopper = subprocess.Popen([sys.executable, "-c", ESTOPPER], cwd=REPO, stdin=subprocess.PIPE,
+                                text=True, env=launch.ros_env(domain))
+    assert estopper.stdin is not None
+    try:
+        with subprocess.Popen(argv, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                              text=True, env=launch.ros_env(domain)) as bench:
+            assert bench.stderr is not None
+            try:
+                for line in bench.stderr:
+                    err.append(line)
+                    if "identifying surrogates" in line and not given:  # recording is over
+                        estopper.stdin.write("latch\n")
+                        estopper.stdin.flush()
+                        given = True
+                assert bench.wait(600) == 0, "".join(err)[-3000:]
+            finally:
+                if bench.poll() is None:
+                    bench.send_signal(signal.SIGINT)
+                    bench.wait(60)
+    finally:
+        estopper.send_signal(signal.SIGINT)
+        estopper.wait(30)
+        estopper.stdin.close()
+    assert given and "Traceback" not in "".join(err)
     mine = json.loads((out / "agents" / "glm" / "supervisor.json").read_text())
     reasons = [r["aborted"] for r in mine["runs"]]
     latched = reasons.index("estop")  # when the latch came is the outside process's timing; from then
