@@ -1068,6 +1068,35 @@ def _refine_bill(refined: list[dict[str, Any]]) -> str:
             "and the fresh run, without the rests before them.")
 
 
+
+def _pair_rate(r: dict[str, Any]) -> str:
+    lo, hi = r["wilson95"]
+    return f"{r['successes']}/{r['n']} ({r['percent']:.0f} %; {lo:.0f}–{hi:.0f} %)"
+
+
+def _sweep_said(run: dict[str, Any]) -> str:
+    return f"`{run['command']}` ({run['wall_seconds'] / 60:.0f} min wall, {run['workers']} worker(s))"
+
+
+def view_family_twins(doc: dict[str, Any], name: str) -> str:
+    """``scripts/family_twins.py``: a family's rigs paired with their default-family twins, run by run
+    (same rig, kind and learning seed): how many agree, each side's success, the rigs where they part."""
+    lines = [f"| kind | runs equal to the twin's | `{doc['family']}` family success "
+             "| default-family twins' success |", "|---|---|---|---|"]
+    for kind, k in doc["kinds"].items():
+        lines.append(f"| `{kind}` | {k['equal']} / {k['pairs']} | {_pair_rate(k['family'])} "
+                     f"| {_pair_rate(k['twin'])} |")
+    rigs, parted, runs = doc["rigs_run"], doc["rigs_parted"], doc["runs"]
+    named = ", ".join(str(r) for r in parted[:12]) + (", …" if len(parted) > 12 else "")
+    lines += ["", f"**{doc['equal']} of {doc['pairs']}** runs equal their twins' outcome, on {len(rigs)} "
+                  f"held-out rigs ({rigs[0]}–{rigs[-1]}) × {len(doc['learning_seeds'])} learning seeds; "
+                  f"{len(parted)} rigs have a run that parts" + (f" ({named})" if parted else "")
+                  + f". Both sweeps at commit `{str(doc['runs_commit'])[:10]}`, beside each other: "
+                  f"{_sweep_said(runs['family'])} and {_sweep_said(runs['twin'])}.",
+              "", _source(doc, name)]
+    return "\n".join(lines) + "\n"
+
+
 VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "table1": view_table1, "robustness": view_robustness, "table": view_json, "efficiency": view_efficiency,
     "peers": view_peers, "fits": view_fits, "stoploop": view_stoploop, "performance": view_performance,
@@ -1081,7 +1110,8 @@ VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "rigs_kinds": view_rigs_kinds, "rigs_floors": view_rigs_floors, "rigs_beside": view_rigs_beside,
     "rigs_ceiling": view_rigs_ceiling, "rigs_refine": view_rigs_refine,
     "identification_speed": view_identification_speed, "silverbox": view_silverbox,
-    "coverage": view_coverage, "rigs_efficiency": view_rigs_efficiency}
+    "coverage": view_coverage, "rigs_efficiency": view_rigs_efficiency,
+    "family_twins": view_family_twins}
 
 
 def render(readme: str, results_dir: Path) -> str:
