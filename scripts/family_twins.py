@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -77,12 +78,27 @@ def _rate(k: int, n: int) -> dict[str, Any]:
     return {"successes": k, "n": n, "percent": 100.0 * k / n, "wilson95": [100.0 * lo, 100.0 * hi]}
 
 
+def mcnemar_p(only_family: int, only_twin: int) -> float:
+    """Exact two-sided McNemar p-value of the discordant pairs: the chance, were parting a coin flip
+    with no side favoured (rounding, not a scale the bench forgot), of a split at least this uneven.
+    A small p says one family is systematically better or worse; equality needs only the counts."""
+    n = only_family + only_twin
+    if n == 0:
+        return 1.0
+    tail: float = sum(math.comb(n, i) for i in range(min(only_family, only_twin) + 1)) / 2 ** n
+    return min(1.0, 2 * tail)
+
+
 def per_kind(fam: dict[Key, bool], twin: dict[Key, bool], kinds: list[str]) -> dict[str, Any]:
     """Per kind: how many pairs agree, and each side's success with its interval."""
     out = {}
     for kind in kinds:
         keys = [k for k in fam if k[1] == kind]
+        only_family = sum(fam[k] and not twin[k] for k in keys)
+        only_twin = sum(twin[k] and not fam[k] for k in keys)
         out[kind] = {"pairs": len(keys), "equal": sum(fam[k] == twin[k] for k in keys),
+                     "only_family": only_family, "only_twin": only_twin,
+                     "mcnemar_p": mcnemar_p(only_family, only_twin),
                      "family": _rate(sum(fam[k] for k in keys), len(keys)),
                      "twin": _rate(sum(twin[k] for k in keys), len(keys))}
     return out
@@ -118,6 +134,19 @@ def pairing(family: dict[str, Any], twin: dict[str, Any]) -> dict[str, Any]:
                               "workers": twin["sweep"]["workers"]}}}
 
 
+def reproduces(twin: dict[str, Any], reference: dict[str, Any], name: str) -> dict[str, Any]:
+    """Whether the twin run equals a committed run of the same rigs, run by run (success and SSE
+    bit for bit): then the family's runs share the code the committed table was made with."""
+    def runs(doc: dict[str, Any]) -> dict[Key, tuple[bool, Any]]:
+        return {(int(r["rig"]), str(o["kind"]), int(o["seed"])): (bool(o["success"]), o.get("sse"))
+                for r in doc["rigs"] for o in r["outcomes"]}
+    mine, ref = runs(twin), runs(reference)
+    if set(mine) != set(ref):
+        raise Mismatch(f"{name} does not hold the twin run's (rig, kind, seed) outcomes")
+    return {"reference": name, "runs": len(mine), "equal_success": sum(mine[k][0] == ref[k][0] for k in mine),
+            "equal_sse": sum(mine[k][1] == ref[k][1] for k in mine)}
+
+
 def ours(path: Path) -> bool:
     """Whether a file is a comparison this script wrote (the only kind it may replace)."""
     try:
@@ -132,6 +161,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("family_run", type=Path, help="rigs.json of the family's run")
     p.add_argument("twin_run", type=Path, help="rigs.json of the default family's run of the same rigs")
     p.add_argument("--out", type=Path, required=True, help="the comparison JSON to write (atomically)")
+    p.add_argument("--twin-reference", type=Path, default=None,
+                   help="a committed rigs.json of the same default-family runs: says whether the twin run "
+                        "reproduces it (success and SSE, run by run)")
     p.add_argument("--runs-at", default=None,
                    help="the commit both runs were made at, if not this checkout's (recorded as runs_commit)")
     args = p.parse_args(argv)
@@ -140,11 +172,16 @@ def main(argv: list[str] | None = None) -> int:
               "not overwriting it", file=sys.stderr)
         return 2
     try:
-        doc = pairing(load(args.family_run), load(args.twin_run))
+        twin = load(args.twin_run)
+        doc = pairing(load(args.family_run), twin)
+        if args.twin_reference is not None:
+            doc["twin_reproduces"] = reproduces(twin, load(args.twin_reference), str(args.twin_reference))
     except Mismatch as err:
         print(f"family_twins: {err}", file=sys.stderr)
         return 2
-    doc = {"command": f"python scripts/family_twins.py {args.family_run} {args.twin_run} --out {args.out}",
+    ref = f" --twin-reference {args.twin_reference}" if args.twin_reference is not None else ""
+    said = f"python scripts/family_twins.py {args.family_run} {args.twin_run}{ref} --out {args.out}"
+    doc = {"command": said,
            "commit": commit(), "runs_commit": args.runs_at or commit(), "machine": machine(), **doc}
     write_text_atomic(args.out, json.dumps(doc, indent=1) + "\n")
     print(f"family_twins: {doc['equal']} of {doc['pairs']} runs equal to their twins -> {args.out}")

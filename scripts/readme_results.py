@@ -1078,21 +1078,30 @@ def _sweep_said(run: dict[str, Any]) -> str:
     return f"`{run['command']}` ({run['wall_seconds'] / 60:.0f} min wall, {run['workers']} worker(s))"
 
 
+def _reproduces(doc: dict[str, Any]) -> str:
+    r = doc.get("twin_reproduces")
+    if r is None:
+        return ""
+    return (f" The default-family sweep against `{r['reference']}`: {r['equal_success']} of {r['runs']} "
+            f"successes and {r['equal_sse']} of {r['runs']} SSEs equal.")
+
+
 def view_family_twins(doc: dict[str, Any], name: str) -> str:
     """``scripts/family_twins.py``: a family's rigs paired with their default-family twins, run by run
     (same rig, kind and learning seed): how many agree, each side's success, the rigs where they part."""
-    lines = [f"| kind | runs equal to the twin's | `{doc['family']}` family success "
-             "| default-family twins' success |", "|---|---|---|---|"]
+    lines = [f"| kind | runs equal to the twin's | parted: only `{doc['family']}` / only twin succeeds "
+             f"| McNemar p | `{doc['family']}` family success | default-family twins' success |",
+             "|---|---|---|---|---|---|"]
     for kind, k in doc["kinds"].items():
-        lines.append(f"| `{kind}` | {k['equal']} / {k['pairs']} | {_pair_rate(k['family'])} "
-                     f"| {_pair_rate(k['twin'])} |")
+        lines.append(f"| `{kind}` | {k['equal']} / {k['pairs']} | {k['only_family']} / {k['only_twin']} "
+                     f"| {k['mcnemar_p']:.2f} | {_pair_rate(k['family'])} | {_pair_rate(k['twin'])} |")
     rigs, parted, runs = doc["rigs_run"], doc["rigs_parted"], doc["runs"]
     named = ", ".join(str(r) for r in parted[:12]) + (", …" if len(parted) > 12 else "")
     lines += ["", f"**{doc['equal']} of {doc['pairs']}** runs equal their twins' outcome, on {len(rigs)} "
                   f"held-out rigs ({rigs[0]}–{rigs[-1]}) × {len(doc['learning_seeds'])} learning seeds; "
                   f"{len(parted)} rigs have a run that parts" + (f" ({named})" if parted else "")
                   + f". Both sweeps at commit `{str(doc['runs_commit'])[:10]}`, beside each other: "
-                  f"{_sweep_said(runs['family'])} and {_sweep_said(runs['twin'])}.",
+                  f"{_sweep_said(runs['family'])} and {_sweep_said(runs['twin'])}." + _reproduces(doc),
               "", _source(doc, name)]
     return "\n".join(lines) + "\n"
 

@@ -49,10 +49,13 @@ def test_the_pairing_counts_equal_runs_and_names_every_one_that_parts(tmp_path: 
     assert doc["rigs_parted"] == [1000, 1002]
     assert doc["kinds"]["plm"]["equal"] == 5 and doc["kinds"]["plm"]["family"]["successes"] == 5
     assert doc["kinds"]["plm"]["twin"]["successes"] == 4
+    assert (doc["kinds"]["plm"]["only_family"], doc["kinds"]["plm"]["only_twin"]) == (1, 0)
+    assert doc["kinds"]["plm"]["mcnemar_p"] == 1.0
+
     assert doc["runs"]["family"]["command"].startswith(
         "msd-bench rigs --family scaled --rigs 3 --first-rig 1000")
     text = readme_results.VIEWS["family_twins"](doc, "twins")
-    assert "**10 of 12**" in text and "| `plm` | 5 / 6 |" in text and "1000, 1002" in text
+    assert "**10 of 12**" in text and "| `plm` | 5 / 6 | 1 / 0 | 1.00 |" in text and "1000, 1002" in text
     assert family_twins.main([str(fam), str(twin), "--out", str(out)]) == 0  # its own file: rewritten
 
 
@@ -82,3 +85,21 @@ def test_a_file_it_did_not_write_is_never_replaced(
     assert "not overwriting" in capsys.readouterr().err and json.loads(out.read_text()) == {"mine": True}
     missing = tmp_path / "nothing.json"
     assert family_twins.main([str(missing), str(twin), "--out", str(tmp_path / "x.json")]) == 2
+
+
+def test_mcnemar_p_is_small_only_for_a_one_sided_split() -> None:
+    assert family_twins.mcnemar_p(0, 0) == 1.0
+    assert family_twins.mcnemar_p(5, 5) == 1.0
+    assert family_twins.mcnemar_p(0, 10) == 2 / 2 ** 10
+    assert 0.05 < family_twins.mcnemar_p(3, 8) < 0.3
+
+
+def test_the_twin_run_is_checked_against_a_committed_run(tmp_path: Path) -> None:
+    fam = write(tmp_path / "scaled.json", rigs_doc("scaled"))
+    twin = write(tmp_path / "default.json", rigs_doc(None))
+    ref = write(tmp_path / "ref.json", rigs_doc(None, frozenset({(1000, "plm", 0)})))
+    out = tmp_path / "twins.json"
+    assert family_twins.main([str(fam), str(twin), "--twin-reference", str(ref), "--out", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["twin_reproduces"] == {"reference": str(ref), "runs": 12, "equal_success": 11, "equal_sse": 12}
+    assert "11 of 12 successes" in readme_results.VIEWS["family_twins"](doc, "twins")
