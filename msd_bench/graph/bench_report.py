@@ -200,7 +200,11 @@ def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any
         write_text_atomic(md, text, root=root)
     if cfg.rig is not None:  # only with --rig: a default run's report stays byte for byte
         md = paths["table"]["md"]
-        write_text_atomic(md, md.read_text().rstrip("\n") + "\n\n" + rig_line(cfg.rig), root=root)
+        text = md.read_text()
+        if cfg.plant_ns is None:  # the emulator serves the description's plant, not a preset
+            text = text.replace(f"on the true plant ({cfg.run.preset} preset)",
+                                "on the true plant (the emulator's plant for the `--rig` description)", 1)
+        write_text_atomic(md, text.rstrip("\n") + "\n\n" + rig_line(cfg.rig), root=root)
     paths["robustness"] = write_robustness(out, rob, {r.kind: r.label for r in results}, root=root)
     paths["index"] = write_index(out, root=root, title=f"bench.py run {root.name}", run_dir=root, config=cfg)
     return paths

@@ -95,6 +95,9 @@ def test_the_long_stroke_rig_emulated_by_the_bench(tmp_path: Path) -> None:
                            "--domain-id", os.environ["ROS_DOMAIN_ID"], *TINY], cwd=REPO, capture_output=True,
                           text=True, timeout=600, check=False)
     _ran_on_the_rig(LONG, out, proc)
+    title = (out / "report" / "table1.md").read_text().splitlines()[0]
+    assert "on the true plant (the emulator's plant for the `--rig` description)" in title
+    assert "preset" not in title and "Validated behind the safety supervisor" not in title  # it was off
     plant = json.loads((out / "models" / "plant.json").read_text())  # the emulator's plant for the file
     rig = read_rig(LONG)
     assert plant["dt"] == pytest.approx(rig.dt) and plant["force_limit"] == pytest.approx(rig.force_limit)

@@ -80,3 +80,17 @@ def test_report_files_agree(tmp_path: Path) -> None:
     assert [float(x["sse"]) for x in lines] == [0.5, 20.0]
     md = paths["md"].read_text()
     assert "PLM (paper agent)" in md and "1/2 (50 %, CI 9–91 %)" in md
+
+
+@pytest.mark.parametrize(("said", "validated"), [
+    (True, True), (False, False), (None, False),
+    ({"on": True, "line": "Supervisor: on"}, True),
+    ({"on": False, "line": "Supervisor: off (--no-supervisor)."}, False),  # bench.py's facts when off
+])
+def test_the_title_says_validated_behind_the_supervisor_only_when_it_was(
+        said: object, validated: bool) -> None:
+    from msd_bench.io.reports.report import table_markdown
+
+    run = {"preset": "default", "window": 500, **({} if said is None else {"supervisor": said})}
+    title = table_markdown([], run).splitlines()[0]
+    assert ("Validated behind the safety supervisor" in title) is validated
