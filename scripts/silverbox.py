@@ -8,6 +8,11 @@ range less its last 20 % (held out for the validation column), nothing is chosen
 free-run simulation, the first 50 samples of a set initialise the state, RMSE over the rest.
 
     python scripts/silverbox.py [--kinds glm,greybox-rk4] [--samples N]
+    python scripts/silverbox.py --write-rig config/rigs/silverbox.yaml
+
+``--write-rig FILE`` writes the Silverbox as a rig description (docs/rig-description.md) from the
+record's training range alone (its rate, the stroke that holds its output, its largest input as
+the force limit; :func:`msd_bench.core.rigs.description.record_parameters`), never over a file.
 
 ``--samples N`` fits on the first N estimation samples only and scores the first N+50 of each
 set (a quick check, not the result).
@@ -99,11 +104,40 @@ def run_kind(kind: str, est: IOData, val: IOData, u: np.ndarray, y: np.ndarray,
     return row
 
 
+def rig_parameters() -> dict[str, object]:
+    """The Silverbox as a rig, from its training range only (no test set read): volts in and out."""
+    from msd_bench.core.rigs.description import record_parameters
+    u, y = load()
+    a, b = protocol.SILVERBOX.train
+    return record_parameters(u[a:b], y[a:b], protocol.SILVERBOX.dt, ("V", "V"))
+
+
+def write_rig_description(path: Path) -> int:
+    """``--write-rig``: the description, written atomically to a new file (one line if it exists)."""
+    from msd_bench.core.errors import ConfigError
+    from msd_bench.io.rigs.rig_file import write_rig
+    header = ["The Silverbox (data/silverbox.npz) as a rig description: written by",
+              "`python scripts/silverbox.py --write-rig` from the record's training range (never typed).",
+              "Volts in and out; the stroke holds every measured output;",
+              "the largest input is the force limit."]
+    try:
+        write_rig(path, rig_parameters(), header)
+    except ConfigError as err:
+        print(f"silverbox: error: {err}", file=sys.stderr)
+        return 2
+    print(f"wrote {path}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--kinds", default=",".join(KINDS), help="comma-separated model kinds")
     p.add_argument("--samples", type=int, default=0, help="quick check: estimation samples (0 = all)")
+    p.add_argument("--write-rig", type=Path, metavar="FILE",
+                   help="write the record as a rig description to the new FILE instead, and exit")
     args = p.parse_args(argv)
+    if args.write_rig is not None:
+        return write_rig_description(args.write_rig)
     kinds = [k for k in args.kinds.split(",") if k]
     unknown = [k for k in kinds if k not in MODEL_KINDS]
     if unknown:

@@ -166,6 +166,26 @@ def measured_parameters(stamps_ns: Sequence[int], positions: Sequence[float],
             "force_limit": float(f"{float(np.mean(effort)):.6g}")}
 
 
+def record_parameters(u: NDArray[np.float64], y: NDArray[np.float64], dt: float,
+                      units: tuple[str, str]) -> dict[str, object]:
+    """A description's parameters from a measured record (input ``u``, output ``y``, sample time
+    ``dt``; ``units`` = (input unit, output unit)): the rate is the record's; the stroke, centred on
+    0, is the least that holds every measured output (twice the largest |y|); the force limit is the
+    largest |u| the record applied, the only input known to be safe; the agent decides every sample
+    (a period the rig's samples divide whole: the paper's 10 ms is rarely a whole number of them).
+    Why from the record: a real rig's description is written from what was measured on it, never
+    typed from memory; a record with a non-finite or all-zero channel is one ConfigError line."""
+    out, force = np.asarray(y, dtype=np.float64), np.asarray(u, dtype=np.float64)
+    for name, values in (("output", out), ("input", force)):
+        if values.size == 0 or not np.all(np.isfinite(values)) or not np.any(values):
+            raise ConfigError(f"the record's {name} is empty, not finite or all zero; no description from it")
+    if not (math.isfinite(dt) and dt > 0):
+        raise ConfigError(f"the record's sample time must be a positive number of seconds, not {dt!r}")
+    return {"rate": 1.0 / dt, "stroke": 2.0 * float(np.max(np.abs(out))),
+            "force_limit": float(np.max(np.abs(force))), "position_unit": units[1], "force_unit": units[0],
+            "decision_period": dt}
+
+
 def decision_samples(period: float, rate: float, key: str, source: str) -> int:
     """``period`` in rig samples; a one-line ConfigError when it is not a whole number ≥ 1."""
     samples = period * rate
