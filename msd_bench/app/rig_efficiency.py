@@ -111,7 +111,7 @@ def rig_plant_point(cfg: RigEfficiencyConfig, episodes: int, kind: str, seed: in
     from msd_bench import designs
     from msd_bench.core.rigs.truth import rig_model
 
-    drawn = families.draw(cfg.family, seed)
+    drawn = cfg.rigs.draw(seed)
     rig = Rig(drawn.params, drawn.imperfections, seed=seed)
     run = replace(cfg.rigs.run, episodes=episodes, dyna_episodes=episodes)
     pcfg = replace(cfg.rigs, run=run, scenarios=()).on_rig(drawn)

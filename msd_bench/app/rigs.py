@@ -48,13 +48,14 @@ from msd_bench.core.identification.excitation import PrbsConfig
 from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.identification.model_kinds import model_kind
 from msd_bench.core.physics.model import StepModel
-from msd_bench.core.rigs import families, population
+from msd_bench.core.rigs import families, population, scaled_family
 from msd_bench.core.rigs.rest import RestConfig
 from msd_bench.core.rigs.rig import Rig
 from msd_bench.core.rigs.rig_loop import RigRun
 from msd_bench.core.rigs.rig_play import PlayedExperiment, measured_actuator, play_plan, records_of
 from msd_bench.core.rigs.rig_stats import DEFAULT_RESAMPLES, rate_summary
 from msd_bench.core.rigs.scales import Scales
+from msd_bench.core.rigs.units import RigUnits
 from msd_bench.designs import Drive, Policy, kinds
 from msd_bench.designs.kinds import split_by_model
 
@@ -109,6 +110,9 @@ class RigsConfig:
     """How many times each closed-loop record enters a refit beside the open-loop broad record."""
     family: str = families.DEFAULT_FAMILY
     """The rig family the rigs are drawn from (:mod:`msd_bench.core.rigs.families`)."""
+    units: RigUnits | None = None
+    """``--rig FILE``: every rig carried into the described rig's units (:func:`units_between`);
+    None: each rig in its family's own units."""
     scales: Scales = Scales.DEFAULT
     """The scales of the one rig this config is on (:meth:`on_rig` sets them; the paper's before):
     scenarios, supervisor limits and the designs' constants are scaled by them."""
@@ -140,6 +144,11 @@ class RigsConfig:
         for sid in self.scenarios:
             rig_scenario(sid)
         self.check_rig_set()
+
+    def draw(self, seed: int) -> population.RigSpec:
+        """Rig ``seed`` of the run's family, in the described rig's units when ``--rig`` gave them."""
+        drawn = families.draw(self.family, seed)
+        return drawn if self.units is None else scaled_family.in_units(drawn, self.units)
 
     def kinds(self) -> tuple[str, ...]:
         """Every row the run reports: the agent kinds, then the ceiling when asked for."""
@@ -183,7 +192,7 @@ class RigsConfig:
 def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
     """Everything one rig gives: its parameters, fits, every (kind, seed) outcome and the times taken."""
     t0 = time.perf_counter()
-    drawn = families.draw(cfg.family, seed)
+    drawn = cfg.draw(seed)
     rig = Rig(drawn.params, drawn.imperfections, seed=seed)  # the sensor's noise stream is the rig's own
     cfg = cfg.on_rig(drawn)
     run = cfg.run
@@ -409,6 +418,8 @@ def document(cfg: RigsConfig, parts: Sequence[Mapping[str, Any]]) -> dict[str, A
         "schema": "msd-bench/rigs", "schema_version": 1,
         "rig_set": "design" if cfg.design else "held-out",
         "population": population_doc(cfg.family),
+        **({} if cfg.units is None else {"units": {"length": cfg.units.length, "mass": cfg.units.mass,
+                                                   "time": cfg.units.time}}),
         "rigs_run": [int(p["rig"]) for p in parts],
         "learning_seeds": cfg.run.learning_seeds(0), "agents": list(cfg.run.agents),
         "success_sse_percent": SUCCESS_SSE,

@@ -32,6 +32,7 @@ from msd_bench.app.options import (
 if TYPE_CHECKING:
     from msd_bench.app.executor import ExecutorOptions
     from msd_bench.app.rigs import RigsConfig
+    from msd_bench.core.rigs.units import RigUnits
     from msd_bench.io.storage.run_dir import RunDir
 
 
@@ -49,6 +50,9 @@ def register(sub: Any) -> None:
     p.add_argument("--family", default=DEFAULT_FAMILY,
                    help=f"the rig family to draw, one of {', '.join(FAMILIES)} ({DEFAULT_FAMILY}; "
                         "docs/rig-families.md)")
+    p.add_argument("--rig", type=Path, metavar="FILE", default=None,
+                   help="rig description (docs/rig-description.md): every rig of the family carried into "
+                        "its units (stroke, force limit, sample time), as a population around that rig")
     p.add_argument("--rigs", type=int, default=20, help="rigs in the run (20)")
     p.add_argument("--first-rig", type=int, default=HELD_OUT_RIGS.start,
                    help=f"seed of the first rig ({HELD_OUT_RIGS.start}, the first held-out rig)")
@@ -86,7 +90,24 @@ def rigs_config(args: argparse.Namespace) -> RigsConfig:
     return RigsConfig(run_config_from_args(args), rigs=args.rigs, first_rig=args.first_rig,
                       design=args.design, scenarios=scenarios, resamples=args.bootstrap,
                       actuator=args.robust_actuator, ceiling=args.ceiling,
-                      refine=args.refine, refine_weight=args.refine_weight, family=args.family)
+                      refine=args.refine, refine_weight=args.refine_weight, family=args.family,
+                      units=described_units(getattr(args, "rig", None)))
+
+
+def described_units(path: Path | None) -> RigUnits | None:
+    """The units of ``--rig FILE`` against the default plant (None without it). A rig deciding less
+    often than it samples is refused in one line: the population's closed loops act every sample."""
+    if path is None:
+        return None
+    from msd_bench.core.errors import ConfigError
+    from msd_bench.core.rigs.units import units_between
+    from msd_bench.io.rigs.rig_file import read_rig
+
+    rig = read_rig(path)
+    if rig.samples_per_decision != 1:
+        raise ConfigError(f"--rig {path}: decision_period is {rig.samples_per_decision} samples; rigs "
+                          "runs every rig's closed loop every sample (give decision_period = 1/rate)")
+    return units_between(rig.stroke, rig.force_limit, rig.dt)
 
 
 def routes_doc(cfg: RigsConfig) -> dict[str, Any]:
@@ -95,6 +116,8 @@ def routes_doc(cfg: RigsConfig) -> dict[str, Any]:
     extra: dict[str, Any] = {"ceiling": True} if cfg.ceiling else {}
     if cfg.family != "default":  # the default family's manifest is as it was: its run directories resume
         extra["family"] = cfg.family
+    if cfg.units is not None:
+        extra["units"] = [cfg.units.length, cfg.units.mass, cfg.units.time]
     if cfg.refine:
         extra.update(refine=cfg.refine, refine_weight=cfg.refine_weight)
     return extra

@@ -69,3 +69,12 @@ def draw(seed: int) -> population.RigSpec:
 def twin(spec: population.RigSpec) -> population.RigSpec:
     """The default-family twin of a rig of any family (the draw of its seed)."""
     return population.draw(spec.seed)
+
+
+def in_units(spec: population.RigSpec, units: RigUnits) -> population.RigSpec:
+    """A rig of any family in other units, its family kept (itself, bit for bit, in the identity):
+    ``msd-bench rigs --rig FILE`` carries each rig into the described rig's units this way."""
+    if units.is_identity:
+        return spec
+    return replace(spec, params=units.plant(spec.params),
+                   imperfections=units.imperfections(spec.imperfections), units=units)

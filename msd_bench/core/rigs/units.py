@@ -84,3 +84,16 @@ class RigUnits:
         return replace(twin, friction=twin.friction * self.force, sensor_noise=twin.sensor_noise * ln,
                        sensor_quant=twin.sensor_quant * ln, actuator_tau=twin.actuator_tau * t,
                        jitter=twin.jitter * t)
+
+
+def units_between(stroke: float, force_limit: float, dt: float, twin: PlantParams | None = None) -> RigUnits:
+    """The units that carry the default plant (or ``twin``) onto a rig of this stroke, force limit and
+    sample time: length from the strokes, time from the sample times, mass from the forces
+    (force = mass · length / time²). Why: ``msd-bench rigs --rig FILE`` runs the population in a
+    described rig's units, each rig its default-family twin in them, as the ``scaled`` family does
+    with units it draws; exactly the identity for the default description."""
+    base = twin if twin is not None else PlantParams()
+    length, time = stroke / base.L, dt / base.dt
+    force = force_limit / base.F
+    return RigUnits(length=length, mass=force * time * time / length, time=time)
+
