@@ -127,14 +127,15 @@ def supervise_options(p: argparse.ArgumentParser) -> None:
                    help="one supervisor option, over the file's (repeatable), e.g. envelope=2.0")
 
 
-def supervision(args: argparse.Namespace) -> supervise.Supervision:
-    """Where the supervisor goes: validation by default with --plant-ns, on the emulator if asked."""
+def supervision(args: argparse.Namespace, rig: RigDescription | None = None) -> supervise.Supervision:
+    """Where the supervisor goes: validation by default with --plant-ns, on the emulator if asked; with
+    ``--rig``, its latency from the description's stated drive."""
     validation = args.supervisor or (args.plant_ns is not None and not args.no_supervisor)
     return supervise.Supervision(
         validation=validation, recording=args.supervise_recording,
         params=args.supervisor_params.absolute() if args.supervisor_params else None,
         options=tuple(supervise.parse_option(t) for t in args.supervisor_option),
-        asked=args.supervisor or args.no_supervisor)
+        asked=args.supervisor or args.no_supervisor, rig=rig)
 
 
 def _plant_ns_fields(args: argparse.Namespace, run: RunConfig) -> tuple[RunConfig, dict[str, Any]]:
@@ -182,7 +183,7 @@ def config(args: argparse.Namespace) -> BenchConfig:
         via_ros=args.via_ros, bags=args.bags.absolute() if args.bags else None,
         stages=stages or tuple(args.stages.split(",")), interface=from_cli(args), live_port=args.live,
         live_wait_s=live_wait(args),
-        supervision=supervision(args), rig=rig_facts(rig, args), refine=args.refine,
+        supervision=supervision(args, rig), rig=rig_facts(rig, args), refine=args.refine,
         refine_weight=args.refine_weight, rig_file=None if rig is None else args.rig.absolute(), **extra)
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -29,6 +29,7 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.serve_protocol import parse_event
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.rigs.description import RigDescription
 from msd_bench.core.rigs.scales import Scales
 from msd_bench.core.safety.supervisor import Limits, SupervisorOptions
 from msd_bench.graph.jobs import Job, JobServer
@@ -94,6 +95,9 @@ class Supervision:
     """``--supervisor-option KEY=VALUE`` items, over the file's."""
     asked: bool = False
     """The user chose (``--supervisor`` or ``--no-supervisor``) rather than took the default."""
+    rig: RigDescription | None = None
+    """``--rig FILE``: its stated delay and lag set the default latency
+    (:meth:`RigDescription.latency`); a ``--supervisor-params`` file or option still wins."""
 
     @property
     def on(self) -> bool:
@@ -104,11 +108,18 @@ class Supervision:
         """The options: the file's (or the defaults), then the ``--supervisor-option`` items; with
         recording supervised and no envelope given, the recording's wider one (:data:`RECORDING_ENVELOPE`)."""
         scales = Scales.of(plant.L, plant.F, plant.dt)
-        base = read_options(self.params) if self.params is not None else SupervisorOptions().scaled(scales)
+        base = read_options(self.params) if self.params is not None else self.defaults(scales)
         merged = {f.name: getattr(base, f.name) for f in fields(base)} | dict(self.options)
         if self.recording and merged["envelope"] is None:
             merged["envelope"] = RECORDING_ENVELOPE * plant.x_max
         return SupervisorOptions.from_mapping(merged, what="--supervisor-option")
+
+    def defaults(self, scales: Scales) -> SupervisorOptions:
+        """The default options in the rig's scales, the latency the description's drive gives."""
+        options = SupervisorOptions().scaled(scales)
+        if self.rig is None:
+            return options
+        return replace(options, latency=self.rig.latency(options.latency))
 
     def limits(self, plant: PlantParams) -> Limits:
         """The limits in force on ``plant`` (a bad file or option: one ConfigError line)."""

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from msd_bench.core.safety.supervisor import SupervisorOptions
 from msd_bench.graph import main as bench_main
 
 DEFAULT_RIG = Path(__file__).resolve().parents[2] / "config" / "rigs" / "default.yaml"
@@ -135,3 +136,37 @@ def test_a_design_that_cannot_hold_its_command_is_one_line(tmp_path: Path,
     err = capsys.readouterr().err
     assert "glm+pid: a decision period of 10 rig samples is not supported" in err
     assert len(err.strip().splitlines()) == 1 and not out.exists()
+
+
+STATED_DRIVE = ("/**:\n  ros__parameters:\n    rate: 1000.0\n    stroke: 0.25\n    force_limit: 350.0\n"
+                "    decision_period: 0.01\n    actuator_delay_samples: 3\n    lag: 0.05\n")
+"""A 1 kHz rig whose description states a slow drive: 3 samples of dead time and a 50 ms lag."""
+
+
+def test_the_supervisors_latency_comes_from_the_described_drive(tmp_path: Path) -> None:
+    """Held sample + dead time + lag (4 ms + 50 ms), not the paper's 40 ms scaled to the rig; a
+    --supervisor-option still wins, and a description without the drive keeps the scaled default."""
+    rig = _write(tmp_path, STATED_DRIVE)
+    cfg = bench_main.config(bench_main.parse(["--out", str(tmp_path / "a"), "--rig", str(rig),
+                                              "--supervisor"]))
+    assert cfg.supervision.resolved(cfg.run.plant).latency == pytest.approx(0.001 * 4 + 0.05)
+    assert cfg.supervision.limits(cfg.run.plant).latency == pytest.approx(0.054)
+    told = bench_main.config(bench_main.parse(["--out", str(tmp_path / "b"), "--rig", str(rig),
+                                               "--supervisor", "--supervisor-option", "latency=0.2"]))
+    assert told.supervision.resolved(told.run.plant).latency == 0.2
+    plain = bench_main.config(bench_main.parse(["--out", str(tmp_path / "c"), "--rig", str(STAGE),
+                                                "--supervisor"]))
+    scaled = SupervisorOptions().scaled(plain.run.scales).latency  # the paper's 40 ms in the rig's time
+    assert plain.supervision.resolved(plain.run.plant).latency == scaled
+
+
+def test_a_described_drive_sets_the_latency_unless_a_part_is_unknown() -> None:
+    from msd_bench.core.rigs.description import parse_description
+
+    base = {"rate": 100.0, "stroke": 5.0, "force_limit": 10.0}
+    assert parse_description(base).latency(0.04) == 0.04  # nothing stated: the default
+    both = parse_description({**base, "actuator_delay_samples": 1, "lag": 0.005})
+    assert both.latency(0.04) == pytest.approx(0.025)  # stated whole: itself, even when shorter
+    only_delay = parse_description({**base, "actuator_delay_samples": 9})
+    assert only_delay.latency(0.04) == pytest.approx(0.1)  # the lag unknown: never below the default
+    assert parse_description({**base, "lag": 0.001}).latency(0.04) == 0.04

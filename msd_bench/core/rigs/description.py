@@ -105,6 +105,20 @@ class RigDescription:
                 "decision_period_s": self.decision_period,
                 "samples_per_decision": self.samples_per_decision}
 
+    def latency(self, default: float) -> float:
+        """Seconds before a braking command fully acts on this rig, for the supervisor's braking bound:
+        the sample the command holds, the stated dead time and the stated lag (a first-order lag of
+        time constant τ loses as much impulse as a dead time τ). Why from the description: a drive
+        slower than the default's would let the bound promise a stop the mass overruns. A part the
+        description does not state is not assumed 0: then ``default`` (the paper's latency in the
+        rig's time) stands unless the stated part alone is longer."""
+        if self.actuator_delay_samples is None and self.lag is None:
+            return default
+        stated = self.dt * (1 + (self.actuator_delay_samples or 0)) + (self.lag or 0.0)
+        if self.actuator_delay_samples is None or self.lag is None:
+            return max(default, stated)
+        return stated
+
     def scales(self) -> Scales:
         """The factors from the paper's plant to this rig (exactly 1.0 each on the default)."""
         from msd_bench.core.rigs.scales import Scales  # lazy: scales imports physics only
