@@ -22,8 +22,8 @@ from msd_bench.core.rigs.units import RigUnits, units_between
 
 CONFIG = Path(__file__).resolve().parents[2] / "config" / "rigs"
 EXACT = RigUnits(length=0.125, mass=8.0, time=4.0)
-RUN = RunConfig(agents=("plm", "greybox-rig+robust"), seeds=1, episodes=50, samples=1500, val_samples=600,
-                validation_steps=1000, window=300)
+RUN = RunConfig(agents=("greybox+robust",), seeds=1, episodes=20, samples=1000, val_samples=400,
+                validation_steps=600, window=300)
 """A small budget: the equality asserted does not depend on it."""
 
 
