@@ -38,6 +38,7 @@ from msd_bench.core.learning.qconfig import QConfig, improved_config, packed
 from msd_bench.core.learning.qtrain import budget, run_batch, train
 from msd_bench.core.physics.model import plant_model
 from msd_bench.core.physics.plant import PlantParams, preset
+from msd_bench.designs.qlearning import tables_policy
 
 FloatArray = np.ndarray
 
@@ -261,8 +262,8 @@ def success(n: int, first: int) -> list[dict[str, Any]]:
         model = plant_model(params)
         for agent, cfg in (("paper", QConfig()), ("improved", improved_config())):
             # The nominal scenario is the ordinary validation: unit step, 3,000 steps, SSE window 500.
-            nominal = robustness.evaluate(train(model, cfg, seeds).q, cfg, params, seeds,
-                                          [parse("nominal")])["nominal"]
+            tables = tables_policy(train(model, cfg, seeds).q, cfg, seeds, model)
+            nominal = robustness.evaluate_policy(tables, params, seeds, [parse("nominal")])["nominal"]
             sse = summarize(nominal["sse"])
             rows.append({"preset": name, "agent": agent, "seeds": f"{first}..{first + n - 1}",
                          "n": nominal["n"], "n_success": nominal["n_success"],

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core.errors import ConfigError
+from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.learning.qconfig import MAX_DELAY_SAMPLES, QConfig, improved_config
 from msd_bench.designs.protocol import Controller, Facts, KindSpec, Request, Settings
 from msd_bench.designs.registry import PLANT, plus_kinds
@@ -171,6 +171,20 @@ class QPolicy:
         title = f"Q-table, {self.kind} (first seed)"
         return [figures.qtable_figure(fig_dir / f"qtable_{self.kind}.png", title, self.first[0], self.last[0],
                                       root=root)]
+
+
+def tables_policy(q: FloatArray, learner: QConfig, seeds: Sequence[int], observer: StepModel | None,
+                  kind: str = "q-tables") -> QPolicy:
+    """Bare greedy tables (one per learning seed) as a policy, so a benchmark or a test scores them
+    through the one scenario evaluator
+    (:func:`msd_bench.core.evaluation.robustness.evaluate_policy`) like any trained row; no
+    training history, so the first/last snapshots are the tables themselves."""
+    tables = np.ascontiguousarray(q, dtype=np.float64)
+    if tables.ndim != 3 or len(seeds) != tables.shape[0]:
+        raise InvalidInputError(f"need one learning seed per Q-table, got {len(seeds)} for "
+                                f"{tables.shape[0] if tables.ndim == 3 else 'no stack of tables'}")
+    facts = Facts("q-learning", False, False, 0)
+    return QPolicy(kind, tuple(int(s) for s in seeds), facts, learner, tables, tables, tables, observer)
 
 
 @dataclass(frozen=True)

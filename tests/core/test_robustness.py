@@ -15,10 +15,16 @@ from msd_bench.core.learning.qtrain import greedy_rollouts, train
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.model import StepModel, plant_model
 from msd_bench.core.physics.plant import PlantParams
+from msd_bench.designs.qlearning import tables_policy
 
 P = PlantParams()
 CFG = improved_config(episodes=20, steps=3000)
 SEEDS = [3, 4, 5]
+
+
+def _policy(q: np.ndarray):
+    """The tables as a policy whose observer predicts with the nominal plant."""
+    return tables_policy(q, CFG, SEEDS, plant_model(P))
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +42,7 @@ def test_nominal_scenario_is_the_ordinary_validation_bit_for_bit(cfg):
 
 def test_each_cell_scores_its_own_condition(tables):
     scenarios = [parse("nominal"), parse("mass=2"), parse("setpoint=-1.5"), parse("noise=0.005")]
-    rob = robustness.evaluate(tables, CFG, P, SEEDS, scenarios, steps=1500, window=300)
+    rob = robustness.evaluate_policy(_policy(tables), P, SEEDS, scenarios, steps=1500, window=300)
     assert list(rob) == ["nominal", "mass=2", "setpoint=-1.5", "noise=0.005"]
     heavy_x, _ = robustness.rollouts(tables, CFG, P, parse("mass=2"), SEEDS, 1500)
     assert rob["mass=2"]["sse"] == [compute(x, 1.0, P.dt, 300).sse for x in heavy_x]
@@ -48,8 +54,8 @@ def test_each_cell_scores_its_own_condition(tables):
 
 
 def test_cells_reproduce_and_noise_depends_on_seed_and_scenario(tables):
-    a = robustness.evaluate(tables, CFG, P, SEEDS, [parse("noise=0.002")], steps=800, window=200)
-    b = robustness.evaluate(tables, CFG, P, SEEDS, [parse("noise=0.002")], steps=800, window=200)
+    a = robustness.evaluate_policy(_policy(tables), P, SEEDS, [parse("noise=0.002")], steps=800, window=200)
+    b = robustness.evaluate_policy(_policy(tables), P, SEEDS, [parse("noise=0.002")], steps=800, window=200)
     assert a == b
     n1 = robustness.sensor_noise(parse("noise=0.002"), [3, 4], 100)
     n2 = robustness.sensor_noise(parse("noise=0.002,delay=0"), [3, 4], 100)

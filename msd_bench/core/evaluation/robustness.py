@@ -72,19 +72,6 @@ def rollouts(q_tables: FloatArray, cfg: QConfig, nominal: PlantParams, sc: Scena
                         sensor_noise(sc, seeds, steps), obs)
 
 
-def evaluate(q_tables: FloatArray, cfg: QConfig, nominal: PlantParams, seeds: Sequence[int],
-             scenarios: Sequence[Scenario] | None = None, steps: int = 3000,
-             window: int = 500, observer: StepModel | None = None) -> dict[str, dict[str, Any]]:
-    """Per scenario id: n, successes, the Wilson interval, median SSE and MAE, and every SSE and MAE."""
-    out: dict[str, dict[str, Any]] = {}
-    for sc in scenarios if scenarios is not None else suite():
-        xs, _ = rollouts(q_tables, cfg, nominal, sc, seeds, steps, observer)
-        m = [compute(x, sc.setpoint, nominal.dt, window) for x in xs]
-        risks = [trace_risk(x, nominal).as_dict() for x in xs]
-        out[sc.id] = cell([r.sse for r in m], [r.mae for r in m], risks)
-    return out
-
-
 class Facts(Protocol):
     """What robustness asks of a policy's facts (:class:`msd_bench.designs.protocol.Facts`)."""
 
