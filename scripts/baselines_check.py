@@ -34,9 +34,10 @@ from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import identify_surrogates, make_records
 from msd_bench.core.baselines import designs
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.evaluation.robustness import merge
+from msd_bench.core.evaluation.robustness import evaluate_policy, merge
 from msd_bench.core.evaluation.scenarios import parse, suite
 from msd_bench.core.physics.model import StepModel
+from msd_bench.designs.baselines import baseline_policy
 from msd_bench.io.storage.artifacts import load_model
 
 KINDS = ("glm+pid", "glm+pid-continuous", "greybox+lqr", "plm+mpc")
@@ -82,8 +83,8 @@ def run(kinds: Sequence[str], id_seeds: Sequence[int], pinned: bool, draws: int,
         models = models_for(id_seed, sorted({s for s, _ in parsed}), pinned)
         noise_seeds = [id_seed * 1000 + i for i in range(draws)]
         for kind, (surrogate, name) in zip(kinds, parsed, strict=True):
-            cells = designs.evaluate(name, models[surrogate], cfg.plant, noise_seeds, scenarios,
-                                     cfg.validation_steps, **opts.get(kind, {}))
+            policy = baseline_policy(name, models[surrogate], cfg.plant, **opts.get(kind, {}))
+            cells = evaluate_policy(policy, cfg.plant, noise_seeds, scenarios, cfg.validation_steps)
             parts[kind].append(cells)
             at_1m = facts_at_1m(name, models[surrogate], opts.get(kind, {}))
             facts[kind].append({"id_seed": id_seed, **at_1m})

@@ -45,11 +45,13 @@ from make_results import commit, machine  # noqa: E402
 
 from msd_bench.core.deeprl import mlp  # noqa: E402
 from msd_bench.core.deeprl.hyper import ALGOS, DEFAULTS, DESIGN_SEEDS, PAPER_STEPS, Hyper, from_dict, grid  # noqa: E402
-from msd_bench.core.deeprl.validate import SETPOINT_IDS, evaluate, setpoints_held  # noqa: E402
+from msd_bench.core.deeprl.validate import SETPOINT_IDS, setpoints_held  # noqa: E402
 from msd_bench.core.errors import ConfigError, MsdBenchError  # noqa: E402
+from msd_bench.core.evaluation.robustness import evaluate_policy  # noqa: E402
 from msd_bench.core.evaluation.scenarios import parse, suite  # noqa: E402
 from msd_bench.core.physics.model import StepModel, plant_model  # noqa: E402
 from msd_bench.designs import AgentKind, agent_kind  # noqa: E402
+from msd_bench.designs.deeprl import nets_policy  # noqa: E402
 from msd_bench.designs.kinds import made_on_plant  # noqa: E402
 
 
@@ -127,7 +129,8 @@ def tune(args: argparse.Namespace) -> dict[str, Any]:
         for h in grid(algo):
             print(f"{algo} {h.as_dict()}", flush=True)
             net, timing = train_seeds(plant, h, args.seeds, args.steps)
-            cells = evaluate(net, plant_params(), args.seeds, sps)
+            cells = evaluate_policy(nets_policy(f"plant+{algo}", net, args.seeds), plant_params(), args.seeds,
+                                    sps)
             mae = sum(c["median_mae"] for c in cells.values())
             rows.append({"hyper": h.as_dict(), "held": setpoints_held(cells), "sum_median_mae": round(mae, 4),
                          "cells": {k: _short(c) for k, c in cells.items()}, **timing})
@@ -166,7 +169,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         print(f"{kind}: {hyper.as_dict()}", flush=True)
         model, ident = identified(k, args.id_seed)
         net, timing = train_seeds(model, hyper, args.seeds, args.steps)
-        cells = evaluate(net, plant_params(), args.seeds, suite())
+        cells = evaluate_policy(nets_policy(kind, net, args.seeds), plant_params(), args.seeds, suite())
         real = args.steps * len(args.seeds) if made_on_plant(kind) else 0
         kinds[kind] = {"surrogate": k.surrogate, "algo": algo, "hyper": hyper.as_dict(),
                        "id_seed": None if made_on_plant(kind) else args.id_seed,
@@ -299,8 +302,11 @@ def validate(args: argparse.Namespace) -> dict[str, Any]:
     if not isinstance(seeds, list) or len(seeds) != net.w1.shape[0] or not all(
             isinstance(s, int) and not isinstance(s, bool) for s in seeds):
         raise MsdBenchError(f"{args.policy}: meta must list one integer learning seed per policy")
-    cells = evaluate(net, plant_params(), seeds, suite())
-    return {"policy": str(args.policy), "kind": meta.get("kind"), "seeds": seeds,
+    kind = meta.get("kind")
+    if not isinstance(kind, str):
+        raise MsdBenchError(f"{args.policy}: meta must name the policy's kind")
+    cells = evaluate_policy(nets_policy(kind, net, seeds), plant_params(), seeds, suite())
+    return {"policy": str(args.policy), "kind": kind, "seeds": seeds,
             "setpoints_held": setpoints_held(cells), "cells": {k: _short(c) for k, c in cells.items()}}
 
 

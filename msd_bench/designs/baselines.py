@@ -12,7 +12,7 @@ Python-control and numba load only when a baseline is designed.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -29,6 +29,7 @@ if TYPE_CHECKING:  # numba-compiled modules load only when a policy is made or r
     from msd_bench.core.evaluation.closed_loop import Conditions
     from msd_bench.core.physics.kernels import Kernel
     from msd_bench.core.physics.model import StepModel
+    from msd_bench.core.physics.plant import PlantParams
 
 FloatArray = NDArray[np.float64]
 
@@ -45,6 +46,9 @@ class BaselinePolicy(PolicyBase):
     dt: float
     target: float
     """The nominal set-point; the artifact describes the design there."""
+    options: Mapping[str, Any] = field(default_factory=dict)
+    """Keyword options of the core design (``crossover``, ``horizon``, ...): a design study's knobs;
+    the registry's kinds use the defaults."""
     _designs: dict[float, Any] = field(default_factory=dict, compare=False, repr=False)
 
     def design_at(self, target: float) -> Any:
@@ -53,7 +57,7 @@ class BaselinePolicy(PolicyBase):
 
         t = float(target)
         if t not in self._designs:
-            self._designs[t] = designs.make(self.name, self.model, t, self.force, self.dt)
+            self._designs[t] = designs.make(self.name, self.model, t, self.force, self.dt, **self.options)
         return self._designs[t]
 
     def rollout(self, plant: Kernel, cond: Conditions, noise: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -124,6 +128,25 @@ class BaselineDesign:
             raise artifacts.ArtifactError(f"{directory}: policy.json does not match the design its model "
                                           "gives (edited, or another model)")
         return policy
+
+
+def baseline_policy(name: str, model: StepModel, plant: PlantParams, seed: int = 0, target: float = 1.0,
+                    **options: Any) -> BaselinePolicy:
+    """Baseline ``name`` designed on ``model`` for ``plant``'s force limit and sample time with the
+    core design's ``options``: one member (``seed``), its artifact the design at ``target``.
+
+    Why outside the registry: a design study (scripts/baselines_check.py) evaluates one model and
+    varies the options, which a kind's request has no field for; it then scores the policy through
+    :func:`msd_bench.core.evaluation.robustness.evaluate_policy`, the one evaluator, as every kind is.
+    An unknown design or option is a one-line ``ConfigError`` here, before any run.
+    """
+    from msd_bench.core.baselines import designs
+
+    designs.entry(name)
+    policy = BaselinePolicy(f"{model.name}+{name}", (int(seed),), Facts(name, True, True, 0), name, model,
+                            float(plant.F), float(plant.dt), float(target), dict(options))
+    policy.design_at(policy.target)
+    return policy
 
 
 DESIGNS = tuple(BaselineDesign(b.name, b.summary, b.label) for b in CATALOGUE)

@@ -191,3 +191,22 @@ DESIGNS = (
     DeepDesign("plant-ppo", _PPO + ", trained on the plant", "PPO baseline", "ppo", plant=True),
 )
 """The deep-RL entries of the registry."""
+
+
+def nets_policy(kind: str, net: Net, seeds: Sequence[int], real_interactions: int = 0) -> DeepPolicy:
+    """Trained networks (one per learning seed, stacked) as a policy of ``kind`` (``plant+dqn``, ...).
+
+    Why: scripts/deeprl_runs.py trains networks itself (its grid and budgets) and then scores them
+    through :func:`msd_bench.core.evaluation.robustness.evaluate_policy`, the one evaluator, as every
+    kind is; the rollout is the policy's (no ADC clip: see :meth:`DeepPolicy.rollout`).
+    """
+    from msd_bench.core.errors import InvalidInputError
+    from msd_bench.designs.registry import agent_kind
+
+    design = agent_kind(kind).design
+    if not isinstance(design, DeepDesign):
+        raise ConfigError(f"{kind} is not a deep-RL kind")
+    if len(seeds) != net.w1.shape[0]:
+        raise InvalidInputError(f"need one learning seed per policy, got {len(seeds)} for {net.w1.shape[0]}")
+    facts = Facts(design.name, True, False, int(real_interactions))
+    return DeepPolicy(kind, tuple(int(s) for s in seeds), facts, net, {"algo": design.algo})

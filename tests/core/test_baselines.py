@@ -12,12 +12,13 @@ from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.evaluation.closed_loop import Conditions, nominal, quantise
 from msd_bench.core.evaluation.metrics import compute
 from msd_bench.core.evaluation.results import SUCCESS_SSE
-from msd_bench.core.evaluation.robustness import conditions
+from msd_bench.core.evaluation.robustness import conditions, evaluate_policy
 from msd_bench.core.evaluation.scenarios import parse
 from msd_bench.core.learning.qconfig import QConfig
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.model import StepModel, plant_model
 from msd_bench.core.physics.plant import PlantParams
+from msd_bench.designs.baselines import baseline_policy
 from msd_bench.io.storage.artifacts import load_model
 
 PINNED = Path(__file__).resolve().parents[1] / "data" / "pinned"
@@ -227,7 +228,17 @@ def test_stepwise_controllers_refuse_a_non_finite_measurement(built, kind):
 
 
 def test_evaluate_counts_one_run_per_condition_and_one_per_noise_draw():
-    cells = designs.evaluate("pid", _model("glm"), P, seeds=[0, 1, 2],
-                             scenarios=[parse("nominal"), parse("noise=0.002")], steps=1500)
+    cells = evaluate_policy(baseline_policy("pid", _model("glm"), P), P, seeds=[0, 1, 2],
+                            scenarios=[parse("nominal"), parse("noise=0.002")], steps=1500)
     assert cells["nominal"]["n"] == 1
     assert cells["noise=0.002"]["n"] == 3
+
+
+def test_a_design_study_options_reach_the_design_and_a_wrong_one_is_one_line():
+    fast = baseline_policy("pid", _model("glm"), P, crossover=3.0).design_at(1.0).as_dict()
+    default = baseline_policy("pid", _model("glm"), P).design_at(1.0).as_dict()
+    assert fast != default
+    with pytest.raises(ConfigError, match="unknown option"):
+        baseline_policy("pid", _model("glm"), P, wc=3.0)
+    with pytest.raises(ConfigError, match="unknown baseline design"):
+        baseline_policy("pdi", _model("glm"), P)

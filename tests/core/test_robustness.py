@@ -22,9 +22,14 @@ CFG = improved_config(episodes=20, steps=3000)
 SEEDS = [3, 4, 5]
 
 
-def _policy(q: np.ndarray):
+def _policy(q: np.ndarray, cfg: QConfig = CFG, seeds: list[int] = SEEDS):
     """The tables as a policy whose observer predicts with the nominal plant."""
-    return tables_policy(q, CFG, SEEDS, plant_model(P))
+    return tables_policy(q, cfg, seeds, plant_model(P))
+
+
+def _rollouts(q: np.ndarray, sid: str, steps: int, cfg: QConfig = CFG, seeds: list[int] = SEEDS):
+    """True positions and commands of the tables under scenario ``sid``, as the one evaluator runs them."""
+    return robustness.policy_rollouts(_policy(q, cfg, seeds), P, parse(sid), seeds, steps)
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +41,7 @@ def tables():
 def test_nominal_scenario_is_the_ordinary_validation_bit_for_bit(cfg):
     q = train(plant_model(P), cfg, SEEDS).q
     x_ref, u_ref = greedy_rollouts(plant_model(P), q, cfg, 1.0, 1500)
-    x, u = robustness.rollouts(q, cfg, P, parse("nominal"), SEEDS, 1500)
+    x, u = _rollouts(q, "nominal", 1500, cfg)
     assert np.array_equal(x, x_ref) and np.array_equal(u, u_ref)
 
 
@@ -44,7 +49,7 @@ def test_each_cell_scores_its_own_condition(tables):
     scenarios = [parse("nominal"), parse("mass=2"), parse("setpoint=-1.5"), parse("noise=0.005")]
     rob = robustness.evaluate_policy(_policy(tables), P, SEEDS, scenarios, steps=1500, window=300)
     assert list(rob) == ["nominal", "mass=2", "setpoint=-1.5", "noise=0.005"]
-    heavy_x, _ = robustness.rollouts(tables, CFG, P, parse("mass=2"), SEEDS, 1500)
+    heavy_x, _ = _rollouts(tables, "mass=2", 1500)
     assert rob["mass=2"]["sse"] == [compute(x, 1.0, P.dt, 300).sse for x in heavy_x]
     assert rob["mass=2"]["sse"] != rob["nominal"]["sse"]
     assert rob["noise=0.005"]["sse"] != rob["nominal"]["sse"]
@@ -114,17 +119,17 @@ def test_quantisation_is_applied_to_what_the_agent_sees():
 
 def test_one_seed_per_table_is_required(tables):
     with pytest.raises(InvalidInputError, match="one learning seed per Q-table"):
-        robustness.rollouts(tables, CFG, P, parse("nominal"), [1], 100)
+        _rollouts(tables, "nominal", 100, seeds=[1])
 
 
 def test_a_lag_slows_the_applied_force_and_lag_zero_changes_nothing(tables):
     from msd_bench.core.rigs.actuation import actuator_force
     from msd_bench.core.rigs.rig import Actuator
 
-    x0, u0 = robustness.rollouts(tables, CFG, P, parse("nominal"), SEEDS, 800)
-    xz, uz = robustness.rollouts(tables, CFG, P, parse("lag=0"), SEEDS, 800)
+    x0, u0 = _rollouts(tables, "nominal", 800)
+    xz, uz = _rollouts(tables, "lag=0", 800)
     assert np.array_equal(x0, xz) and np.array_equal(u0, uz)
-    xl, _ = robustness.rollouts(tables, CFG, P, parse("lag=0.04"), SEEDS, 800)
+    xl, _ = _rollouts(tables, "lag=0.04", 800)
     assert not np.array_equal(x0, xl)
     # the compiled actuator is the one actuation.py rebuilds forces with (same discretisation)
     u = np.where(np.arange(200) % 37 < 18, 5.0, -2.5)

@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 
 from msd_bench.core.deeprl import mlp
-from msd_bench.core.deeprl.rollout import NetworkController, measure, y_bound
-from msd_bench.core.deeprl.validate import evaluate, rollouts
-from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.deeprl.rollout import NetworkController, measure
+from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.evaluation.closed_loop import quantise
-from msd_bench.core.evaluation.robustness import sensor_noise
+from msd_bench.core.evaluation.robustness import evaluate_policy, policy_rollouts, sensor_noise
 from msd_bench.core.evaluation.scenarios import parse
 from msd_bench.core.learning.qconfig import QConfig
 from msd_bench.core.physics.plant import preset
+from msd_bench.designs.deeprl import nets_policy
 from msd_bench.gym.env import MsdBenchEnv
 from tests.deeprl.conftest import random_net
 
@@ -29,20 +29,19 @@ def test_compiled_rollout_equals_the_stepwise_controller_bit_for_bit(sid: str, a
     sc = parse(sid)
     seeds = [3, 4, 5]
     net = random_net(7, n=3, activation=activation)
-    xs, us = rollouts(net, PLANT, sc, seeds, 800)
+    xs, us = policy_rollouts(nets_policy("plant+dqn", net, seeds), PLANT, sc, seeds, 800)
     noise = sensor_noise(sc, seeds, 800)
-    bound = y_bound(0.5 * PLANT.L, sc.noise, sc.quant)
     assert len({float(u) for u in us.ravel()}) > 1  # the policies do act, so a mismatch would show
     for j in range(3):
         ctl = NetworkController(net, FORCES, j)
         ctl.reset(sc.setpoint)
-        got = np.array([ctl.act(measure(xs[j, k], noise[j, k], sc.quant, bound)) for k in range(800)])
+        got = np.array([ctl.act(measure(xs[j, k], noise[j, k], sc.quant, np.inf)) for k in range(800)])
         assert np.array_equal(got, us[j])
 
 
 def test_nominal_rollout_is_the_environment_driven_by_the_forward_pass() -> None:
     net = random_net(11, activation=mlp.TANH)
-    xs, us = rollouts(net, PLANT, parse("nominal"), [0], 600)
+    xs, us = policy_rollouts(nets_policy("plant+ppo", net, [0]), PLANT, parse("nominal"), [0], 600)
     env = MsdBenchEnv(target=1.0, episode_steps=600)
     obs, info = env.reset(seed=0)
     for k in range(600):
@@ -60,10 +59,12 @@ def test_measure_is_noise_then_quantisation_then_the_adc_clip() -> None:
 
 
 def test_one_policy_stack_scores_like_the_suite_expects() -> None:
-    cells = evaluate(random_net(1, n=2), PLANT, [0, 1], [parse("nominal"), parse("noise=0.001")], steps=600,
-                     window=100)
+    policy = nets_policy("greybox+dqn", random_net(1, n=2), [0, 1])
+    cells = evaluate_policy(policy, PLANT, [0, 1], [parse("nominal"), parse("noise=0.001")], steps=600,
+                            window=100)
     assert set(cells) == {"nominal", "noise=0.001"}
     assert cells["nominal"]["n"] == 2 and len(cells["nominal"]["sse"]) == 2
+    assert len(cells["noise=0.001"]["risks"]) == 2  # one evaluator: risk recorded per run, as every kind
 
 
 def test_a_controller_refuses_what_it_cannot_run() -> None:
@@ -80,9 +81,13 @@ def test_a_controller_refuses_what_it_cannot_run() -> None:
         ctl.act(float("inf"))
 
 
-def test_rollouts_need_one_seed_per_policy() -> None:
+def test_a_policy_needs_one_seed_per_network_and_a_deep_rl_kind() -> None:
     with pytest.raises(InvalidInputError, match="one learning seed per policy"):
-        rollouts(random_net(0, n=2), PLANT, parse("nominal"), [0], 10)
+        nets_policy("plant+dqn", random_net(0, n=2), [0])
+    with pytest.raises(ConfigError, match="not a deep-RL kind"):
+        nets_policy("greybox+robust", random_net(0), [0])
+    with pytest.raises(ConfigError, match="unknown agent kind"):
+        nets_policy("greybox+dqm", random_net(0), [0])
 
 
 def test_nets_of_other_shapes_do_not_stack() -> None:

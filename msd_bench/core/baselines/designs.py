@@ -1,4 +1,4 @@
-"""The common shape of the baseline designs: one table, one design call, one rollout, one evaluation.
+"""The common shape of the baseline designs: one table, one design call, one rollout.
 
 A protocol that puts every controller (Q-learners and these) behind one face
 needs, per design: ``design(model, target, force, dt, **options)`` returning a
@@ -6,13 +6,15 @@ frozen design with ``as_dict()``; a compiled batch rollout with
 ``greedy_under``'s semantics; and a stepwise controller (``reset()``,
 ``act(y) -> force``). :data:`DESIGNS` is that table; agent kinds are spelled
 ``<surrogate>+<design>`` (``glm+pid``, ``greybox+lqr``, ``plm+mpc``) and
-:func:`parse_kind` splits them.
+:func:`parse_kind` splits them. Scoring under scenarios is not here: a baseline is a policy of
+:mod:`msd_bench.designs.baselines`, scored by the one evaluator,
+:func:`msd_bench.core.evaluation.robustness.evaluate_policy`.
 """
 
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import fields, replace
 from typing import Any, NamedTuple, Protocol, cast
 
@@ -22,12 +24,8 @@ from numpy.typing import NDArray
 from msd_bench.core.baselines.catalogue import CATALOGUE, Listing
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.closed_loop import Conditions
-from msd_bench.core.evaluation.metrics import compute
-from msd_bench.core.evaluation.robustness import cell, conditions, sensor_noise
-from msd_bench.core.evaluation.scenarios import Scenario, suite
 from msd_bench.core.physics.kernels import Kernel
-from msd_bench.core.physics.model import StepModel, plant_model
-from msd_bench.core.physics.plant import PlantParams
+from msd_bench.core.physics.model import StepModel
 
 FloatArray = NDArray[np.float64]
 
@@ -108,31 +106,3 @@ def make(name: str, model: StepModel, target: float, force: float, dt: float, **
         raise ConfigError(f"baseline {name}: unknown option(s) {', '.join(unknown)}; known: "
                           f"{', '.join(sorted(known))}")
     return e.design(model, target, force, dt, **options)
-
-
-def rollouts(name: str, d: Design, nominal: PlantParams, sc: Scenario, seeds: Sequence[int],
-             steps: int) -> tuple[FloatArray, FloatArray]:
-    """True positions and commands under ``sc``: one run per noise draw, one run without a sensor.
-
-    A deterministic design on one model has one run per condition; only sensor
-    noise draws (one per seed, as the Q-learners' cells draw them) make more.
-    """
-    draws = list(seeds) if sc.has_sensor and sc.noise > 0.0 else list(seeds)[:1]
-    plant = sc.plant(nominal)
-    noise = sensor_noise(sc, draws, steps)
-    return entry(name).rollout(plant_model(plant).kernel, d, conditions(sc, plant.dt), noise)
-
-
-def evaluate(name: str, model: StepModel, nominal: PlantParams, seeds: Sequence[int],
-             scenarios: Sequence[Scenario] | None = None, steps: int = 3000, window: int = 500,
-             **options: Any) -> dict[str, dict[str, Any]]:
-    """Per scenario id, the cell of :func:`robustness.cell`, designing once per set-point."""
-    designs: dict[float, Design] = {}
-    out: dict[str, dict[str, Any]] = {}
-    for sc in scenarios if scenarios is not None else suite():
-        if sc.setpoint not in designs:
-            designs[sc.setpoint] = make(name, model, sc.setpoint, nominal.F, nominal.dt, **options)
-        xs, _ = rollouts(name, designs[sc.setpoint], nominal, sc, seeds, steps)
-        m = [compute(x, sc.setpoint, nominal.dt, window) for x in xs]
-        out[sc.id] = cell([r.sse for r in m], [r.mae for r in m])
-    return out

@@ -29,11 +29,6 @@ from msd_bench.core.physics.kernels import Kernel
 FloatArray = NDArray[np.float64]
 
 
-def y_bound(x_max: float, noise_std: float, quant: float) -> float:
-    """The measurement's clip, as the environment's: stroke + ten noise deviations + one step."""
-    return x_max + 10.0 * noise_std + quant
-
-
 @numba.njit(cache=True)
 def measure(x: float, noise: float, quant: float, bound: float) -> float:
     """What the agent reads for true position ``x``: noise, quantisation, then the ADC's range."""
@@ -58,7 +53,8 @@ class NetRun(NamedTuple):
     forces: FloatArray
     """The force of each network output, N."""
     bound: float
-    """The measurement's clip, m (:func:`y_bound`; ``inf``: none)."""
+    """The measurement's clip, m (``inf``: none; the environment's lies at the stroke plus ten noise
+    deviations plus one quantisation step, which a position on the stroke never reaches)."""
     memory: FloatArray
     """[last clipped measurement, last command]."""
 

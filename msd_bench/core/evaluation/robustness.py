@@ -16,12 +16,10 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.evaluation.closed_loop import (
     Acts,
     Conditions,
     SupervisedRuns,
-    greedy_under,
     nominal,
     supervised_runs,
 )
@@ -31,9 +29,8 @@ from msd_bench.core.evaluation.risk import RunRisk, trace_risk
 from msd_bench.core.evaluation.risk_table import summarise
 from msd_bench.core.evaluation.scenarios import Scenario, noise_seed, suite
 from msd_bench.core.evaluation.stats import wilson
-from msd_bench.core.learning.qconfig import QConfig, packed
 from msd_bench.core.physics.kernels import Kernel
-from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.physics.model import plant_model
 from msd_bench.core.physics.plant import PlantParams
 from msd_bench.core.rigs.rig import lag_samples
 from msd_bench.core.safety.supervisor import Limits
@@ -54,22 +51,6 @@ def sensor_noise(sc: Scenario, seeds: Sequence[int], steps: int) -> FloatArray:
         for j, seed in enumerate(seeds):
             noise[j] = sc.noise * np.random.default_rng(noise_seed(int(seed), sc.id)).standard_normal(steps)
     return noise
-
-
-def rollouts(q_tables: FloatArray, cfg: QConfig, nominal: PlantParams, sc: Scenario, seeds: Sequence[int],
-             steps: int, observer: StepModel | None = None) -> tuple[FloatArray, FloatArray]:
-    """True positions and commands of every table's greedy run under ``sc``.
-
-    ``observer`` is the model the agent trained on (its ``model`` observer predicts with it);
-    by default the nominal plant.
-    """
-    q = np.ascontiguousarray(q_tables, dtype=np.float64)
-    if q.ndim != 3 or len(seeds) != q.shape[0]:
-        raise InvalidInputError(f"need one learning seed per Q-table, got {len(seeds)} for {q.shape[0]}")
-    plant = sc.plant(nominal)
-    obs = (observer or plant_model(nominal)).kernel
-    return greedy_under(plant_model(plant).kernel, packed(cfg), q, conditions(sc, plant.dt),
-                        sensor_noise(sc, seeds, steps), obs)
 
 
 class Facts(Protocol):
