@@ -77,9 +77,10 @@ Member = tuple["Policy", int]
 
 
 def refinable(kind: str) -> bool:
-    """Its model is fitted from the broad record, the one closed-loop records can join (the PLM's
-    five local models are fitted per bias record, around operating points a try does not hold)."""
-    return not kinds.made_on_plant(kind) and model_kind(agent_kind(kind).surrogate).records == "broad"
+    """It is made on an identified model, which a refit can fit again with the closed-loop tries: the
+    broad kinds from their broad record with the tries joined, the PLM by its blend's refinement over
+    its bias records and the tries (its local models stay its bias records')."""
+    return not kinds.made_on_plant(kind)
 
 
 def refined_kinds(agents: Sequence[str]) -> list[str]:
@@ -102,13 +103,14 @@ def limits_of(cfg: RigsConfig) -> Limits:
 
 
 def with_closed_loop(records: Records, tries: Sequence[Experiment], weight: int) -> Records:
-    """The open-loop records with the closed-loop ones joined to the broad training record, each
-    ``weight`` times (a heavier say in the fit; the validation record stays the open-loop one)."""
+    """The open-loop records with the closed-loop ones, each ``weight`` times (a heavier say in the fit;
+    the validation record stays the open-loop one): joined to the broad training record, where the broad
+    kinds fit, and as ``closed_loop``, where the PLM's refinement takes them."""
     broad = records.broad_train
     extra = tuple(e for e in tries for _ in range(weight))
-    return replace(records, broad_train=IOData(broad.experiments + extra, broad.dt,
-                                               {**broad.meta, "closed_loop_records": len(tries),
-                                                "closed_loop_weight": weight}))
+    meta = {"closed_loop_records": len(tries), "closed_loop_weight": weight}
+    return replace(records, broad_train=IOData(broad.experiments + extra, broad.dt, {**broad.meta, **meta}),
+                   closed_loop=(IOData(extra, broad.dt, meta),) if extra else ())
 
 
 def refit(records: Records, tries: Sequence[Experiment], weight: int, surrogate: str,

@@ -129,8 +129,9 @@ class RigsConfig:
             raise ConfigError(f"--refine must be in 0..{MAX_REFINE} and --refine-weight in "
                               f"1..{MAX_REFINE_WEIGHT}, got {self.refine} and {self.refine_weight}")
         if self.refine and not rig_refine.refined_kinds(self.run.agents):
-            raise ConfigError("--refine refits models fitted from the broad record: none of "
-                              f"{', '.join(self.run.agents)} is (plm is fitted per bias record)")
+            raise ConfigError("--refine refits the identified model an agent was made on: none of "
+                              f"{', '.join(self.run.agents)} is made on one (on-plant kinds learn on "
+                              "the rig)")
         if self.resamples < 100:
             raise ConfigError(f"--bootstrap must be >= 100 resamples, got {self.resamples}")
         if self.run.id_seeds != 1:

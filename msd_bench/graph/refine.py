@@ -9,7 +9,8 @@ the simulation-error fit driven by the force the node reported applied), and the
 are read as the identifier reads them (:func:`msd_bench.app.bag_identification.bag_records`).
 ``msd-bench rigs --refine`` runs the same loop in-process (docs/rigs.md §Refinement).
 
-Per refinable kind (its model fitted from the broad record) and learning seed:
+Per refinable kind (made on an identified model: the broad kinds, and the PLM through its blend's
+refinement) and learning seed:
 
 0. try the open-loop agent: the kind's design on ``models/<model>.json`` for that seed, on the node;
 r. refit the model from the open-loop bags plus every try's bag so far, save it, make that seed's
@@ -108,12 +109,12 @@ def check(rounds: int, weight: int, plant_ns: str | None, agents: Sequence[str],
     if "agents" not in stages:
         raise ConfigError("--refine runs after the agents stage: keep 'agents' in --stages")
     if not any(refinable(k) for k in agents):
-        raise ConfigError(f"--refine refits models fitted from the broad record; none of the run's kinds "
-                          f"({', '.join(agents) or 'none'}) has one")
+        raise ConfigError(f"--refine refits the identified model an agent was made on; none of the run's "
+                          f"kinds ({', '.join(agents) or 'none'}) is made on one")
 
 
 def kinds(cfg: BenchConfig, unmade: Sequence[str]) -> list[str]:
-    """The run's kinds refined: a model fitted from the broad record, and one the identifier wrote."""
+    """The run's kinds refined: made on an identified model, and one the identifier wrote."""
     from msd_bench.app.rig_refine import refinable
 
     return [k for k in cfg.run.agents if refinable(k) and k not in unmade]

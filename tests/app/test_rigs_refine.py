@@ -40,7 +40,7 @@ def both() -> Both:
 def test_the_rows_of_a_run_without_them_are_unchanged(both: Both) -> None:
     plain, cfg, more = both
     assert cfg.kinds() == ("plm", "greybox+robust", "truth+robust", "truth-plant+robust",
-                           "greybox+robust+refined")
+                           "plm+refined", "greybox+robust+refined")
     old = [o for o in more["outcomes"] if o["kind"] in ("plm", "greybox+robust")]
     # the ceiling and the refinement run after them, on their own streams (compared as text: NaN == NaN)
     assert json.dumps(old) == json.dumps(plain["outcomes"])
@@ -77,6 +77,20 @@ def test_the_ceiling_and_the_refined_rows_charge_every_real_sample(both: Both) -
         assert o["risk"]["override_share"] >= 0 and set(o["scenarios"]) == {"setpoint=-0.5"}
 
 
+def test_the_plm_is_refitted_through_its_blend_and_charged_its_bias_records(both: Both) -> None:
+    _, cfg, more = both
+    refined = [o for o in more["outcomes"] if o["kind"] == "plm+refined"]
+    assert [o["seed"] for o in refined] == [0, 1]
+    own = more["charged"]["plm"]
+    for o in refined:
+        ref = o["refine"]
+        assert [r["failed"] for r in ref["rounds"]] == ["", "", ""]  # both refits of the PLM held
+        assert all("fit_sim_percent" in r["fit"] for r in ref["rounds"][1:])
+        charged = ref["real_samples"]
+        assert (charged["records"], charged["record_rests"]) == (own["records"], own["record_rests"])
+        assert charged["tries"] == 3 * cfg.run.validation_steps
+
+
 def test_a_route_is_charged_its_own_records_and_the_rests_before_them(both: Both) -> None:
     plain, _, _ = both
     grey, plm = plain["charged"]["greybox+robust"], plain["charged"]["plm"]
@@ -108,7 +122,7 @@ def test_the_summary_counts_each_round(both: Both) -> None:
 @pytest.mark.parametrize(("extra", "message"), [
     (["--refine", "-1"], "--refine must be in 0..10"),
     (["--refine", "1", "--refine-weight", "0"], "--refine-weight in 1..10"),
-    (["--refine", "1", "--agents", "plm,plm+robust"], "--refine refits models fitted from the broad record"),
+    (["--refine", "1", "--agents", "plant"], "--refine refits the identified model an agent was made on"),
 ])
 def test_bad_refine_options_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                          extra: list[str], message: str) -> None:

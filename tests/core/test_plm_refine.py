@@ -9,7 +9,9 @@ import pytest
 
 from msd_bench.app.pipeline import records_from_plan
 from msd_bench.app.plan import paper_plan
+from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.identification import lm
+from msd_bench.core.identification.data import Experiment, IOData
 from msd_bench.core.identification.identify import PlmConfig, evaluate, identify_plm
 from msd_bench.core.identification.plm import EXACT_MAX_ITER
 from msd_bench.core.physics import plant
@@ -54,3 +56,28 @@ def test_forward_differences_match_the_exact_jacobian() -> None:
     jac, used = lm.forward_differences(_rosenbrock, np.full(2, np.inf), 1e-7)(z, _rosenbrock(z))
     assert used == 2
     np.testing.assert_allclose(jac, _rosenbrock_jac(z, _rosenbrock(z))[0], rtol=1e-5, atol=1e-6)
+
+
+def _try_record(p: plant.PlantParams, target: float, steps: int) -> IOData:
+    """A closed-loop try on ``p``: a saturating PD law on the measured position, as an agent's run
+    records it (the applied force and the measured position, here noiseless)."""
+    x, v, us, ys = 0.0, 0.0, [], []
+    for _ in range(steps):
+        u = float(np.clip(8.0 * (target - x) - 4.0 * v + 2.4 * np.sin(target), -p.F, p.F))
+        x, v = plant.step(x, v, u, p)
+        us.append(u)
+        ys.append(x)
+    return IOData((Experiment(np.array(us), np.array(ys), name="try"),), p.dt)
+
+
+def test_a_closed_loop_try_joins_the_blend_refinement_and_is_fitted_better() -> None:
+    p = plant.preset("default")
+    records = records_from_plan(p, paper_plan(2, samples=3000, val_samples=1000, settle=300))
+    tried = _try_record(p, 1.2, 1500)
+    before = identify_plm(records.bias_train, PlmConfig(stroke=p.L))
+    after = identify_plm(records.bias_train, PlmConfig(stroke=p.L), closed_loop=[tried, tried])
+    assert "2 closed-loop records" in after.info["refinement"]["method"] and after.info["refinement"]["kept"]
+    assert after.info["n_samples"] == before.info["n_samples"] + 2 * 1500
+    assert evaluate(after, tried).sim_fit > evaluate(before, tried).sim_fit
+    with pytest.raises(InvalidInputError, match="does not refine"):
+        identify_plm(records.bias_train, PlmConfig(stroke=p.L, refine=False), closed_loop=[tried])

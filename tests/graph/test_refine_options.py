@@ -18,8 +18,9 @@ from msd_bench.graph.refine import kinds, summary, table
     (["--refine", "1"], "--refine tries the agents on a plant node in real time: give --plant-ns"),
     (["--plant-ns", "/rig", "--refine", "11"], "--refine must be in 0..10, got 11"),
     (["--plant-ns", "/rig", "--refine", "1", "--refine-weight", "0"], "--refine-weight must be in 1..10"),
-    (["--plant-ns", "/rig", "--refine", "1", "--agents", "plm+robust"],
-     "--refine refits models fitted from the broad record; none of the run's kinds (plm+robust) has one"),
+    (["--plant-ns", "/rig", "--refine", "1", "--agents", "dyna-q"],
+     "--refine refits the identified model an agent was made on; none of the run's kinds (dyna-q) is made "
+     "on one"),
     (["--plant-ns", "/rig", "--refine", "1", "--stages", "record,identify"],
      "--refine runs after the agents stage"),
 ])
@@ -32,12 +33,12 @@ def test_bad_refine_options_are_one_line_and_write_nothing(tmp_path: Path, capsy
     assert not out.exists()
 
 
-def test_only_kinds_fitted_from_the_broad_record_and_identified_are_refined(tmp_path: Path) -> None:
-    cfg = config(parse(["--plant-ns", "/rig", "--refine", "2", "--agents", "plm+robust,greybox+robust,glm",
-                        "--out", str(tmp_path / "run")]))
+def test_only_kinds_made_on_an_identified_model_are_refined(tmp_path: Path) -> None:
+    cfg = config(parse(["--plant-ns", "/rig", "--refine", "2", "--agents",
+                        "plm+robust,greybox+robust,glm,plant", "--out", str(tmp_path / "run")]))
     assert (cfg.refine, cfg.refine_weight) == (2, 1)
-    assert kinds(cfg, []) == ["greybox+robust", "glm"]
-    assert kinds(cfg, ["glm"]) == ["greybox+robust"]  # its model could not be identified: nothing to refit
+    assert kinds(cfg, []) == ["plm+robust", "greybox+robust", "glm"]
+    assert kinds(cfg, ["glm"]) == ["plm+robust", "greybox+robust"]  # glm's model was not identified
 
 
 def _seed(seed: int, chosen: int, sses: list[float], fresh: float, failed: str = "") -> dict[str, Any]:

@@ -244,11 +244,21 @@ def identify_glm(train: IOData, cfg: GlmConfig | None = None,
 def identify_plm(
     records: Mapping[float, IOData] | Sequence[tuple[float, IOData]], cfg: PlmConfig | None = None,
     force_limit: float = NOMINAL_FORCE, units: tuple[float, float, float] = (1.0, 1.0, 1.0),
+    closed_loop: Sequence[IOData] = (),
 ) -> StepModel:
     """Five local models, one per bias record, blended (see :mod:`msd_bench.core.identification.plm`);
     ``units`` are a rig's length, force and time unit (:func:`~msd_bench.core.identification.plm.fit_local`),
-    all 1.0 on the paper's plant."""
+    all 1.0 on the paper's plant.
+
+    ``closed_loop``: records of tries on the rig under a controller (a refit on the rig). Each local
+    model stays fitted on its own bias record (a try holds one set-point, not a bias's operating
+    point), and the tries join the bias records in the refinement of the blend, which minimises the
+    blend's free-run error driven by the applied force: the simulation-error fit that stays
+    consistent under feedback (docs/rigs.md §Refinement on the rig)."""
     cfg = cfg or PlmConfig()
+    if closed_loop and not cfg.refine:
+        raise InvalidInputError("closed-loop records join the PLM's global refinement; "
+                                "this PlmConfig does not refine")
     items = records.items() if isinstance(records, Mapping) else records
     pairs = sorted(((float(b), r) for b, r in items), key=lambda p: p[0])
     biases = [float(b) for b, _ in pairs]
@@ -265,7 +275,8 @@ def identify_plm(
     model = blend(local, cfg.stroke, centres=centres, force_limit=force_limit)
     if cfg.refine:
         model, ref = refine_global(
-            model, [r for _, r in pairs], max_nfev=cfg.max_nfev, jacobian=cfg.jacobian, units=units
+            model, [*(r for _, r in pairs), *closed_loop], max_nfev=cfg.max_nfev, jacobian=cfg.jacobian,
+            units=units,
         )
         final = local_from_params(model.params, local[0].dt)
         model.info.update(blend(final, cfg.stroke, centres=centres, force_limit=force_limit).info)
@@ -275,12 +286,14 @@ def identify_plm(
             {"u0": f.u0, "y0": f.y0, "coefficients": list(f.coefficients), "method": f.method} for f in local
         ]
         model.info["refinement"] = {
-            "method": "global simulation-error least squares of the blend over the five records",
+            "method": "global simulation-error least squares of the blend over the five records"
+            + (f" and {sum(len(r.experiments) for r in closed_loop)} closed-loop records"
+               if closed_loop else ""),
             **asdict(ref),
         }
     model.info.update(
         biases=biases,
-        n_samples=sum(r.n_samples for _, r in pairs),
+        n_samples=sum(r.n_samples for _, r in pairs) + sum(r.n_samples for r in closed_loop),
         fit_seconds=time.perf_counter() - t0,
     )
     return model

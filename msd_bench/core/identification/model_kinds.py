@@ -115,7 +115,7 @@ def _fit_plm(req: FitRequest) -> StepModel:
     sc = req.scales
     units = (1.0, 1.0, 1.0) if sc is None else (sc.length, sc.force, sc.pace)
     return identify.identify_plm(req.records.bias_train, identify.PlmConfig(stroke=req.stroke),
-                                 force_limit=req.force, units=units)
+                                 force_limit=req.force, units=units, closed_loop=req.records.closed_loop)
 
 
 def _nlarx_fitter(form: str) -> Fitter:

@@ -7,7 +7,7 @@ fit figures), so none of them depends on the application layer.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from msd_bench.core.identification.data import IOData
 
@@ -24,3 +24,8 @@ class Records:
     """Multilevel record for GLM, NLARX and the grey-box model."""
     broad_val: IOData
     """Validation multilevel record: every surrogate is scored on it."""
+    closed_loop: tuple[IOData, ...] = field(default=())
+    """Closed-loop tries on the rig (the applied force, the measured position), for a refit after a
+    try: the broad kinds find them joined to ``broad_train``; the PLM, whose local models belong to
+    its bias records, takes them into the refinement of its blend (``identify_plm``). Empty for an
+    open-loop identification."""
