@@ -108,7 +108,7 @@ def with_closed_loop(records: Records, tries: Sequence[Experiment], weight: int)
     kinds fit, and as ``closed_loop``, where the PLM's refinement takes them."""
     broad = records.broad_train
     extra = tuple(e for e in tries for _ in range(weight))
-    meta = {"closed_loop_records": len(tries), "closed_loop_weight": weight}
+    meta: dict[str, object] = {"closed_loop_records": len(tries), "closed_loop_weight": weight}
     return replace(records, broad_train=IOData(broad.experiments + extra, broad.dt, {**broad.meta, **meta}),
                    closed_loop=(IOData(extra, broad.dt, meta),) if extra else ())
 
