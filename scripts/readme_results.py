@@ -867,6 +867,35 @@ def view_rigs_floors(doc: dict[str, Any], name: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+FAMILY_WALL_FLOOR_S = 2 * 3600
+"""A family's held-out run may take at most two hours on this machine (issue 38)."""
+
+
+def view_rigs_worst(doc: dict[str, Any], name: str) -> str:
+    """A rig sweep's worst rigs (fewest successes over every kind and seed) with every drawn parameter,
+    and each rig's units where the family draws them; the sweep's wall time against the family bar."""
+    from msd_bench.io.rigs.rigs_report import worst_table
+
+    units = [w for w in doc["worst"] if "length_unit" in w["parameters"]]
+    lines = worst_table(doc)
+    if units:
+        lines += ["", "Their units against their default-family twins (length, mass, time): " + "; ".join(
+            f"rig {w['rig']} ×{w['parameters']['length_unit']:.3g}, ×{w['parameters']['mass_unit']:.3g}, "
+            f"×{w['parameters']['time_unit']:.3g}" for w in units) + "."]
+    sweep = doc.get("sweep")
+    if sweep:
+        holds = "holds" if sweep["wall_seconds"] <= FAMILY_WALL_FLOOR_S else "**does not hold**"
+        on = f"{sweep['workers']} {sweep['executor']} worker(s) of a {sweep['cpus']}-core machine"
+        lines += ["", f"Wall time of the sweep: {sweep['wall_seconds'] / 60:.0f} min for "
+                      f"{sweep['rigs_computed']} rigs on {on} (a family's bar: "
+                      f"{FAMILY_WALL_FLOOR_S // 3600} h; {holds})."]
+    family = (doc.get("population") or {}).get("family", "default")
+    lines += ["", f"_Generated from `docs/results/{name}.json` ({len(doc['rigs'])} {doc['rig_set']} rigs "
+                  f"of the `{family}` family × {len(doc['learning_seeds'])} learning seeds; the multipliers "
+                  "are against the default plant in the rig's own units)._"]
+    return "\n".join(lines) + "\n"
+
+
 def view_identification_speed(doc: dict[str, Any], name: str) -> str:
     """``benchmarks/bench_identification_rig.py --out``: every model kind's identification time (one
     thread, median of the repeats) and fit, now and with the earlier numerics in the same run."""
@@ -1116,7 +1145,8 @@ VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "bench_time": view_bench_time, "headline": view_headline, "bench_sample": view_bench_sample,
     "deeprl": view_deeprl, "deeprl_efficiency": view_deeprl_efficiency, "rig_realtime": view_rig_realtime,
     "greybox_rig_floors": view_greybox_rig_floors,
-    "rigs_kinds": view_rigs_kinds, "rigs_floors": view_rigs_floors, "rigs_beside": view_rigs_beside,
+    "rigs_kinds": view_rigs_kinds, "rigs_worst": view_rigs_worst, "rigs_floors": view_rigs_floors,
+    "rigs_beside": view_rigs_beside,
     "rigs_ceiling": view_rigs_ceiling, "rigs_refine": view_rigs_refine,
     "identification_speed": view_identification_speed, "silverbox": view_silverbox,
     "coverage": view_coverage, "rigs_efficiency": view_rigs_efficiency,

@@ -189,6 +189,25 @@ def test_rigs_floors_view_judges_each_floor_the_wall_time_and_names_the_dead_rig
     assert "Wall time" not in readme_results.view_rigs_floors(_rigs_doc({"plm+robust": (1, 2)}, None), "r")
 
 
+def _worst(rig: int, units: bool) -> dict:
+    params = {"mass": 1.0, "damping": 1.0, "spring": 1.0, "hardening": 1.0, "friction": 0.1, "delay": 2,
+              "lag": 0.03, "noise": 0.001, "quant": 0.0}
+    if units:
+        params.update(length_unit=0.5, mass_unit=8.0, time_unit=2.0)
+    return {"rig": rig, "successes": 3, "runs": 32, "parameters": params, "identification_failed": ["plm"]}
+
+
+def test_rigs_worst_view_lists_the_worst_rigs_their_units_and_the_family_bar():
+    doc = {**_rigs_doc({"greybox": (19, 20)}, 3 * 3600.0), "worst": [_worst(1064, True)],
+           "population": {"family": "scaled"}}
+    text = readme_results.view_rigs_worst(doc, "r")
+    assert "| 1064 | 3 / 32 |" in text and "| plm |" in text
+    assert "rig 1064 ×0.5, ×8, ×2" in text and "**does not hold**" in text and "`scaled` family" in text
+    plain = readme_results.view_rigs_worst({**_rigs_doc({"greybox": (1, 2)}, 600.0),
+                                            "worst": [_worst(1000, False)]}, "r")
+    assert "units against" not in plain and "2 h; holds" in plain and "`default` family" in plain
+
+
 def test_identification_speed_view_totals_and_judges_the_target():
     kinds = {k: {"median_seconds": t, "sim_fit": 97.0} for k, t in
              [("glm", 0.1), ("plm", 0.5), ("nlarx-improved", 2.0), ("greybox", 0.2), ("greybox-rig", 1.5)]}
