@@ -46,6 +46,11 @@ COMMANDS: dict[str, list[str]] = {
     "rigs_efficiency": [sys.executable, "-m", "msd_bench.cli", "efficiency", "--rigs", "100",
                         "--first-rig", "1000", "--seeds", "4",
                         "--agents", "plm+robust,nlarx-improved+robust,greybox+robust"],
+    "rigs_efficiency_refine": [sys.executable, "-m", "msd_bench.cli", "efficiency", "--rigs", "100",
+                               "--first-rig", "1000", "--seeds", "4",
+                               "--agents", "nlarx-improved+robust,greybox+robust,plant,dyna-q",
+                               "--refine", "2", "--record-samples", "300", "--budgets", "30,300",
+                               "--workers", "1"],
     "table1_baselines": [*PAPER, "--seeds", "3", "--id-seeds", "3", "--agents",
                          "glm+pid,glm+pid-continuous,greybox+lqr,plm+mpc,plm+robust,greybox+robust"],
 }
@@ -127,18 +132,27 @@ def run(name: str) -> Path:
         seconds = time.perf_counter() - t0
         if proc.returncode != 0:
             sys.exit(f"{name}: command failed ({proc.returncode}): {proc.stderr.strip()[-500:]}")
-        doc = {
-            "name": name,
-            "command": " ".join(["msd-bench", *argv[3:-2]]),
-            "commit": commit(),
-            "machine": machine(),
-            "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
-            "seconds": round(seconds, 1),
-            **outputs(out, name),
-        }
+        return store(name, out, commit(), seconds)
+
+
+def store(name: str, out: Path, ran_at: str, seconds: float) -> Path:
+    """Store the JSON outputs of a finished run of the named command in ``out``, with the commit it ran
+    at and its wall time. Why apart from :func:`run`: a sweep of hours runs on its own (resumable in
+    its run directory, beside other work) and is stored when it has finished."""
     RESULTS.mkdir(parents=True, exist_ok=True)
+    doc = {
+        "name": name,
+        "command": " ".join(["msd-bench", *COMMANDS[name][3:]]),
+        "commit": ran_at,
+        "machine": machine(),
+        "created_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "seconds": round(seconds, 1),
+        **outputs(out, name),
+    }
     path = RESULTS / f"{name}.json"
-    path.write_text(json.dumps(doc, indent=1) + "\n")
+    from msd_bench.io.storage.atomic import write_text_atomic
+
+    write_text_atomic(path, json.dumps(doc, indent=1) + "\n")
     return path
 
 
@@ -206,7 +220,12 @@ def main() -> int:
     names = ", ".join([*COMMANDS, *RIG_RUNS, *BENCHMARKS])
     p.add_argument("names", nargs="*", help=f"results to make: {names}")
     p.add_argument("--list", action="store_true", help="print the named commands and exit")
+    p.add_argument("--from-run", type=Path, metavar="DIR",
+                   help="store the finished run directory DIR of the one named command instead of running it")
+    p.add_argument("--ran-at", metavar="COMMIT", help="with --from-run: the commit the run ran at")
     args = p.parse_args()
+    if args.from_run is not None:
+        return _from_run(args.names, args.from_run, args.ran_at)
     if args.list or not args.names:
         for name, argv in COMMANDS.items():
             print(f"{name}: msd-bench {' '.join(argv[3:])}")
@@ -225,6 +244,21 @@ def main() -> int:
             print(run_benchmarks(name))
         else:
             print(run_rig(name) if name in RIG_RUNS else run(name))
+    return 0
+
+
+def _from_run(names: list[str], out: Path, ran_at: str | None) -> int:
+    """``--from-run``: one named command's finished run stored, its wall time the run's own."""
+    if len(names) != 1 or names[0] not in COMMANDS or not ran_at:
+        print("make_results: error: --from-run needs one named command and --ran-at COMMIT", file=sys.stderr)
+        return 2
+    if not (out / "complete").is_file():
+        print(f"make_results: error: {out} is not a finished run directory (no 'complete' marker)",
+              file=sys.stderr)
+        return 2
+    # the run's wall time: from its manifest (written before the first task) to its completion marker
+    seconds = (out / "complete").stat().st_mtime - (out / "manifest.json").stat().st_mtime
+    print(store(names[0], out, ran_at, seconds))
     return 0
 
 

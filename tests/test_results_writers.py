@@ -56,3 +56,29 @@ def test_baselines_check_refuses_to_overwrite_its_out_file_before_any_work(tmp_p
     assert _exit(monkeypatch, "scripts/baselines_check.py", "--out", str(out)) == 2
     assert capsys.readouterr().err.splitlines() == [f"baselines_check: {out} exists; not overwriting it"]
     assert out.read_text() == "kept\n"
+
+
+def test_make_results_stores_a_finished_run_with_the_commit_it_ran_at(monkeypatch: pytest.MonkeyPatch,
+                                                                      tmp_path: Path) -> None:
+    module = _script(monkeypatch, "scripts/make_results.py")
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "manifest.json").write_text("{}")
+    (run / "efficiency.json").write_text('{"methods": [], "seconds": {"total": 1.0}}')
+    (run / "efficiency.png").write_bytes(b"png")
+    monkeypatch.setattr(module, "RESULTS", tmp_path / "results")
+    monkeypatch.setattr(sys, "argv", ["make_results.py", "rigs_efficiency_refine", "--from-run", str(run),
+                                      "--ran-at", "abc1234"])
+    assert module.main() == 2  # no completion marker: not a finished run, nothing stored
+    assert not (tmp_path / "results").exists()
+    (run / "complete").write_text("{}")
+    assert module.main() == 0
+    import json
+
+    doc = json.loads((tmp_path / "results" / "rigs_efficiency_refine.json").read_text())
+    assert doc["commit"] == "abc1234" and doc["efficiency"] == {"methods": [], "seconds": {"total": 1.0}}
+    assert doc["command"].startswith("msd-bench efficiency --rigs 100") and "--refine 2" in doc["command"]
+    assert (tmp_path / "results" / "rigs_efficiency_refine.png").read_bytes() == b"png"
+    monkeypatch.setattr(sys, "argv", ["make_results.py", "rigs_efficiency", "table1_default", "--from-run",
+                                      str(run), "--ran-at", "abc1234"])
+    assert module.main() == 2  # one named command per stored run
