@@ -32,9 +32,10 @@ from typing import Any
 
 from msd_bench.app.config import RunConfig
 from msd_bench.app.pipeline import identify_surrogates, make_records
+from msd_bench.app.scoring import Validation, record_cells
 from msd_bench.core.baselines import designs
 from msd_bench.core.errors import ConfigError, MsdBenchError
-from msd_bench.core.evaluation.robustness import evaluate_policy, merge
+from msd_bench.core.evaluation.robustness import merge
 from msd_bench.core.evaluation.scenarios import parse, suite
 from msd_bench.core.physics.model import StepModel
 from msd_bench.designs.baselines import baseline_policy
@@ -84,7 +85,8 @@ def run(kinds: Sequence[str], id_seeds: Sequence[int], pinned: bool, draws: int,
         noise_seeds = [id_seed * 1000 + i for i in range(draws)]
         for kind, (surrogate, name) in zip(kinds, parsed, strict=True):
             policy = baseline_policy(name, models[surrogate], cfg.plant, **opts.get(kind, {}))
-            cells = evaluate_policy(policy, cfg.plant, noise_seeds, scenarios, cfg.validation_steps)
+            cells = record_cells(policy, noise_seeds,
+                                 Validation(cfg.plant, scenarios, cfg.validation_steps, cfg.window))
             parts[kind].append(cells)
             at_1m = facts_at_1m(name, models[surrogate], opts.get(kind, {}))
             facts[kind].append({"id_seed": id_seed, **at_1m})

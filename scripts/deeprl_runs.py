@@ -47,7 +47,6 @@ from msd_bench.core.deeprl import mlp  # noqa: E402
 from msd_bench.core.deeprl.hyper import ALGOS, DEFAULTS, DESIGN_SEEDS, PAPER_STEPS, Hyper, from_dict, grid  # noqa: E402
 from msd_bench.core.deeprl.validate import SETPOINT_IDS, setpoints_held  # noqa: E402
 from msd_bench.core.errors import ConfigError, MsdBenchError  # noqa: E402
-from msd_bench.core.evaluation.robustness import evaluate_policy  # noqa: E402
 from msd_bench.core.evaluation.scenarios import parse, suite  # noqa: E402
 from msd_bench.core.physics.model import StepModel, plant_model  # noqa: E402
 from msd_bench.designs import AgentKind, agent_kind  # noqa: E402
@@ -129,8 +128,7 @@ def tune(args: argparse.Namespace) -> dict[str, Any]:
         for h in grid(algo):
             print(f"{algo} {h.as_dict()}", flush=True)
             net, timing = train_seeds(plant, h, args.seeds, args.steps)
-            cells = evaluate_policy(nets_policy(f"plant+{algo}", net, args.seeds), plant_params(), args.seeds,
-                                    sps)
+            cells = scored(nets_policy(f"plant+{algo}", net, args.seeds), args.seeds, sps)
             mae = sum(c["median_mae"] for c in cells.values())
             rows.append({"hyper": h.as_dict(), "held": setpoints_held(cells), "sum_median_mae": round(mae, 4),
                          "cells": {k: _short(c) for k, c in cells.items()}, **timing})
@@ -138,6 +136,14 @@ def tune(args: argparse.Namespace) -> dict[str, Any]:
         best = max(rows, key=lambda r: (r["held"], -r["sum_median_mae"]))
         out["algos"][algo] = {"chosen": best["hyper"], "grid": rows}
     return out
+
+
+def scored(policy: Any, seeds: list[int], scenarios: Any) -> dict[str, dict[str, Any]]:
+    """The policy's cells on the plant under ``scenarios`` (3,000 steps, the SSE's last 500), by the
+    one evaluator through app/scoring, as every kind's robustness cells are made."""
+    from msd_bench.app.scoring import Validation, record_cells
+
+    return record_cells(policy, seeds, Validation(plant_params(), list(scenarios), 3000, 500))
 
 
 def plant_params() -> Any:
@@ -169,7 +175,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         print(f"{kind}: {hyper.as_dict()}", flush=True)
         model, ident = identified(k, args.id_seed)
         net, timing = train_seeds(model, hyper, args.seeds, args.steps)
-        cells = evaluate_policy(nets_policy(kind, net, args.seeds), plant_params(), args.seeds, suite())
+        cells = scored(nets_policy(kind, net, args.seeds), args.seeds, suite())
         real = args.steps * len(args.seeds) if made_on_plant(kind) else 0
         kinds[kind] = {"surrogate": k.surrogate, "algo": algo, "hyper": hyper.as_dict(),
                        "id_seed": None if made_on_plant(kind) else args.id_seed,
@@ -305,7 +311,7 @@ def validate(args: argparse.Namespace) -> dict[str, Any]:
     kind = meta.get("kind")
     if not isinstance(kind, str):
         raise MsdBenchError(f"{args.policy}: meta must name the policy's kind")
-    cells = evaluate_policy(nets_policy(kind, net, seeds), plant_params(), seeds, suite())
+    cells = scored(nets_policy(kind, net, seeds), seeds, suite())
     return {"policy": str(args.policy), "kind": kind, "seeds": seeds,
             "setpoints_held": setpoints_held(cells), "cells": {k: _short(c) for k, c in cells.items()}}
 
