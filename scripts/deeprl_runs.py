@@ -139,11 +139,14 @@ def tune(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def scored(policy: Any, seeds: list[int], scenarios: Any) -> dict[str, dict[str, Any]]:
-    """The policy's cells on the plant under ``scenarios`` (3,000 steps, the SSE's last 500), by the
-    one evaluator through app/scoring, as every kind's robustness cells are made."""
+    """The policy's cells on the plant under ``scenarios`` (the run's validation length and SSE window),
+    by the one evaluator through app/scoring, as every kind's robustness cells are made."""
+    from msd_bench.app.config import RunConfig
     from msd_bench.app.scoring import Validation, record_cells
 
-    return record_cells(policy, seeds, Validation(plant_params(), list(scenarios), 3000, 500))
+    cfg = RunConfig()
+    val = Validation(cfg.plant, list(scenarios), cfg.validation_steps, cfg.window)
+    return record_cells(policy, seeds, val)
 
 
 def plant_params() -> Any:

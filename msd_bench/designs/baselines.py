@@ -140,9 +140,6 @@ def baseline_policy(name: str, model: StepModel, plant: PlantParams, seed: int =
     :func:`msd_bench.core.evaluation.robustness.evaluate_policy`, the one evaluator, as every kind is.
     An unknown design or option is a one-line ``ConfigError`` here, before any run.
     """
-    from msd_bench.core.baselines import designs
-
-    designs.entry(name)
     policy = BaselinePolicy(f"{model.name}+{name}", (int(seed),), Facts(name, True, True, 0), name, model,
                             float(plant.F), float(plant.dt), float(target), dict(options))
     policy.design_at(policy.target)
