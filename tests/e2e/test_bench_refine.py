@@ -73,7 +73,11 @@ def test_every_try_and_the_fresh_run_went_through_the_supervisor(run: Run) -> No
     out, _ = run
     (row,) = _doc(out)["kinds"]["greybox+robust"]
     events = [r["supervisor"] for r in row["rounds"]] + [row["fresh"]["supervisor"]]
-    assert all(e is not None and e["steps"] == 600 and e["complete"] for e in events), events
+    # each run is the supervisor's whole 600-sample run; the commands it filtered in it are its samples,
+    # but the command answering the run's last sample can reach it after the run has ended (a race of
+    # the node's threads, seen idle too), so it may count one fewer
+    assert all(e is not None and e["samples"] == 600 and e["complete"] and e["steps"] in (599, 600)
+               for e in events), events
     assert [e["run"] for e in events] == [1, 2, 3]  # the refinement's supervisor saw these three runs only
 
 
