@@ -74,9 +74,10 @@ def test_every_try_and_the_fresh_run_went_through_the_supervisor(run: Run) -> No
     (row,) = _doc(out)["kinds"]["greybox+robust"]
     events = [r["supervisor"] for r in row["rounds"]] + [row["fresh"]["supervisor"]]
     # each run is the supervisor's whole 600-sample run; the commands it filtered in it are its samples,
-    # but the command answering the run's last sample can reach it after the run has ended (a race of
-    # the node's threads, seen idle too), so it may count one fewer
-    assert all(e is not None and e["samples"] == 600 and e["complete"] and e["steps"] in (599, 600)
+    # give or take one at each edge (races of the node's threads, seen idle too): the command answering
+    # the run's last sample can reach it after the run has ended (599), and one answering the sample
+    # before the run's reference can reach it after the run began (601, seen in CI)
+    assert all(e is not None and e["samples"] == 600 and e["complete"] and 599 <= e["steps"] <= 601
                for e in events), events
     assert [e["run"] for e in events] == [1, 2, 3]  # the refinement's supervisor saw these three runs only
 
