@@ -1,5 +1,5 @@
 """The committed ceiling and refinement sweeps (docs/results/rigs_heldout100_ceiling.json,
-rigs_heldout100_refine2.json): the ceiling sweep's agent rows are the held-out sweep's, run for run,
+rigs_heldout100_refine2_kinds.json): the ceiling sweep's agent rows are the held-out sweep's, run for run,
 and every refined run charges what it tried and kept its best measured try."""
 
 from __future__ import annotations
@@ -45,10 +45,14 @@ def test_the_ceiling_sweep_reproduces_the_held_out_sweep_run_for_run() -> None:
 
 
 def test_every_refined_run_charges_its_tries_and_keeps_its_best_measured_one() -> None:
-    doc = _load("rigs_heldout100_refine2")
+    """The refined runs the committed file keeps (``trimmed.runs_of``): each tried at most R + 1
+    policies, kept the best measured try, and was charged every record, try and fresh run with the
+    rests before them (the one bill, ``app/rig_cost.py: spent``)."""
+    doc = _load("rigs_heldout100_refine2_kinds")
     steps = doc["validation"]["steps"]
+    kept = set(doc["trimmed"].get("runs_of", [k["kind"] for k in doc["kinds"]]))
     refined = [o for r in doc["rigs"] for o in r["outcomes"] if "refine" in o]
-    assert len(refined) == sum(k["n"] for k in doc["kinds"] if "refine" in k) > 0
+    assert len(refined) == sum(k["n"] for k in doc["kinds"] if "refine" in k and k["kind"] in kept) >= 800
     for o in refined:
         ref = o["refine"]
         tried = [r for r in ref["rounds"] if "samples" in r]
@@ -56,11 +60,20 @@ def test_every_refined_run_charges_its_tries_and_keeps_its_best_measured_one() -
         ranked = min(tried, key=lambda r: (r["aborted"], r["sse_measured"], r["round"]))
         assert ref["chosen_round"] == ranked["round"]
         charged = ref["real_samples"]
+        assert charged["accounting"] == "route+rests"
         assert charged["tries"] == steps * len(tried) and charged["fresh_validation"] == steps
-        if "accounting" not in charged:  # the bill before app/rig_cost.py: every played record, no rests
-            parts = charged["open_loop_records"] + charged["tries"] + charged["fresh_validation"]
-        else:
-            assert charged["accounting"] == "route+rests"
-            assert charged["runs"] == charged["tries"] + charged["fresh_validation"]
-            parts = charged["records"] + charged["record_rests"] + charged["runs"] + charged["run_rests"]
+        assert charged["runs"] == charged["tries"] + charged["fresh_validation"]
+        parts = charged["records"] + charged["record_rests"] + charged["runs"] + charged["run_rests"]
         assert charged["total"] == parts
+
+
+def test_every_refinable_robust_kind_was_refined_beside_the_ceiling() -> None:
+    """The sweep refined each robust kind it ran, and pooled a refined row for each beside the two
+    ceiling rows (the rows the refinement table reads)."""
+    doc = _load("rigs_heldout100_refine2_kinds")
+    kinds = [k["kind"] for k in doc["kinds"]]
+    routes = [c["kind"] for c in doc["ceiling"]]
+    assert set(routes) == {"truth+robust", "truth-plant+robust"}
+    for agent in doc["agents"]:
+        assert f"{agent}+refined" in kinds, agent
+    assert all(k["n"] == 400 for k in doc["kinds"])
