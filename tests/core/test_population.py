@@ -91,12 +91,13 @@ def table():
     return train(plant_model(PRESETS["default"]), CFG, [3]).q
 
 
-@pytest.mark.parametrize("seed", [EMULATOR_SEED, 3, 1001])
-def test_the_node_rig_and_the_compiled_loop_are_one_transition_bit_for_bit(seed, table):
+@pytest.mark.parametrize(("seed", "offset"), [(EMULATOR_SEED, 0.0), (3, 0.0), (3, -0.8), (1001, 0.0)])
+def test_the_node_rig_and_the_compiled_loop_are_one_transition_bit_for_bit(seed, offset, table):
     spec = draw(seed)
-    if seed == 3:  # make sure one case has every imperfection on at once
+    if seed == 3:  # make sure one case has every imperfection on at once (and one an offset force too)
         spec = replace(spec, imperfections=replace(spec.imperfections, delay_samples=2, sensor_quant=1e-4,
-                                                   sensor_noise=0.002, actuator_tau=0.03, friction=0.3))
+                                                   sensor_noise=0.002, actuator_tau=0.03, friction=0.3,
+                                                   offset=offset))
     steps, noise_seed = 600, 7
     lr = packed(CFG)
     kernel = plant_model(spec.params).kernel
@@ -106,6 +107,18 @@ def test_the_node_rig_and_the_compiled_loop_are_one_transition_bit_for_bit(seed,
     rows = [rig.step(u) for u in us[0]]
     assert np.array_equal([r.x for r in rows], xs[0])
     assert len(set(us[0].tolist())) >= 3 and np.ptp(xs[0]) > 0.05  # not a trivial run
+
+
+def test_an_offset_force_moves_a_resting_rig_only_past_its_friction():
+    """The offset acts at every sample whatever the drive does: held by friction when it is smaller,
+    pushing the mass towards the stop when it is larger (a stage's unbalanced axis)."""
+    spec = draw(3)
+    held = Rig(spec.params, replace(spec.imperfections, friction=0.5, offset=0.4, sensor_noise=0.0))
+    pushed = Rig(spec.params, replace(spec.imperfections, friction=0.5, offset=-3.0, sensor_noise=0.0))
+    for _ in range(300):
+        held.step(0.0), pushed.step(0.0)
+    assert held.x == 0.0 and pushed.x < -0.5
+    assert population.conditions(replace(spec, imperfections=pushed.imperfections), 1.0).offset == -3.0
 
 
 def test_a_rig_without_imperfections_validates_as_the_nominal_loop():

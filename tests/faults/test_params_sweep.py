@@ -53,8 +53,8 @@ DECLARED = {
                    "reset_first", "min_subscribers", "wait_recorder", "prbs.bias", "prbs.n_samples",
                    "multilevel.levels", "steps.dwell"],
     "identifier": ["bags_dir", "settle_samples", "models", "seed", "stroke", "nlarx_scale", "out_dir"],
-    "rig": ["sensor_noise", "sensor_quant", "delay_samples", "actuator_tau", "friction", "jitter", "seed",
-            "publish_truth", "watchdog_timeout", "preset"],
+    "rig": ["sensor_noise", "sensor_quant", "delay_samples", "actuator_tau", "friction", "offset", "jitter",
+            "seed", "publish_truth", "watchdog_timeout", "preset"],
 }
 OUT_OF_RANGE = [
     ("plant", "m:=1e6", "m"), ("plant", "m:=0.0", "m"), ("plant", "k:=-1.0", "k"), ("plant", "k:=1e9", "k"),

@@ -169,13 +169,13 @@ def run(plant: Kernel, ctl: Any, cond: Conditions, noise: FloatArray, start: Flo
             if supervised:
                 f, out.reason[j, k] = filter_step(lim, st, y, cond.target, f)
             out.force[j, k] = f
-            load = cond.load if k >= cond.load_step else 0.0
+            load = cond.offset + (cond.load if k >= cond.load_step else 0.0)
             e = noise[j, k + 1] if k + 1 < n_steps else 0.0
             out.effort[j, k], x, y = transition(plant, state, act, k, f, e, cond.delay, cond.lag, load,
                                                 cond.friction, cond.quant)
         for i in range(drain):
-            transition(plant, state, act, n_steps + i, 0.0, 0.0, cond.delay, cond.lag, 0.0, cond.friction,
-                       cond.quant)
+            transition(plant, state, act, n_steps + i, 0.0, 0.0, cond.delay, cond.lag, cond.offset,
+                       cond.friction, cond.quant)
         out.aborts[j] = int(st[S_ABORT])
         out.end[j, 0], out.end[j, 1] = state[0], state[1]
     return out
@@ -267,12 +267,12 @@ def stepwise(ctl: Acts, plant: Kernel, cond: Conditions, noise: FloatArray, lim:
         if lim is not None:
             f, out.reason[0, k] = filter_step(lim, st, y, cond.target, f)
         out.force[0, k] = f
-        load = cond.load if k >= cond.load_step else 0.0
+        load = cond.offset + (cond.load if k >= cond.load_step else 0.0)
         e = noise[k + 1] if k + 1 < n_steps else 0.0
         out.effort[0, k], x, y = transition(plant, state, act, k, f, e, cond.delay, cond.lag, load,
                                             cond.friction, cond.quant)
     for i in range(drain):
-        transition(plant, state, act, n_steps + i, 0.0, 0.0, cond.delay, cond.lag, 0.0, cond.friction,
+        transition(plant, state, act, n_steps + i, 0.0, 0.0, cond.delay, cond.lag, cond.offset, cond.friction,
                    cond.quant)
     out.aborts[0] = int(st[S_ABORT])
     out.end[0] = state[0], state[1]

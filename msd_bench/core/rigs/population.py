@@ -170,7 +170,7 @@ def conditions(spec: RigSpec, target: float) -> Conditions:
     """
     i = spec.imperfections
     return Conditions(float(target), i.sensor_quant, i.delay_samples, 0.0, 0, i.friction,
-                      lag_samples(i.actuator_tau, spec.params.dt))
+                      lag_samples(i.actuator_tau, spec.params.dt), i.offset)
 
 
 def measurement_noise(spec: RigSpec, seeds: Sequence[int], steps: int) -> FloatArray:

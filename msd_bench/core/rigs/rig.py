@@ -77,6 +77,10 @@ class RigImperfections:
     friction: float = field(default=0.2, metadata={"range": (0.0, 1e4)})
     """Coulomb friction (N): opposes motion; at rest it holds the mass while the other forces
     stay within it; 0 = none."""
+    offset: float = field(default=0.0, metadata={"range": (-1e4, 1e4)})
+    """A force that always acts on the mass (N, signed), whatever the drive does: the unbalanced weight
+    of an inclined axis, the pull of a cable carrier or bellows; 0 = none (every rig of the default
+    family). It enters as a load after the drive's saturation, so the drive's limit is unchanged."""
     jitter: float = field(default=0.002, metadata={"range": (0.0, 0.05)})
     """Largest publish delay (s): each sample is published a uniform random time in [0, jitter)
     after its acquisition (stamps stay the acquisition times); must be below the sample time;
@@ -84,6 +88,8 @@ class RigImperfections:
 
     def __post_init__(self) -> None:
         SensorModel(self.sensor_noise, self.sensor_quant)  # a bad sensor is one ConfigError line
+        if not math.isfinite(self.offset):
+            raise ConfigError(f"rig offset must be finite, got {self.offset}")
         for name in ("actuator_tau", "friction", "jitter"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
@@ -112,7 +118,8 @@ class RigImperfections:
             return self
         m = scales.metres
         return replace(self, sensor_noise=m(self.sensor_noise), sensor_quant=m(self.sensor_quant),
-                       friction=scales.newtons(self.friction), jitter=self.jitter * scales.time,
+                       friction=scales.newtons(self.friction), offset=scales.newtons(self.offset),
+                       jitter=self.jitter * scales.time,
                        delay_samples=round(self.delay_samples / scales.time))
 
     def check_against(self, params: PlantParams) -> None:
@@ -145,6 +152,9 @@ class Conditions(NamedTuple):
     lag: float = 0.0
     """Time constant of the actuator's first-order lag in *samples* (τ/dt; 0 = none), after the
     delay (:func:`msd_bench.core.rigs.rig.actuate`)."""
+    offset: float = 0.0
+    """A force that always acts, N (a stage's unbalanced weight or cable drag: the rig's
+    :attr:`RigImperfections.offset`), added to the load at every sample, the drain's included."""
 
 
 @numba.njit(cache=True)
@@ -335,7 +345,7 @@ class Rig:
         x, v, y = self.x, self.v, self._y
         imp = self.imperfections
         effort, _, self._y = transition(self._model, self._state, self.actuator.state, self.actuator.tick(),
-                                        u, self._draw(), imp.delay_samples, self.actuator.lag, 0.0,
+                                        u, self._draw(), imp.delay_samples, self.actuator.lag, imp.offset,
                                         imp.friction, imp.sensor_quant)
         return RigRow(y, self._velocity.update(y), float(effort), x, v, float(self._y))
 

@@ -44,7 +44,7 @@ def conditions(rig: Rig, target: float, load: float = 0.0, load_step: int = 0) -
     imp = rig.imperfections
     return Conditions(target=float(target), quant=float(imp.sensor_quant), delay=int(imp.delay_samples),
                       load=float(load), load_step=int(load_step), friction=float(imp.friction),
-                      lag=lag_samples(imp.actuator_tau, rig.params.dt))
+                      lag=lag_samples(imp.actuator_tau, rig.params.dt), offset=float(imp.offset))
 
 
 def drain_samples(rig: Rig) -> int:

@@ -76,12 +76,13 @@ class RigUnits:
         return PlantParams(**{name: getattr(twin, name) * k for name, k in self.plant_factors().items()})
 
     def imperfections(self, twin: RigImperfections) -> RigImperfections:
-        """The twin's imperfections in these units: friction a force, noise and quantisation lengths,
-        lag and jitter times; the delay is in samples and stays."""
+        """The twin's imperfections in these units: friction and the offset forces, noise and
+        quantisation lengths, lag and jitter times; the delay is in samples and stays."""
         if self.is_identity:
             return twin
         ln, t = self.length, self.time
-        return replace(twin, friction=twin.friction * self.force, sensor_noise=twin.sensor_noise * ln,
+        return replace(twin, friction=twin.friction * self.force, offset=twin.offset * self.force,
+                       sensor_noise=twin.sensor_noise * ln,
                        sensor_quant=twin.sensor_quant * ln, actuator_tau=twin.actuator_tau * t,
                        jitter=twin.jitter * t)
 
