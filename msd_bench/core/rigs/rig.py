@@ -329,6 +329,11 @@ class Rig:
         """True velocity now (m/s)."""
         return float(self._state[1])
 
+    @property
+    def measured(self) -> float:
+        """The measured position now, y_k (m): what a controller deciding this sample's command reads."""
+        return self._y
+
     def cut(self) -> None:
         """Disable the drive (watchdog): the applied force is 0 N from the next sample on."""
         self.actuator.cut()

@@ -25,7 +25,7 @@ the origin, which is the point of playing the plan this way.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -36,8 +36,9 @@ from msd_bench.core.identification.data import Experiment, IOData
 from msd_bench.core.identification.excitation import MultilevelConfig, PrbsConfig, multilevel, prbs
 from msd_bench.core.identification.records import Records
 from msd_bench.core.rigs.actuation import EffortAgreement, effort_agreement
+from msd_bench.core.rigs.hold import HoldLoop, beyond_loop
 from msd_bench.core.rigs.rest import RestConfig, RestDetector
-from msd_bench.core.rigs.rig import Rig
+from msd_bench.core.rigs.rig import Rig, RigRow
 
 FloatArray = NDArray[np.float64]
 TRAIN, VALIDATION = "train", "validation"
@@ -67,7 +68,8 @@ class PlayedExperiment:
     settle: int
     """Leading samples dropped for identification (a PRBS record's settle segment)."""
     command: FloatArray
-    """The force commanded at each sample, N."""
+    """The force commanded at each sample, N (the planned signal, plus the hold loop's force on a rig
+    recorded under one)."""
     effort: FloatArray
     """The force the actuator applied over each sample (joint_states.effort), N."""
     measured: FloatArray
@@ -102,14 +104,38 @@ class PlanItem(Protocol):
     def seed(self) -> int: ...
 
 
-def rest(rig: Rig, config: RestConfig | None = None) -> RestOutcome:
-    """Zero force until the measured position is still (or the rest timeout); the rig stays there."""
+def rest(rig: Rig, config: RestConfig | None = None, hold: HoldLoop | None = None) -> RestOutcome:
+    """Zero force (or only the ``hold`` loop's) until the measured position is still (or the rest
+    timeout); the rig stays there."""
     detector = RestDetector(config)
     most = round(detector.config.timeout / rig.params.dt)
+    loop = _Held(rig, hold)
     while detector.samples < most:
-        if detector.push(rig.step(0.0).measured):
+        if detector.push(loop.step(0.0).measured):
             return RestOutcome(detector.samples, True, detector.x0)
     return RestOutcome(detector.samples, False, detector.x0)
+
+
+class _Held:
+    """A rig stepped with the ``hold`` loop's force added to each command (the command itself without
+    one). The loop reads what a lab's loop reads: the measured position now and the velocity estimated
+    from the last two (0 at the first sample, as the rig's own estimate)."""
+
+    def __init__(self, rig: Rig, hold: HoldLoop | None) -> None:
+        self.rig, self.hold = rig, hold
+        self._last: float | None = None
+
+    def command(self, signal: float) -> float:
+        """The force commanded at this sample: the signal, plus the loop's force when there is one."""
+        if self.hold is None:
+            return signal
+        y = self.rig.measured
+        v = 0.0 if self._last is None else (y - self._last) / self.rig.params.dt
+        self._last = y
+        return signal + self.hold.force(y, v)
+
+    def step(self, signal: float) -> RigRow:
+        return self.rig.step(self.command(signal))
 
 
 def signal_of(item: PlanItem) -> tuple[FloatArray, int]:
@@ -119,37 +145,48 @@ def signal_of(item: PlanItem) -> tuple[FloatArray, int]:
     return multilevel(item.signal, item.seed), 0
 
 
-def play(rig: Rig, command: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Hold each command for one sample; (effort, measured, velocity, truth) per sample."""
-    n = len(command)
-    out = np.empty((4, n))
+def play(rig: Rig, signal: FloatArray,
+         hold: HoldLoop | None = None) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Hold each command for one sample: the signal's, plus the ``hold`` loop's force when there is one;
+    (command, effort, measured, velocity, truth) per sample."""
+    n = len(signal)
+    out = np.empty((5, n))
+    loop = _Held(rig, hold)
     for k in range(n):
-        row = rig.step(float(command[k]))
-        out[0, k], out[1, k], out[2, k], out[3, k] = row.effort, row.measured, row.velocity, row.x
-    return out[0], out[1], out[2], out[3]
+        out[0, k] = loop.command(float(signal[k]))
+        row = rig.step(out[0, k])
+        out[1, k], out[2, k], out[3, k], out[4, k] = row.effort, row.measured, row.velocity, row.x
+    return out[0], out[1], out[2], out[3], out[4]
 
 
-def play_experiment(rig: Rig, item: PlanItem, rest_config: RestConfig | None = None) -> PlayedExperiment:
-    """Rest, then play one planned experiment through ``rig``."""
-    before = rest(rig, rest_config)
-    command, settle = signal_of(item)
-    effort, measured, velocity, truth = play(rig, command)
+def play_experiment(rig: Rig, item: PlanItem, rest_config: RestConfig | None = None,
+                    hold: HoldLoop | None = None) -> PlayedExperiment:
+    """Rest, then play one planned experiment through ``rig`` (under ``hold`` when given: both)."""
+    before = rest(rig, rest_config, hold)
+    signal, settle = signal_of(item)
+    command, effort, measured, velocity, truth = play(rig, signal, hold)
     return PlayedExperiment(item.name, item.role, item.bias, settle, command, effort, measured, velocity,
                             truth, before)
 
 
-def play_plan(rig: Rig, plan: Sequence[PlanItem],
-              rest_config: RestConfig | None = None) -> list[PlayedExperiment]:
-    """Every planned experiment in order, each from where the rig came to rest after the last."""
-    return [play_experiment(rig, item, rest_config) for item in plan]
+def play_plan(rig: Rig, plan: Sequence[PlanItem], rest_config: RestConfig | None = None,
+              hold: HoldLoop | None = None) -> list[PlayedExperiment]:
+    """Every planned experiment in order, each from where the rig came to rest after the last; a rig
+    with no equilibrium of its own (a stage) is rested and excited under its ``hold`` loop."""
+    return [play_experiment(rig, item, rest_config, hold) for item in plan]
 
 
-def records_of(played: Sequence[PlayedExperiment], dt: float) -> Records:
-    """The identification records of a played plan: the bags' applied force and measured position only."""
+def records_of(played: Sequence[PlayedExperiment], dt: float, hold: HoldLoop | None = None) -> Records:
+    """The identification records of a played plan: the bags' applied force and measured position only.
+    With the ``hold`` loop the plan was played under, the records of the *held* system: the force
+    applied beyond the loop's (:func:`~msd_bench.core.rigs.hold.beyond_loop`) and the position."""
     bias: dict[str, dict[float, IOData]] = {TRAIN: {}, VALIDATION: {}}
     broad: dict[str, IOData] = {}
     for p in played:
-        data = IOData((p.experiment(),), dt, {"rig_experiment": p.name, "rest_samples": p.rest.samples})
+        e = p.experiment()
+        if hold is not None:
+            e = replace(e, u=beyond_loop(p.effort, p.measured, hold, dt)[p.settle:])
+        data = IOData((e,), dt, {"rig_experiment": p.name, "rest_samples": p.rest.samples})
         if p.bias is None:
             broad[p.role] = data
         else:
