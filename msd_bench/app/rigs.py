@@ -118,7 +118,7 @@ class RigsConfig:
     scenarios, supervisor limits and the designs' constants are scaled by them."""
 
     def __post_init__(self) -> None:
-        families.family(self.family)  # an unknown family: one line, with the nearest name
+        families.in_process(self.family)  # an unknown family: one line, with the nearest name
         if self.rigs < 1 or self.first_rig < 0:
             raise ConfigError(f"--rigs must be >= 1 and --first-rig >= 0, got {self.rigs} and "
                               f"{self.first_rig}")

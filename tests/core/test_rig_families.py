@@ -35,12 +35,20 @@ def test_the_default_family_is_the_population_bit_for_bit() -> None:
 
 @pytest.mark.parametrize(("name", "hint"), [("scaeld", "did you mean 'scaled'"),
                                            ("defualt", "did you mean 'default'"),
-                                           ("stage", "families: default, scaled")])
+                                           ("gantry", "families: default, scaled, stage")])
 def test_an_unknown_family_is_one_line_naming_the_nearest(name: str, hint: str) -> None:
     with pytest.raises(ConfigError) as err:
         families.family(name)
     assert "\n" not in str(err.value) and f"unknown rig family {name!r}" in str(err.value)
     assert hint in str(err.value)
+
+
+def test_a_family_rigs_cannot_run_yet_is_one_line_saying_why() -> None:
+    assert families.in_process("scaled").name == "scaled"
+    with pytest.raises(ConfigError) as err:
+        families.in_process("stage")
+    assert "\n" not in str(err.value) and "'stage' cannot run in-process yet" in str(err.value)
+    assert "rig.py serves its members" in str(err.value)
 
 
 def test_each_family_keeps_design_and_held_out_seeds_apart() -> None:

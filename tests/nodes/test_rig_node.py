@@ -199,6 +199,16 @@ def test_a_family_member_is_served_with_its_units_beyond_the_usual_ranges(ctx: A
     rig.destroy_node()
 
 
+def test_a_stage_is_served_with_its_offset_force_and_rate(ctx: Any, executor: Any) -> None:
+    from msd_bench.core.rigs.families import draw
+
+    member = draw("stage", 1000)
+    rig = make_rig(ctx, executor, "/fam_s", family="stage", population_seed=1000)
+    assert rig.served() == member and rig.rig.params == member.params and rig.imperfections.offset != 0.0
+    assert rig._sensor_text().startswith(member.line() + " (population member)")
+    rig.destroy_node()
+
+
 def test_the_default_rig_is_the_reserved_member(ctx, executor):
     from msd_bench.core.physics.plant import PRESETS
     from msd_bench.core.rigs.rig import RigImperfections

@@ -30,6 +30,7 @@ from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.closed_loop import Conditions
 from msd_bench.core.physics.plant import PRESETS, PlantParams
 from msd_bench.core.physics.sensor import sensor_rng
+from msd_bench.core.rigs.hold import HoldLoop
 from msd_bench.core.rigs.rig import RigImperfections, lag_samples
 from msd_bench.core.rigs.scales import DEFAULT_DT, Scales
 from msd_bench.core.rigs.units import RigUnits
@@ -101,6 +102,12 @@ class RigSpec:
     """The family the rig was drawn from (:mod:`msd_bench.core.rigs.families`)."""
     units: RigUnits = field(default_factory=RigUnits)
     """The rig's units against its default-family twin (the identity in the default family)."""
+    pace: float | None = None
+    """The time unit of the rig's dynamics against the paper plant's, as its family states it from what
+    an owner knows (the ``stage`` family: stroke, force limit, nominal mass); None: from its units."""
+    hold: HoldLoop | None = None
+    """The position loop its records are taken under (a rig with no equilibrium of its own: a stage);
+    None: open-loop records, as on the paper's plant."""
 
     def multipliers(self) -> dict[str, float]:
         """m, c, k, h relative to the ``default`` preset, in the rig's own units (its twin's multipliers)."""
@@ -112,19 +119,32 @@ class RigSpec:
         other units than its twin's) its dynamics' time unit, which is its sample time's
         (:class:`~msd_bench.core.rigs.scales.Scales`; exactly the default's in the default family)."""
         p = self.params
+        if self.pace is not None:
+            return Scales.of(p.L, p.F, p.dt, self.pace)
         pace = 1.0 if self.units.time == 1.0 else p.dt / DEFAULT_DT
         return Scales.of(p.L, p.F, p.dt, pace)
+
+    def decision_samples(self) -> int:
+        """Rig samples per decision: the paper's 10 ms decision in the rig's time unit, whole and at least
+        one (1 for every rig whose dynamics run at its sampling's pace: the default and scaled families)."""
+        if self.pace is None:
+            return 1
+        return max(1, round(DEFAULT_DT * self.pace / self.params.dt))
 
     def line(self) -> str:
         """Every parameter on one line, for logs, reports and tables."""
         p, i, u = self.params, self.imperfections, self.units
-        mult = " ".join(f"{f}={getattr(p, f):.4g}(x{r:.3f})" for f, r in self.multipliers().items())
+        if self.pace is None:
+            mult = " ".join(f"{f}={getattr(p, f):.4g}(x{r:.3f})" for f, r in self.multipliers().items())
+        else:  # a plant of its own, not a default one's multiples
+            mult = f"[{self.family}] " + " ".join(f"{f}={getattr(p, f):.4g}" for f in _MULTIPLIED)
         units = "" if u.is_identity else (f" [{self.family}: length x{u.length:.4g}, mass x{u.mass:.4g}, "
                                           f"time x{u.time:.4g}]")
         return (f"rig {self.seed}{units}: {mult} g={p.g:g} L={p.L:g} F={p.F:g} dt={p.dt:g}; "
                 f"friction {i.friction:.3f} N, delay {i.delay_samples} samples, "
                 f"lag {i.actuator_tau * 1e3:.1f} ms, noise {i.sensor_noise * 1e3:.2f} mm, "
-                f"quantisation {i.sensor_quant * 1e3:g} mm, jitter {i.jitter * 1e3:g} ms")
+                f"quantisation {i.sensor_quant * 1e3:g} mm, jitter {i.jitter * 1e3:g} ms"
+                + (f", offset {i.offset:.4g} N" if i.offset else ""))
 
 
 def check_seed(seed: object) -> int:
