@@ -58,8 +58,8 @@ EXCEPTIONS: dict[str, str] = {
     "msd_bench/core/identification/greybox_rk4.py::one_step": FIT,
     "msd_bench/core/identification/greybox_rig.py::record_through_rig": FIT + " (records excitation data "
     "through a rig, open loop)",
-    "msd_bench/core/rigs/rig_play.py::rest": FIT + " (lets a rig come to rest, open loop)",
-    "msd_bench/core/rigs/rig_play.py::play": FIT + " (plays a recorded command open loop)",
+    "msd_bench/core/rigs/rig_play.py::play": FIT + " (plays a record's signal, open loop or under the stated "
+    "hold loop: an excitation, no controller under test; its rests step through the same helper)",
     # a controller's internal model: prediction inside the decision, not the plant under test
     "msd_bench/core/baselines/mpc.py::_hold_tail": FIT + " (the MPC's prediction model)",
     "msd_bench/core/baselines/mpc.py::plan": FIT + " (the MPC's prediction model)",
