@@ -66,7 +66,7 @@ class RigEfficiencyConfig:
     def __post_init__(self) -> None:
         if self.rigs.ceiling:
             raise ConfigError("--ceiling is not a route of the curve (it spends no real samples to learn)")
-        families.in_process(self.family)  # an unknown family: one line, with the nearest name
+        families.in_process(self.family, curve=True)  # an unknown or held family: one line
         if self.rigs.family != self.family:
             raise ConfigError(f"the population run draws family {self.rigs.family!r}, the curve "
                               f"{self.family!r}: give the same to both")

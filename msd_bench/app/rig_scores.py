@@ -12,6 +12,7 @@ from msd_bench.app.scoring import metric_row
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.results import SUCCESS_SSE
 from msd_bench.core.evaluation.scenarios import Scenario, parse
+from msd_bench.core.rigs.hold import BARE, Operation
 
 if TYPE_CHECKING:
     import numpy as np
@@ -40,17 +41,18 @@ def rig_scenario(sid: str) -> Scenario:
 
 
 
-def rig_settings(run: RunConfig, params: PlantParams, scales: Scales) -> Settings:
+def rig_settings(run: RunConfig, params: PlantParams, scales: Scales, every: int = 1) -> Settings:
     """What a design takes from a run on a rig: the run's budgets (in the rig's scales already), the
-    rig's sample time, force limit and stroke, and its time unit; on the default family's rigs exactly
-    what :func:`msd_bench.app.job.agent_params` gives (same dt, F and stroke)."""
+    rig's sample time, force limit and stroke, its time unit and its samples per decision (``every``);
+    on the default family's rigs exactly what :func:`msd_bench.app.job.agent_params` gives (same dt,
+    F and stroke)."""
     from dataclasses import replace
 
     from msd_bench.app.job import agent_params
     from msd_bench.designs.protocol import settings_from
 
     return replace(settings_from(agent_params(run)), dt=params.dt, force=params.F, stroke=params.L,
-                   pace=scales.pace)
+                   pace=scales.pace, decision_samples=every)
 
 
 def rig_limits(run: RunConfig, scales: Scales) -> Limits | None:
@@ -80,20 +82,22 @@ def paper_risk(risk: dict[str, Any], scales: Scales) -> dict[str, Any]:
 
 
 def run_member(rig: Rig, policy: Policy, member: int, sc: Scenario, steps: int, rng: np.random.Generator,
-               limits: Limits | None, rest: RestConfig | None = None) -> RigRun:
+               limits: Limits | None, rest: RestConfig | None = None, op: Operation = BARE) -> RigRun:
     """One run of ``policy``'s member ``member`` on the rig under ``sc`` (a set-point and a load), from
     rest as ``rest`` judges it (None: the paper's plant's): a Q-table with its observer through the
-    compiled greedy loop, any other policy through its controller. Every row of ``msd-bench rigs``
-    runs through here, open loop or refined."""
+    compiled greedy loop, any other policy through its controller, under the rig's operation ``op``
+    (a stage's hold loop and decision period). Every row of ``msd-bench rigs`` runs through here,
+    open loop or refined."""
     from msd_bench.core.rigs.rig_loop import run_controller_on_rig, run_on_rig
     from msd_bench.designs.qlearning import QPolicy
 
     load_step = round(sc.disturbance_time / rig.params.dt)
     if isinstance(policy, QPolicy) and policy.observer is not None:
         return run_on_rig(rig, policy.q[member], policy.learner, policy.observer, sc.setpoint, steps, rng,
-                          load=sc.disturbance, load_step=load_step, rest_config=rest, limits=limits)
+                          load=sc.disturbance, load_step=load_step, rest_config=rest, limits=limits, op=op)
     return run_controller_on_rig(rig, policy.controller(member, sc.setpoint), sc.setpoint, steps, rng,
-                                 load=sc.disturbance, load_step=load_step, rest_config=rest, limits=limits)
+                                 load=sc.disturbance, load_step=load_step, rest_config=rest, limits=limits,
+                                 op=op)
 
 
 def scores(r: RigRun, target: float, run: RunConfig, brief: bool = False,

@@ -118,7 +118,8 @@ class RigsConfig:
     scenarios, supervisor limits and the designs' constants are scaled by them."""
 
     def __post_init__(self) -> None:
-        families.in_process(self.family)  # an unknown family: one line, with the nearest name
+        # an unknown family, or what a held one cannot do yet: one line
+        families.in_process(self.family, self.ceiling, self.refine, self.run.supervisor)
         if self.rigs < 1 or self.first_rig < 0:
             raise ConfigError(f"--rigs must be >= 1 and --first-rig >= 0, got {self.rigs} and "
                               f"{self.first_rig}")
@@ -199,8 +200,8 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
     run = cfg.run
     scales = drawn.scales()
     played = play_plan(rig, paper_plan(run.id_first_seed, run.samples, run.val_samples, cfg.settle,
-                                       scales=scales), cfg.rest)
-    records = records_of(played, drawn.params.dt)
+                                       scales=scales), cfg.rest, drawn.hold)
+    records = records_of(played, drawn.params.dt, drawn.hold)  # a held rig's: the held system's
     drive = measured_actuator(played, drawn.params.dt)
     told = Drive(drive.delay_samples, drive.time_constant_s) if cfg.actuator == "measured" else None
     t_play = time.perf_counter()
@@ -303,7 +304,7 @@ def _make(surrogate: StepModel, run: RunConfig, spec: population.RigSpec, kind: 
     its design could not be made on this rig's surrogate (a baseline's tuning rule may find no gains
     for it: a result)."""
     try:
-        settings = rig_settings(run, spec.params, spec.scales())
+        settings = rig_settings(run, spec.params, spec.scales(), spec.decision_samples())
         return designs.make(kind, surrogate, settings, run.learning_seeds(0), drive), ""
     except ConfigError as exc:
         return None, str(exc)
@@ -344,7 +345,8 @@ def _one_run(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy, member: int, 
     kind, seed): :func:`msd_bench.app.rig_scores.run_member`."""
     rng = np.random.default_rng(noise_seed(seed, f"rig{rig_seed}/{kind}/{sc.id}"))
     limits = rig_limits(cfg.run, cfg.scales)
-    return run_member(rig, policy, member, sc, cfg.run.validation_steps, rng, limits, cfg.rest)
+    return run_member(rig, policy, member, sc, cfg.run.validation_steps, rng, limits, cfg.rest,
+                      cfg.draw(rig_seed).operation())
 
 
 def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:

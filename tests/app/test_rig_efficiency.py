@@ -94,7 +94,7 @@ def test_on_plant_learners_train_on_each_rig_and_are_charged_every_step(curve: d
     (["--refine", "1"], "--refine apply to the curve on rigs"),
     (["--rigs", "2", "--budgets", "0"], "budgets must be >= 1 episode"),
     (["--family", "stages"], "unknown rig family 'stages'"),
-    (["--family", "stage"], "rig family 'stage' cannot run in-process yet"),
+    (["--family", "stage"], "rig family 'stage' runs under its hold loop: the efficiency curve is not built"),
     (["--rigs", "2", "--agents", "plant,dyna-q"], "draws on-plant learners beside a surrogate route"),
     (["--rigs", "2", "--record-samples", "50"], "record samples must be >= 100"),
     (["--rigs", "2", "--record-samples", "300,300"], "record samples repeat"),

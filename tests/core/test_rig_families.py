@@ -43,12 +43,16 @@ def test_an_unknown_family_is_one_line_naming_the_nearest(name: str, hint: str) 
     assert hint in str(err.value)
 
 
-def test_a_family_rigs_cannot_run_yet_is_one_line_saying_why() -> None:
-    assert families.in_process("scaled").name == "scaled"
+def test_what_a_held_family_cannot_do_yet_is_one_line_saying_why() -> None:
+    assert families.in_process("scaled", ceiling=True, refine=2, supervisor=True, curve=True).name == "scaled"
+    assert families.in_process("stage").held
     with pytest.raises(ConfigError) as err:
-        families.in_process("stage")
-    assert "\n" not in str(err.value) and "'stage' cannot run in-process yet" in str(err.value)
-    assert "rig.py serves its members" in str(err.value)
+        families.in_process("stage", ceiling=True, supervisor=True)
+    line = str(err.value)
+    assert "\n" not in line and "rig family 'stage' runs under its hold loop" in line
+    assert "--ceiling, --supervisor on are not built for held rigs yet" in line
+    with pytest.raises(ConfigError, match="the efficiency curve is not built"):
+        families.in_process("stage", curve=True)
 
 
 def test_each_family_keeps_design_and_held_out_seeds_apart() -> None:

@@ -7,7 +7,10 @@ first-order lag, a load force may push from a given time on (on a plant-kind
 model in its force balance, on an ARX-type surrogate on its input), Coulomb
 friction may hold the mass (plant kind only), and the controller sees the
 position through the sensor (noise drawn outside, then quantisation); a run
-starts from a given state with the drive idle. The ideal plant is the plant
+starts from a given state with the drive idle. A controller may decide every
+``every`` samples (its command held in between), and a stage runs under its
+stated hold loop, whose force is added to the command at every sample
+(:func:`msd_bench.core.rigs.rig.with_hold`). The ideal plant is the plant
 under test with nothing added (:func:`nominal`). Each sample is the rig's own
 compiled transition (:func:`msd_bench.core.rigs.rig.transition`), so a run on a
 rig here is the rig node's run bit for bit.
@@ -46,7 +49,7 @@ from msd_bench.core.learning.q_kernels import encode, greedy, observe, observer_
 from msd_bench.core.learning.qconfig import Learner
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.kernels import RIG_STATE_SIZE, Kernel
-from msd_bench.core.rigs.rig import Conditions, actuate, actuator_state, sense, transition
+from msd_bench.core.rigs.rig import Conditions, actuate, actuator_state, sense, transition, with_hold
 from msd_bench.core.safety.supervisor import S_ABORT, STATE_SIZE, Limits, filter_step
 
 __all__ = ["AT_REST", "NO_LIMITS", "Acts", "Conditions", "QRun", "SupervisedRuns", "Trace", "actuate",
@@ -124,7 +127,8 @@ class Trace(NamedTuple):
     command: FloatArray
     """The controller's force, N."""
     force: FloatArray
-    """The force sent to the drive (the command, clipped to ±F on a rig, as the supervisor let it), N."""
+    """The force sent to the drive (the command, with the hold loop's force added under one, clipped to
+    ±F on a rig, as the supervisor let it), N."""
     effort: FloatArray
     """The force the drive applied over the sample (after delay and lag), N."""
     reason: IntArray
@@ -162,10 +166,14 @@ def run(plant: Kernel, ctl: Any, cond: Conditions, noise: FloatArray, start: Flo
         st[:] = 0.0
         x = start[0]
         y = sense(x, noise[j, 0], cond.quant)
+        u, y_last = 0.0, y
         for k in range(n_steps):
-            u = decide(ctl, j, k, y, cond.target)
+            if k % cond.every == 0:
+                u = decide(ctl, j, k // cond.every, y, cond.target)
             out.x[j, k], out.v[j, k], out.y[j, k], out.command[j, k] = x, state[1], y, u
-            f = kernels.saturate(u, plant.force_limit) if clip else u
+            c = with_hold(cond, u, y, y_last)
+            y_last = y
+            f = kernels.saturate(c, plant.force_limit) if clip else c
             if supervised:
                 f, out.reason[j, k] = filter_step(lim, st, y, cond.target, f)
             out.force[j, k] = f
@@ -260,10 +268,14 @@ def stepwise(ctl: Acts, plant: Kernel, cond: Conditions, noise: FloatArray, lim:
     x = float(start[0])
     y = float(sense(x, noise[0], cond.quant))
     ctl.reset()
+    u, y_last = 0.0, y
     for k in range(n_steps):
-        u = float(ctl.act(y))
+        if k % cond.every == 0:
+            u = float(ctl.act(y))
         out.x[0, k], out.v[0, k], out.y[0, k], out.command[0, k] = x, state[1], y, u
-        f = float(kernels.saturate(u, plant.force_limit)) if clip else u
+        c = float(with_hold(cond, u, y, y_last))
+        y_last = y
+        f = float(kernels.saturate(c, plant.force_limit)) if clip else c
         if lim is not None:
             f, out.reason[0, k] = filter_step(lim, st, y, cond.target, f)
         out.force[0, k] = f

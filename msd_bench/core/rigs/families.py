@@ -33,9 +33,10 @@ class Family:
     """Seeds of its held-out rigs: report these, never tune on them (disjoint from ``design``)."""
     module: str
     """The module that draws it (recorded in results)."""
-    not_in_process: str = ""
-    """Why ``msd-bench rigs`` and ``efficiency`` cannot run its rigs yet ('' when they can); ``rig.py``
-    serves every family's members."""
+    held: bool = False
+    """Its rigs are recorded and run under their stated hold loop
+    (:class:`~msd_bench.core.rigs.hold.HoldLoop`): ``msd-bench rigs`` runs them without the ceiling,
+    refinement and the supervisor, and ``efficiency`` not yet (:func:`in_process`)."""
 
     def span(self) -> str:
         """Its design seeds as ``first-last``."""
@@ -51,10 +52,7 @@ FAMILIES: dict[str, Family] = {
                      population.DESIGN_RIGS, population.HELD_OUT_RIGS, scaled_family.__name__),
     "stage": Family("stage", "linear positioning stages: 10-200 kg, 0.1-1 m, 50-1000 N, 500 Hz or 1 kHz, "
                     "Coulomb friction and an offset force, a weak spring at most", stage_family.draw,
-                    population.DESIGN_RIGS, population.HELD_OUT_RIGS, stage_family.__name__,
-                    not_in_process="its records are taken under its hold loop and its surrogates identified "
-                    "as the held system's, which msd-bench rigs does not do yet (docs/rig-families.md "
-                    "§stage); rig.py serves its members"),
+                    population.DESIGN_RIGS, population.HELD_OUT_RIGS, stage_family.__name__, held=True),
 }
 """Every rig family by name; ``default`` is today's population, bit for bit."""
 
@@ -70,11 +68,22 @@ def family(name: object) -> Family:
     raise ConfigError(f"unknown rig family {name!r}{hint}; families: {', '.join(FAMILIES)}")
 
 
-def in_process(name: object) -> Family:
-    """The family called ``name`` if ``msd-bench rigs`` can run its rigs; else one ConfigError line."""
+def in_process(name: object, ceiling: bool = False, refine: int = 0, supervisor: bool = False,
+               curve: bool = False) -> Family:
+    """The family called ``name`` if an in-process run of it can do what is asked; else one ConfigError
+    line. A held family (a stage's) runs under its hold loop, which the ceiling's simulators, the
+    refits from closed-loop records, the supervisor's nominal model and the efficiency curve's
+    bill do not model yet (docs/rig-families.md §stage)."""
     fam = family(name)
-    if fam.not_in_process:
-        raise ConfigError(f"rig family {fam.name!r} cannot run in-process yet: {fam.not_in_process}")
+    if not fam.held:
+        return fam
+    wanted = (("--ceiling", ceiling), ("--refine", refine), ("--supervisor on", supervisor),
+              ("the efficiency curve", curve))
+    asked = [what for what, on in wanted if on]
+    if asked:
+        raise ConfigError(f"rig family {fam.name!r} runs under its hold loop: {', '.join(asked)} "
+                          f"{'is' if len(asked) == 1 else 'are'} not built for held rigs yet "
+                          f"(docs/rig-families.md §stage)")
     return fam
 
 

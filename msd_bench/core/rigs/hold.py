@@ -77,6 +77,25 @@ class HoldLoop:
         return -self.stiffness * (measured - self.held) - self.damping * velocity
 
 
+@dataclass(frozen=True)
+class Operation:
+    """How a rig is operated besides its physics: the hold loop it runs under, the samples per decision.
+
+    Why: a stage (docs/rig-families.md §stage) is recorded and controlled under its owner's stated
+    position loop, at the paper's pace rather than its servo rate; the paper's plant and the default
+    and scaled families run bare, deciding every sample (:data:`BARE`)."""
+
+    hold: HoldLoop | None = None
+    """The loop the rig is rested and run under (None: none)."""
+    every: int = 1
+    """Rig samples per decision (the command held in between)."""
+
+
+BARE = Operation()
+"""A rig run as the paper's plant is: no hold loop, a decision every sample."""
+
+
+
 def beyond_loop(effort: FloatArray, measured: FloatArray, hold: HoldLoop, dt: float) -> FloatArray:
     """The force each sample applied beyond the ``hold`` loop's own: the input of the *held* system.
 

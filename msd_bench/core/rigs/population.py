@@ -30,7 +30,7 @@ from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation.closed_loop import Conditions
 from msd_bench.core.physics.plant import PRESETS, PlantParams
 from msd_bench.core.physics.sensor import sensor_rng
-from msd_bench.core.rigs.hold import HoldLoop
+from msd_bench.core.rigs.hold import HoldLoop, Operation
 from msd_bench.core.rigs.rig import RigImperfections, lag_samples
 from msd_bench.core.rigs.scales import DEFAULT_DT, Scales
 from msd_bench.core.rigs.units import RigUnits
@@ -130,6 +130,11 @@ class RigSpec:
         if self.pace is None:
             return 1
         return max(1, round(DEFAULT_DT * self.pace / self.params.dt))
+
+    def operation(self) -> Operation:
+        """How the method runs this rig: under its hold loop (if its family states one), deciding every
+        :meth:`decision_samples` samples."""
+        return Operation(self.hold, self.decision_samples())
 
     def line(self) -> str:
         """Every parameter on one line, for logs, reports and tables."""

@@ -155,6 +155,18 @@ class Conditions(NamedTuple):
     offset: float = 0.0
     """A force that always acts, N (a stage's unbalanced weight or cable drag: the rig's
     :attr:`RigImperfections.offset`), added to the load at every sample, the drain's included."""
+    every: int = 1
+    """Rig samples per decision: the controller decides at every ``every``-th sample and its command
+    is held in between (a stage sampled at 1 kHz, decided at the paper's pace; 1: every sample)."""
+    hold_kp: float = 0.0
+    """The hold loop's stiffness, N/m on the measured position's error from ``held``: a stage run under
+    its stated position loop (:class:`~msd_bench.core.rigs.hold.HoldLoop`) gets the loop's force added
+    to the controller's command at every sample, before the drive. 0 with ``hold_kd``: no loop."""
+    hold_kd: float = 0.0
+    """The hold loop's damping per sample, N per metre of change of the measured position over one
+    sample (the loop's N·s/m over the sample time: its velocity is that backward difference)."""
+    held: float = 0.0
+    """The position the hold loop holds, m."""
 
 
 @numba.njit(cache=True)
@@ -221,6 +233,16 @@ def advance_rig(model: Kernel, state: FloatArray, force: float, load: float, fri
     if load != 0.0:
         return kernels.advance_loaded(model, state, force, load)
     return kernels.advance(model, state, force)
+
+
+@numba.njit(cache=True)
+def with_hold(cond: Conditions, u: float, y: float, y_last: float) -> float:
+    """The command ``u`` with the hold loop's force added (``u`` itself, bit for bit, with no loop):
+    the loop reads the measured position ``y`` and its change since the last sample ``y_last``, as
+    :class:`~msd_bench.core.rigs.hold.HoldLoop` does when a plan is played under it."""
+    if cond.hold_kp == 0.0 and cond.hold_kd == 0.0:
+        return u
+    return u + (-cond.hold_kp * (y - cond.held) - cond.hold_kd * (y - y_last))
 
 
 @numba.njit(cache=True)

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from msd_bench.core.evaluation.closed_loop import NO_LIMITS, Trace, q_run, run, stepwise
 from msd_bench.core.learning.qconfig import QConfig, packed
 from msd_bench.core.physics.model import StepModel, plant_model
+from msd_bench.core.rigs.hold import BARE, Operation
 from msd_bench.core.rigs.rest import RestConfig
 from msd_bench.core.rigs.rig import Conditions, Rig, lag_samples
 from msd_bench.core.rigs.rig_play import RestOutcome, rest
@@ -39,12 +40,18 @@ DRAIN_FORCE = 1e-9
 """Force (N) below which the lag's output counts as gone when the commands in flight are drained."""
 
 
-def conditions(rig: Rig, target: float, load: float = 0.0, load_step: int = 0) -> Conditions:
-    """The compiled loop's view of ``rig`` at set-point ``target`` under an optional load."""
+def conditions(rig: Rig, target: float, load: float = 0.0, load_step: int = 0,
+               op: Operation = BARE) -> Conditions:
+    """The compiled loop's view of ``rig`` at set-point ``target`` under an optional load (and its
+    ``op``: its hold loop and decision period)."""
     imp = rig.imperfections
+    hold = op.hold
     return Conditions(target=float(target), quant=float(imp.sensor_quant), delay=int(imp.delay_samples),
                       load=float(load), load_step=int(load_step), friction=float(imp.friction),
-                      lag=lag_samples(imp.actuator_tau, rig.params.dt), offset=float(imp.offset))
+                      lag=lag_samples(imp.actuator_tau, rig.params.dt), offset=float(imp.offset),
+                      every=int(op.every), hold_kp=0.0 if hold is None else float(hold.stiffness),
+                      hold_kd=0.0 if hold is None else float(hold.damping / rig.params.dt),
+                      held=0.0 if hold is None else float(hold.held))
 
 
 def drain_samples(rig: Rig) -> int:
@@ -78,7 +85,8 @@ class RigRun:
 
 def run_on_rig(rig: Rig, q: FloatArray, cfg: QConfig, observer: StepModel, target: float, steps: int,
                rng: np.random.Generator, load: float = 0.0, load_step: int = 0,
-               rest_config: RestConfig | None = None, limits: Limits | None = None) -> RigRun:
+               rest_config: RestConfig | None = None, limits: Limits | None = None,
+               op: Operation = BARE) -> RigRun:
     """Rest, then one greedy run of table ``q`` through the rig; the rig is left where the run ended.
 
     ``limits``: the run goes through the supervisor with these limits (the rest does not: it
@@ -89,11 +97,11 @@ def run_on_rig(rig: Rig, q: FloatArray, cfg: QConfig, observer: StepModel, targe
     ``F·exp(-300 dt/tau)`` (1e-32 N at the population's 40 ms); the loop starts
     it idle. ``rng`` draws the run's sensor noise.
     """
-    before = rest(rig, rest_config)
+    before = rest(rig, rest_config, op.hold)
     noise = rig.imperfections.sensor_noise * rng.standard_normal(steps)
     ctl = q_run(packed(cfg), np.asarray(q, dtype=np.float64)[None], observer.kernel)
     lim = limits if limits is not None else NO_LIMITS
-    t = run(plant_model(rig.params).kernel, ctl, conditions(rig, target, load, load_step), noise[None],
+    t = run(plant_model(rig.params).kernel, ctl, conditions(rig, target, load, load_step, op), noise[None],
             np.array([rig.x, rig.v]), lim, limits is not None, True, drain_samples(rig))
     return _handed_back(rig, t, before, limits is not None)
 
@@ -118,7 +126,8 @@ class StepController(Protocol):
 
 def run_controller_on_rig(rig: Rig, controller: StepController, target: float, steps: int,
                           rng: np.random.Generator, load: float = 0.0, load_step: int = 0,
-                          rest_config: RestConfig | None = None, limits: Limits | None = None) -> RigRun:
+                          rest_config: RestConfig | None = None, limits: Limits | None = None,
+                          op: Operation = BARE) -> RigRun:
     """:func:`run_on_rig` for any stepwise controller (a baseline's PID, LQR or MPC), one sample at a time.
 
     The controller object runs through the one loop's stepwise shape
@@ -126,8 +135,10 @@ def run_controller_on_rig(rig: Rig, controller: StepController, target: float, s
     and supervisor step, the same noise draw, rest and drain as a Q-table's run, so a rig treats
     every design alike.
     """
-    before = rest(rig, rest_config)
+    before = rest(rig, rest_config, op.hold)
     noise = rig.imperfections.sensor_noise * rng.standard_normal(steps)
-    t = stepwise(controller, plant_model(rig.params).kernel, conditions(rig, target, load, load_step), noise,
-                 limits, (float(rig.x), float(rig.v)), True, drain_samples(rig))
+    cond = conditions(rig, target, load, load_step, op)
+    t = stepwise(controller, plant_model(rig.params).kernel, cond, noise, limits,
+                 (float(rig.x), float(rig.v)),
+                 True, drain_samples(rig))
     return _handed_back(rig, t, before, limits is not None)
