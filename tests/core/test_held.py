@@ -61,3 +61,12 @@ def test_a_non_finite_command_moves_nothing() -> None:
     with pytest.raises(InvalidInputError):
         h.step(s, float("nan"))
     assert s[0] == 0.3
+
+
+def test_an_observer_converts_velocity_over_a_held_models_decision_not_its_head() -> None:
+    """``kernels.step_period``: one advance of a velocity-holding model spans its sample time, n of them
+    when held (read from the inner plant's slots; the held model's own params lead with its head, which
+    the observer once read as a plant and so took a garbage sample time)."""
+    plain = plant_model(P)
+    assert kernels.step_period(plain.kernel) == P.dt
+    assert kernels.step_period(held(plain, 4).kernel) == 4 * P.dt

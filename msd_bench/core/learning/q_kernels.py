@@ -413,7 +413,7 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
         # Moving x by L·r moves an ARX model's implied displacement (x_k - x_{k-1}) by L·r too; a
         # plant-structure state holds the velocity apart, so it gets that correction explicitly
         # (plus any extra velocity gain), or an unmodelled force would bias the estimate for good.
-        dt = kernels.plant_of(obs.params).dt
+        dt = kernels.step_period(obs)
         ost[motion] += (share * lr.obs_gain + lr.obs_velocity_gain) * innovation / dt
         return ost[x], ost[motion] * dt + ost[OBS_DRIFT]
     if share != 1.0:  # keep only share·L·r of the move in the implied displacement

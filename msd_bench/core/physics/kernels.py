@@ -196,6 +196,17 @@ def base_kind(model: Kernel) -> int:
 
 
 @numba.njit(cache=True)
+def step_period(model: Kernel) -> float:
+    """Seconds one :func:`advance` of a velocity-holding ``model`` spans: its plant's sample time, times
+    ``n`` for a model held over ``n`` samples (one decision). Why: an observer converting a velocity to
+    the displacement between two decisions must use the decision's span; a held model's own
+    ``params`` lead with its head, not a plant's, so reading its sample time there reads garbage."""
+    if model.kind == KIND_HELD:
+        return float(plant_of(model.params[HELD_HEAD:]).dt * model.params[0])
+    return plant_of(model.params).dt
+
+
+@numba.njit(cache=True)
 def holds_velocity(kind: int) -> bool:
     """Slot :data:`MOTION` is the velocity (plant, greybox-rig, rk4), not the previous position (ARX)."""
     return kind in (KIND_PLANT, KIND_GREYBOX_RIG, KIND_RK4)
