@@ -49,6 +49,7 @@ from msd_bench.core.identification.identify import FitReport
 from msd_bench.core.identification.model_kinds import model_kind
 from msd_bench.core.physics.model import StepModel
 from msd_bench.core.rigs import families, population, scaled_family
+from msd_bench.core.rigs.hold import Operation
 from msd_bench.core.rigs.rest import RestConfig
 from msd_bench.core.rigs.rig import Rig
 from msd_bench.core.rigs.rig_loop import RigRun
@@ -325,28 +326,28 @@ def validate_on_rig(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy | None,
         return [{"kind": kind, "seed": seed, "success": False, "identified": False}
                 for seed in run.learning_seeds(0)]
     out = []
+    op = cfg.draw(rig_seed).operation()  # its hold loop and decision period, once per kind
     for j, seed in enumerate(policy.members):
-        nominal = _one_run(cfg, rig, kind, policy, j, seed, rig_seed, Scenario(setpoint=run.target))
+        nominal = _one_run(cfg, rig, kind, policy, j, seed, rig_seed, Scenario(setpoint=run.target), op)
         row = {"kind": kind, "seed": seed, "identified": True,
                **scores(nominal, run.target, run, dt=rig.params.dt),
                "start_x": float(nominal.x[0]), "risk": _risk(cfg, rig, nominal),
                "scenarios": {}}
         for sid in cfg.scenarios:
             sc = rig_scenario(sid).scaled(cfg.scales)
-            got = _one_run(cfg, rig, kind, policy, j, seed, rig_seed, sc)
+            got = _one_run(cfg, rig, kind, policy, j, seed, rig_seed, sc, op)
             row["scenarios"][sid] = scores(got, sc.setpoint, run, brief=True, dt=rig.params.dt)
         out.append(row)
     return out
 
 
 def _one_run(cfg: RigsConfig, rig: Rig, kind: str, policy: Policy, member: int, seed: int, rig_seed: int,
-             sc: Scenario) -> RigRun:
+             sc: Scenario, op: Operation) -> RigRun:
     """One validation run of member ``member`` on the rig under ``sc`` (its noise stream named by rig,
     kind, seed): :func:`msd_bench.app.rig_scores.run_member`."""
     rng = np.random.default_rng(noise_seed(seed, f"rig{rig_seed}/{kind}/{sc.id}"))
     limits = rig_limits(cfg.run, cfg.scales)
-    return run_member(rig, policy, member, sc, cfg.run.validation_steps, rng, limits, cfg.rest,
-                      cfg.draw(rig_seed).operation())
+    return run_member(rig, policy, member, sc, cfg.run.validation_steps, rng, limits, cfg.rest, op)
 
 
 def _risk(cfg: RigsConfig, rig: Rig, r: RigRun) -> dict[str, Any]:

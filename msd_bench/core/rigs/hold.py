@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,6 +36,8 @@ from numpy.typing import NDArray
 from msd_bench.core.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
+Sample = TypeVar("Sample", float, FloatArray)
+"""One sample's value, or an array of them."""
 
 STIFFNESS_PER_FORCE_AND_STROKE = 2.5
 """The loop's stiffness in units of the rig's force limit per stroke (``kp = 2.5 F / L``). Why 2.5:
@@ -72,8 +75,10 @@ class HoldLoop:
         stiffness = STIFFNESS_PER_FORCE_AND_STROKE * force_limit / stroke
         return cls(stiffness, 2.0 * DAMPING_RATIO * math.sqrt(stiffness * nominal_mass))
 
-    def force(self, measured: float, velocity: float) -> float:
-        """The loop's force for one sample (before the excitation is added and the drive saturates)."""
+    def force(self, measured: Sample, velocity: Sample) -> Sample:
+        """The loop's force (before the excitation is added and the drive saturates): for one sample, or
+        elementwise over arrays of them — the one place the law is written in Python (the compiled
+        loop's :func:`~msd_bench.core.rigs.rig.with_hold` writes it again in numba, per sample)."""
         return -self.stiffness * (measured - self.held) - self.damping * velocity
 
 
@@ -95,7 +100,6 @@ BARE = Operation()
 """A rig run as the paper's plant is: no hold loop, a decision every sample."""
 
 
-
 def beyond_loop(effort: FloatArray, measured: FloatArray, hold: HoldLoop, dt: float) -> FloatArray:
     """The force each sample applied beyond the ``hold`` loop's own: the input of the *held* system.
 
@@ -107,6 +111,5 @@ def beyond_loop(effort: FloatArray, measured: FloatArray, hold: HoldLoop, dt: fl
     the same measured positions and the same velocity estimate it read), so a model of the plant
     is the held model with the loop's force taken back out."""
     velocity = np.concatenate([[0.0], np.diff(measured) / dt])
-    loop = -hold.stiffness * (measured - hold.held) - hold.damping * velocity
-    out: FloatArray = effort - loop
+    out: FloatArray = effort - hold.force(measured, velocity)
     return out

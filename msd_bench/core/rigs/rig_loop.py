@@ -44,14 +44,13 @@ def conditions(rig: Rig, target: float, load: float = 0.0, load_step: int = 0,
                op: Operation = BARE) -> Conditions:
     """The compiled loop's view of ``rig`` at set-point ``target`` under an optional load (and its
     ``op``: its hold loop and decision period)."""
-    imp = rig.imperfections
-    hold = op.hold
+    imp, hold = rig.imperfections, op.hold
+    kp, kd, held = (0.0, 0.0, 0.0) if hold is None else (
+        hold.stiffness, hold.damping / rig.params.dt, hold.held)
     return Conditions(target=float(target), quant=float(imp.sensor_quant), delay=int(imp.delay_samples),
                       load=float(load), load_step=int(load_step), friction=float(imp.friction),
                       lag=lag_samples(imp.actuator_tau, rig.params.dt), offset=float(imp.offset),
-                      every=int(op.every), hold_kp=0.0 if hold is None else float(hold.stiffness),
-                      hold_kd=0.0 if hold is None else float(hold.damping / rig.params.dt),
-                      held=0.0 if hold is None else float(hold.held))
+                      every=int(op.every), hold_kp=float(kp), hold_kd=float(kd), held=float(held))
 
 
 def drain_samples(rig: Rig) -> int:
