@@ -92,6 +92,9 @@ class BaselineDesign:
     baseline: bool = True
     deterministic: bool = True
     model_free: bool = False
+    holds_decisions: bool = True
+    """Designed on the surrogate held over a decision (:func:`msd_bench.designs.at_decisions`): its gains,
+    observer and horizon then act per decision, as a controller deciding at that period's are."""
 
     def kinds(self, surfaces: Sequence[tuple[str, str]]) -> list[KindSpec]:
         return plus_kinds(self.name, self.label, False, surfaces)

@@ -16,7 +16,7 @@ from msd_bench import designs
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.learning.qconfig import improved_config
 from msd_bench.core.physics import kernels
-from msd_bench.core.physics.model import held, plant_model
+from msd_bench.core.physics.model import StepModel, held, plant_model
 from msd_bench.core.physics.plant import PlantParams
 from msd_bench.core.rigs.description import parse_description
 from msd_bench.designs import Drive, Settings
@@ -65,10 +65,48 @@ def test_learning_at_decisions_is_learning_on_the_held_model() -> None:
 
 
 def test_a_design_that_does_not_hold_is_one_line() -> None:
-    with pytest.raises(ConfigError, match=r"glm\+pid: a decision period of 10 rig samples is not supported"):
-        designs.check_decisions("glm+pid", 10)
-    designs.check_decisions("glm+pid", 1)
+    with pytest.raises(ConfigError, match=r"glm\+ppo: a decision period of 10 rig samples is not supported"):
+        designs.check_decisions("glm+ppo", 10)
+    designs.check_decisions("glm+ppo", 1)
     designs.check_decisions("dyna-q", 10)
+    designs.check_decisions("glm+pid", 10)
+
+
+@pytest.mark.parametrize("kind", ["glm+pid", "greybox+lqr", "nlarx-improved+lqr", "greybox-rig+mpc"])
+def test_a_baseline_is_designed_on_the_held_model(kind: str) -> None:
+    """A baseline deciding every 4 samples is designed on the surrogate held over them: its operating
+    point is the held model's (the inner model's rest state, A and B over a decision; an ARX-type state's
+    velocity over one *sample*), so its design is the one made directly on the held model at the decision
+    period, and its controller gives finite forces."""
+    from msd_bench.core.baselines import base
+
+    p = PlantParams()
+    model = _surrogate(kind.split("+")[0], p)
+    s = Settings(episodes=3, steps=2000, force=p.F, dt=p.dt, stroke=p.L, target=1.0, decision_samples=4)
+    via = designs.make(kind, model, s, [0])
+    direct = designs.make(kind, held(model, 4), replace(s, dt=4 * p.dt, steps=500, decision_samples=1), [0])
+    assert via.artifact() == direct.artifact()  # type: ignore[attr-defined]
+    op = base.operating_point(held(model, 4), 1.0)
+    assert op.s_eq.size == base.slots(model)
+    if not kernels.holds_velocity(model.kind):  # slots [x_k, x_{k-1}, u]: one sample apart
+        assert tuple(op.velocity[:2]) == pytest.approx((1.0 / p.dt, -1.0 / p.dt))
+    ctl = via.controller(0, 1.0)
+    ctl.reset()
+    assert all(np.isfinite(ctl.act(0.1 * i)) for i in range(5))
+
+
+def _surrogate(kind: str, p: PlantParams) -> StepModel:
+    """A surrogate of ``kind`` at the default plant's rate: a pinned identified ARX-type model, the plant
+    itself, or the plant behind a drive of 2 samples' dead time and a 20 ms lag."""
+    from pathlib import Path
+
+    from msd_bench.io.storage import artifacts
+
+    if kind == "greybox":
+        return plant_model(p)
+    if kind == "greybox-rig":
+        return StepModel(kernels.KIND_GREYBOX_RIG, np.concatenate([p.as_array(), [0.0, 0.02, 2.0]]), kind)
+    return artifacts.load_model(Path(__file__).resolve().parents[1] / "data" / "pinned" / f"{kind}.json")
 
 
 def test_the_robust_learner_on_the_stage_keeps_its_gains_in_the_rigs_units() -> None:

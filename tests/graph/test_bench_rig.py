@@ -129,12 +129,12 @@ def test_the_run_target_must_lie_within_the_stroke() -> None:
 
 def test_a_design_that_cannot_hold_its_command_is_one_line(tmp_path: Path,
                                                          capsys: pytest.CaptureFixture[str]) -> None:
-    """The stage decides every 10 samples; a PID baseline has not opted in to holding: refused up front."""
+    """The stage decides every 10 samples; a deep-RL design has not opted in to holding: refused up front."""
     out = tmp_path / "out"
     assert bench_main.main(["--plant-ns", "/rig", "--rig", str(STAGE), "--out", str(out),
-                            "--agents", "glm+pid,glm+improved"]) == 2
+                            "--agents", "glm+ppo,glm+improved"]) == 2
     err = capsys.readouterr().err
-    assert "glm+pid: a decision period of 10 rig samples is not supported" in err
+    assert "glm+ppo: a decision period of 10 rig samples is not supported" in err
     assert len(err.strip().splitlines()) == 1 and not out.exists()
 
 

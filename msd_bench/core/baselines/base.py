@@ -76,6 +76,18 @@ class OperatingPoint(NamedTuple):
     observer's bias enters here). The same as ``b`` except behind a greybox-rig's delay and lag."""
 
 
+def _layout(model: StepModel) -> tuple[int, float]:
+    """The kind whose state layout ``model`` steps and the seconds between its consecutive states:
+    a held model's inner kind and sample time (its own ``dt`` is the decision's), else its own.
+
+    Why: a baseline deciding every few rig samples is designed on the surrogate held over them; its
+    state is the inner model's, and an ARX-type state's last two positions are one *sample* apart.
+    """
+    if model.kind != kernels.KIND_HELD:
+        return model.kind, model.dt
+    return int(model.params[1]), model.dt / float(model.params[0])
+
+
 def slots(model: StepModel) -> int:
     """How many state slots the kind uses (:func:`kernels.used_slots`)."""
     return int(kernels.used_slots(model.kernel))
@@ -85,12 +97,13 @@ def _rest_state(model: StepModel, x: float, u: float) -> FloatArray:
     """The full state of a model at rest at ``x`` under force ``u`` (every kind's layout)."""
     s = model.initial_state()
     s[POS] = x
-    if not kernels.holds_velocity(model.kind):  # ARX: x_{k-1} = x, u_{k-1} = u
+    kind = _layout(model)[0]
+    if not kernels.holds_velocity(kind):  # ARX: x_{k-1} = x, u_{k-1} = u
         s[MOTION] = x
         s[kernels.ARX_INPUT] = u
-    elif model.kind == KIND_GREYBOX_RIG:  # the lag's output and every queued command are u
+    elif kind == KIND_GREYBOX_RIG:  # the lag's output and every queued command are u
         s[kernels.RIG_LAG:slots(model)] = u
-    elif model.kind == kernels.KIND_RK4:  # the ramp's start: the command that held it there
+    elif kind == kernels.KIND_RK4:  # the ramp's start: the command that held it there
         s[kernels.ARX_INPUT] = u
     return s
 
@@ -102,10 +115,10 @@ def _smooth(model: StepModel) -> StepModel:
     equilibrium force and the Jacobian at v = 0 are not defined with it; the
     designs are linear and meet friction as a disturbance, as a load.
     """
-    if model.kind != KIND_GREYBOX_RIG:
+    if _layout(model)[0] != KIND_GREYBOX_RIG:
         return model
     p = model.params.copy()
-    p[kernels.PLANT_SIZE] = 0.0
+    p[kernels.PLANT_SIZE + (kernels.HELD_HEAD if model.kind == kernels.KIND_HELD else 0)] = 0.0
     return StepModel(model.kind, p, model.name, dict(model.info), model.dt, model.force_limit)
 
 
@@ -149,13 +162,14 @@ def operating_point(model: StepModel, target: float) -> OperatingPoint:
         a[:, i] = (_next(model, up, u_eq, 0.0) - _next(model, down, u_eq, 0.0))[:n] / (2 * _FD_STEP)
     # A load is never clipped; it enters like an unsaturated force except behind an actuator.
     load = (_next(model, s_eq, u_eq, _FD_STEP) - _next(model, s_eq, u_eq, -_FD_STEP))[:n] / (2 * _FD_STEP)
-    behind = model.kind in (KIND_GREYBOX_RIG, kernels.KIND_RK4)  # a delay line, a lag or a ramp
+    kind, sample = _layout(model)
+    behind = kind in (KIND_GREYBOX_RIG, kernels.KIND_RK4)  # a delay line, a lag or a ramp
     b = _command_column(model, s_eq, u_eq, n) if behind else load
     velocity = np.zeros(n)
-    if kernels.holds_velocity(model.kind):
+    if kernels.holds_velocity(kind):
         velocity[MOTION] = 1.0
     else:
-        velocity[POS], velocity[MOTION] = 1.0 / model.dt, -1.0 / model.dt
+        velocity[POS], velocity[MOTION] = 1.0 / sample, -1.0 / sample
     return OperatingPoint(float(target), u_eq, s_eq[:n].copy(), a, b, velocity, load)
 
 

@@ -215,11 +215,14 @@ def holds_velocity(kind: int) -> bool:
 @numba.njit(cache=True)
 def used_slots(model: Kernel) -> int:
     """How many leading slots of ``model``'s state evolve: plant ``[x, v]``, ARX-type
-    ``[x_k, x_{k-1}, u_{k-1}]``, greybox-rig ``[x, v, f]`` and the ``delay`` slots of its line."""
-    if model.kind == KIND_PLANT:
+    ``[x_k, x_{k-1}, u_{k-1}]``, greybox-rig ``[x, v, f]`` and the ``delay`` slots of its line; a held
+    model its inner model's."""
+    kind = base_kind(model)
+    p = model.params[HELD_HEAD:] if model.kind == KIND_HELD else model.params  # a held one's is never held
+    if kind == KIND_PLANT:
         return 2
-    if model.kind == KIND_GREYBOX_RIG:
-        return RIG_LAG + 1 + int(model.params[RIG_SIZE - 1])
+    if kind == KIND_GREYBOX_RIG:
+        return RIG_LAG + 1 + int(p[RIG_SIZE - 1])
     return ARX_INPUT + 1  # ARX-type [x_k, x_{k-1}, u_{k-1}] and rk4 [x, v, u_{k-1}]
 
 
