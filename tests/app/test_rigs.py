@@ -62,6 +62,7 @@ def test_the_command_writes_rigs_json_md_and_figure(whole: Path) -> None:
     assert sweep["wall_seconds"] > 0
 
 
+@pytest.mark.cluster  # a whole sweep on Ray: the cluster tier (docs/testing.md §Tiers)
 @pytest.mark.usefixtures("ray_cluster")
 def test_ray_writes_the_rigs_json_of_the_local_pool(whole: Path, tmp_path: Path) -> None:
     assert cli_main([*RIGS, "--executor", "ray", "--workers", "2", "--out", str(tmp_path / "ray")]) == 0

@@ -15,6 +15,7 @@ EFFICIENCY = ["efficiency", "--seeds", "1", "--id-seeds", "2", "--agents", "glm+
               "--episodes", "2"]
 
 
+@pytest.mark.cluster  # a whole sweep on Ray: the cluster tier (docs/testing.md §Tiers)
 @pytest.mark.usefixtures("ray_cluster")
 def test_efficiency_on_ray_writes_the_json_of_the_local_pool(tmp_path: Path,
                                                               capsys: pytest.CaptureFixture[str]) -> None:
@@ -48,6 +49,7 @@ def _without_run_facts(doc: dict[str, Any]) -> dict[str, Any]:
     return {**doc, "run": run}
 
 
+@pytest.mark.cluster  # a whole sweep on Ray: the cluster tier (docs/testing.md §Tiers)
 @pytest.mark.usefixtures("ray_cluster")
 def test_paper_on_ray_writes_the_tables_of_the_local_pool(tmp_path: Path,
                                                           capsys: pytest.CaptureFixture[str]) -> None:
