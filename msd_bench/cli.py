@@ -1,4 +1,4 @@
-"""The ``msd-bench`` console: paper, efficiency, rigs, identify, bag, echo, hz, check-rig, compare, resid.
+"""``msd-bench``: paper, efficiency, rigs, rig-file, identify, bag, echo, hz, check-rig, compare, resid.
 
 Also runs as ``python -m msd_bench`` with any interpreter: one that lacks the
 project's dependencies re-executes with the project's venv (``msd_bench/_bootstrap.py``).
@@ -24,11 +24,21 @@ from msd_bench.core.errors import MsdBenchError  # only after the re-exec above
 
 def build_parser() -> argparse.ArgumentParser:
     """The full parser with every subcommand registered."""
-    from msd_bench.commands import bag, check_rig, diagnose, efficiency, identify, paper, rigs, topics
+    from msd_bench.commands import (
+        bag,
+        check_rig,
+        diagnose,
+        efficiency,
+        identify,
+        paper,
+        rig_file,
+        rigs,
+        topics,
+    )
 
     parser = argparse.ArgumentParser(prog="msd-bench", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (paper, efficiency, rigs, identify, bag, topics, check_rig, diagnose):
+    for module in (paper, efficiency, rigs, rig_file, identify, bag, topics, check_rig, diagnose):
         module.register(sub)
     return parser
 

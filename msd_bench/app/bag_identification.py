@@ -24,6 +24,7 @@ from msd_bench.core.identification.model_kinds import (
     needs_bias_records,
 )
 from msd_bench.core.identification.records import Records
+from msd_bench.core.rigs.hold import HoldLoop
 from msd_bench.io.bags.bag_interface import FORCE_INPUTS, ForceSource
 from msd_bench.io.bags.bag_records import (
     BagRole,
@@ -81,8 +82,23 @@ class IdentifierConfig:
     """Bags whose effort is measured (ros2_control): identify from the commands passed through the
     actuator fitted to the effort (``applied``, the force the msd face reports) or from the commands
     held over each sample (``held``: the models absorb the actuator). docs/ros2-control.md §Force."""
+    hold_stiffness: float = field(default=0.0, metadata={"range": (0.0, 1e9)})
+    """The rig's stated hold loop (docs/rig-families.md §stage), N/m; 0 with ``hold_damping`` 0: none.
+    With a loop the bags' input is the force applied beyond the loop's, recomputed from the same
+    measured positions (:func:`~msd_bench.core.rigs.hold.beyond_loop`): the *held* system is identified,
+    as ``msd-bench rigs`` identifies it from the records it plays."""
+    hold_damping: float = field(default=0.0, metadata={"range": (0.0, 1e9)})
+    """The hold loop's damping, N·s/m."""
+    hold_position: float = field(default=0.0, metadata={"range": (-1e6, 1e6)})
+    """The position the hold loop holds, m."""
     out_dir: str = ""
     """Where ``<model>.json`` and ``fits.json`` are written (required)."""
+
+    def hold(self) -> HoldLoop | None:
+        """The stated hold loop, None when both gains are 0."""
+        if self.hold_stiffness == 0.0 and self.hold_damping == 0.0:
+            return None
+        return HoldLoop(self.hold_stiffness, self.hold_damping, self.hold_position)
 
     def __post_init__(self) -> None:
         if not self.out_dir:
@@ -90,6 +106,7 @@ class IdentifierConfig:
         if not self.bags_dir and not self.broad_bag:
             raise ConfigError("give bags_dir (our bags) or broad_bag/validation_bag/bias_bags (a rig's)")
         check_models(self.models)
+        self.hold()  # a negative gain is one line before any bag is read
         if self.force_input not in FORCE_INPUTS:
             raise ConfigError(f"force_input must be one of {', '.join(FORCE_INPUTS)}, "
                               f"got {self.force_input!r}")
@@ -138,7 +155,8 @@ def bag_records(cfg: IdentifierConfig, iface: PlantInterface = MSD_INTERFACE,
         cfg = replace(cfg, dt=stamp_interval(paths, cfg.namespace))
     roles = roles_from_dir(Path(cfg.bags_dir), cfg.namespace, cfg.dt) if cfg.bags_dir else explicit
     records = load_records(roles, needs_bias_records(cfg.models), cfg.namespace, cfg.dt, iface=iface,
-                           force_limit=cfg.force, sources=sources, force_input=cfg.force_input)
+                           force_limit=cfg.force, sources=sources, force_input=cfg.force_input,
+                           hold=cfg.hold())
     return cfg, list(roles), records
 
 

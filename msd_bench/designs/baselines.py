@@ -126,11 +126,24 @@ class BaselineDesign:
                                           f"give that model")
         members = artifacts.policy_members(doc, directory)
         s = Settings(force=float(body["force"]), dt=float(body["dt"]), target=float(body["target"]))
-        policy = self._policy(str(doc["kind"]), members, model, s)
+        policy = self._policy(str(doc["kind"]), members, _at_decision(model, s.dt), s)
         if artifacts.jsonable(policy.artifact()) != body:
             raise artifacts.ArtifactError(f"{directory}: policy.json does not match the design its model "
                                           "gives (edited, or another model)")
         return policy
+
+
+def _at_decision(model: StepModel, dt: float) -> StepModel:
+    """``model`` held over the decision a design was made at (:func:`msd_bench.designs.at_decisions`):
+    a policy designed every ``n`` rig samples states the decision's ``dt``, a whole ``n`` times the
+    model's; at one sample per decision (or another ``dt``, which the redesign then refuses in one line)
+    the model itself."""
+    from msd_bench.core.physics.model import MAX_HELD, held
+
+    n = round(dt / model.dt)
+    if 2 <= n <= MAX_HELD and abs(n * model.dt - dt) <= 1e-9 * dt:
+        return held(model, n)
+    return model
 
 
 def baseline_policy(name: str, model: StepModel, plant: PlantParams, seed: int = 0, target: float = 1.0,

@@ -122,7 +122,8 @@ def figure_data(cfg: BenchConfig, results: list[AgentResult],
         target=cfg.run.target, dt=cfg.run.plant.dt, models=models, fits=_fits(cfg),
         records=load_records_of(roles_from_dir(cfg.excitation_dir, cfg.namespace, cfg.run.plant.dt),
                                 needs_bias_records(models), cfg.namespace, cfg.run.plant.dt,
-                                iface=cfg.interface, force_limit=cfg.run.plant.F),
+                                iface=cfg.interface, force_limit=cfg.run.plant.F,
+                                hold=None if cfg.run.rig is None else cfg.run.rig.hold()),
         policies=policies, responses=responses)
 
 
@@ -170,7 +171,17 @@ def rig_line(rig: dict[str, Any]) -> str:
     return (f"Rig (`--rig`): {rig['rate_hz']:g} Hz (dt {rig['dt_s']:g} s), stroke {rig['stroke']:g} "
             f"{rig['position_unit']}, force limit {rig['force_limit']:g} {rig['force_unit']}, "
             f"{rig['samples_per_decision']} sample(s) per {rig['decision_period_s']:g} s decision, "
-            f"{rig['interface']} face.\n")
+            f"{rig['interface']} face{_hold_text(rig)}.\n")
+
+
+def _hold_text(rig: dict[str, Any]) -> str:
+    """The stated hold loop the rig ran under, if any: what every command and record was beyond."""
+    hold = rig.get("hold_loop")
+    if not isinstance(hold, dict):
+        return ""
+    return (f"; held by its drive's position loop (stiffness {hold['stiffness']:.4g} {rig['force_unit']}/"
+            f"{rig['position_unit']}, damping {hold['damping']:.4g}, at {hold['position']:g} "
+            f"{rig['position_unit']}): the commands, records and models are of the held system")
 
 
 def write_bench_report(cfg: BenchConfig, facts: dict[str, Any]) -> dict[str, Any]:

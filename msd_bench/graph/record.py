@@ -54,6 +54,7 @@ from msd_bench.app.job import job_document
 from msd_bench.app.serve_protocol import EventError
 from msd_bench.core.errors import ConfigError, MsdBenchError
 from msd_bench.core.identification import excitation as exc
+from msd_bench.core.rigs.hold import HoldLoop, beyond_loop
 from msd_bench.graph.jobs import Job, JobFiles, JobServer, last_line
 from msd_bench.graph.launch import LaunchError, ProcessSet
 from msd_bench.io.bags.bag_interface import read_interface_experiment
@@ -309,6 +310,11 @@ class Placement:
         """The plant's sample time."""
         return self.run.plant.dt
 
+    @property
+    def hold(self) -> HoldLoop | None:
+        """The rig's stated hold loop, which its drive adds to every command (None: a bare plant)."""
+        return None if self.run.rig is None else self.run.rig.hold()
+
 
 def record_one(spec: ExperimentSpec, bag: Path, servers: RecordServers, where: Placement) -> Path:
     """Record one experiment through a recorder and an excitation node; verify the bag."""
@@ -342,7 +348,7 @@ def record_one(spec: ExperimentSpec, bag: Path, servers: RecordServers, where: P
         for job in (ex, rec):
             job.stop()
     _verify(spec, bag, where.namespace, np.clip(u, -where.force_limit, where.force_limit),
-            None if lockstep else where.dt, topics, iface, where.force_limit, where.dt)
+            None if lockstep else where.dt, topics, iface, where.force_limit, where.dt, where.hold)
     TIMINGS.append(RecordTiming(spec.name, int(u.size), startup, time.monotonic() - t0))
     return bag
 
@@ -424,9 +430,11 @@ def _finish_recorder(rec: Job, lockstep: bool) -> None:
 
 
 def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: float | None,
-            topics: Sequence[TopicSpec], iface: PlantInterface, force_limit: float, sample_dt: float) -> None:
+            topics: Sequence[TopicSpec], iface: PlantInterface, force_limit: float, sample_dt: float,
+            hold: HoldLoop | None = None) -> None:
     """The bag holds exactly the played samples (lock-step: ``dt`` None), or a gap-free superset
-    (``sample_dt``: the plant's sample time, which numbers the samples a shortfall names).
+    (``sample_dt``: the plant's sample time, which numbers the samples a shortfall names). Under a
+    ``hold`` loop the effort the cut is confirmed against is the force beyond the loop's.
 
     With the truth recorded, every topic holds every sample and the plant must
     have started at rest by the *true* x_0 (the measured one is noisy).
@@ -442,6 +450,8 @@ def _verify(spec: ExperimentSpec, bag: Path, namespace: str, u: np.ndarray, dt: 
         experiment, _, _ = read_interface_experiment(bag, iface, namespace, force_limit=force_limit,
                                                      force_input="held", timing=replace(READ, dt=sample_dt),
                                                      played=None if cut is None else cut.rows)
+        if hold is not None:  # the drive added the loop's force to the commands
+            experiment = replace(experiment, u=beyond_loop(experiment.u, experiment.y, hold, sample_dt))
         if cut is not None and iface.effort_is_commanded:  # a measured effort was checked when rebuilt
             confirm_by_effort(bag, cut, experiment.u, sample_dt)
     except SampleLossError:

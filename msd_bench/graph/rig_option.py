@@ -44,4 +44,20 @@ def apply_rig(args: argparse.Namespace, given: frozenset[str]) -> RigDescription
         value = getattr(rig, name)
         if name not in given and value:
             setattr(args, name, ",".join(value) if isinstance(value, tuple) else value)
+    _check_hold(args, rig)
     return rig
+
+
+def _check_hold(args: argparse.Namespace, rig: RigDescription) -> None:
+    """A stated hold loop is run by the rig's own drive (``rig.py`` serving a held family member): the
+    bench's plant node has none, and on the ros2_control face the measured effort would be rebuilt from
+    commands that leave the loop's force out; both are one line before anything starts."""
+    if rig.hold() is None:
+        return
+    if args.plant_ns is None:
+        raise ConfigError(f"--rig {args.rig} states a hold loop, which the rig's drive runs; the bench's "
+                          "own plant has none: give --plant-ns of the rig (rig.py serving it)")
+    if (getattr(args, "interface", None) or "msd") != "msd":
+        raise ConfigError(f"--rig {args.rig} states a hold loop: only the msd face's effort (the force the "
+                          "drive applied, the loop's included) is read under one; drop --interface "
+                          f"{args.interface}")

@@ -55,8 +55,10 @@ from std_msgs.msg import Float64
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics.plant import PRESETS, PlantParams
 from msd_bench.core.rigs import families
+from msd_bench.core.rigs.hold import HoldLoop
 from msd_bench.core.rigs.population import EMULATOR_SEED, MAX_SEED, RigSpec
 from msd_bench.core.rigs.rig import Rig, RigImperfections
+from msd_bench.core.rigs.rig_play import HeldDrive
 from msd_bench.io.reports.live_server import OFF
 from msd_bench.nodes.interface_params import declare_interface
 from msd_bench.nodes.params import declare_from_dataclass, params_file_rig, rig_plant
@@ -71,6 +73,34 @@ from msd_bench.nodes.plant_node import (
 from msd_bench.nodes.spin import stops_deferred
 from msd_msgs_py.contract import TRUTH_JOINT_STATES
 from msd_msgs_py.ros import command_force, float64, joint_states, msg_class, qos
+
+
+@dataclass(frozen=True)
+class DriveHold:
+    """The position loop the rig's drive holds it under, as a stage's drive runs one (docs/rig-families.md
+    §stage): its force, from the measured position, is added to every command at every sample
+    (:class:`~msd_bench.core.rigs.rig_play.HeldDrive`, as a plan is played in-process), so the commands
+    the bench sends are the force beyond the loop's. A member of a family that states a loop holds it by
+    default; stiffness and damping 0 run the rig bare."""
+
+    hold_stiffness: float = field(default=0.0, metadata={"range": (0.0, 1e9)})
+    """N/m on the measured position's error (0 with ``hold_damping`` 0: no loop)."""
+    hold_damping: float = field(default=0.0, metadata={"range": (0.0, 1e9)})
+    """N·s/m on the velocity estimated from the measured positions."""
+    hold_position: float = field(default=0.0, metadata={"range": (-1e6, 1e6)})
+    """The position held, m."""
+
+    def loop(self) -> HoldLoop | None:
+        """The loop, or None on a bare rig."""
+        if self.hold_stiffness == 0.0 and self.hold_damping == 0.0:
+            return None
+        return HoldLoop(self.hold_stiffness, self.hold_damping, self.hold_position)
+
+    @classmethod
+    def of(cls, loop: HoldLoop | None) -> DriveHold:
+        """The parameters' defaults for a member's ``loop``."""
+        return cls() if loop is None else cls(loop.stiffness, loop.damping, loop.held)
+
 
 RIG_NAMESPACE = "/rig"
 """Default namespace of the rig emulator."""
@@ -141,6 +171,7 @@ class RigNode(PlantNode):
             self, RigImperfections, defaults=imperfections,
             ranges=holding({f.name: f.metadata["range"] for f in dataclasses.fields(RigImperfections)
                             if "range" in f.metadata}, imperfections))
+        self.hold = declare_from_dataclass(self, DriveHold, defaults=DriveHold.of(self.member.hold)).loop()
         self.interface = declare_interface(self)
         self._names = self.interface.state_names(self.rig_config.extra_joints)
         if self._names.count(self.interface.joint) > 1:
@@ -203,7 +234,7 @@ class RigNode(PlantNode):
     def served(self) -> RigSpec:
         """The rig this node serves: the member with every explicit parameter applied."""
         assert self._params is not None
-        return replace(self.member, params=self._params, imperfections=self.imperfections)
+        return replace(self.member, params=self._params, imperfections=self.imperfections, hold=self.hold)
 
     def _init_sensor(self) -> None:
         """The core rig (sensor, actuator, friction, jitter) and, if asked, the truth topic."""
@@ -227,6 +258,7 @@ class RigNode(PlantNode):
     def _on_reset(self, _msg: Any) -> None:
         """Start-up only (no reset topic): at rest at the origin, drive off."""
         self.rig.reset()
+        self._drive = HeldDrive(self.rig, self.hold)
         self._k = 0
         self._u = 0.0
         self._t_cmd: float | None = None
@@ -256,7 +288,8 @@ class RigNode(PlantNode):
         """Acquire sample k at ``t_sched_ns``, step the rig, publish after the jitter delay."""
         t_sched = t_sched_ns * 1e-9
         self._check_watchdog(t_sched)
-        row = self.rig.step(self._u)
+        command = self._drive.command(self._u)  # the loop reads every sample, e-stop or not
+        row = self.rig.step(self._u if self.estop_latched else command)  # an e-stop disables the loop too
         stamp = self._stamp(t_sched_ns)
         self._note_estop(stamp)
         wait = t_sched + self.rig.publish_delay() - time.monotonic()

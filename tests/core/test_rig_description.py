@@ -70,12 +70,28 @@ def test_position_limits_and_known_facts_are_read() -> None:
     ({**FAST, "actuator_delay_samples": 1, "actuator_delay": 0.001}, "in samples or in seconds"),
     ({**FAST, "position_unit": " "}, "position_unit in rig.yaml must not be empty"),
     ({**FAST, "controller_joints": "a,b"}, "controller_joints in rig.yaml must be a list"),
+    ({**FAST, "hold_damping": 10.0}, "hold_damping in rig.yaml belongs to a hold loop: give hold_stiffness"),
+    ({**FAST, "hold_position": 0.0}, "hold_position in rig.yaml belongs to a hold loop"),
+    ({**FAST, "hold_stiffness": 0.0}, "hold_stiffness in rig.yaml must be > 0"),
+    ({**FAST, "hold_stiffness": 100.0, "hold_damping": -1.0}, "hold_damping in rig.yaml must be >= 0"),
+    ({**FAST, "hold_stiffness": 100.0, "hold_position": 0.2}, "hold_position in rig.yaml (0.2) must be"),
 ])
 def test_bad_key_is_one_line_naming_key_and_file(params: dict[str, object], named: str) -> None:
     with pytest.raises(ConfigError) as caught:
         parse_description(params, "rig.yaml")
     message = str(caught.value)
     assert named in message and "\n" not in message
+
+
+def test_a_stated_hold_loop_is_read_and_stated_in_the_facts() -> None:
+    """A stage's description states the loop its drive holds it under; a bare rig's facts are unchanged."""
+    from msd_bench.core.rigs.hold import HoldLoop
+
+    assert parse_description(FAST).hold() is None and "hold_loop" not in parse_description(FAST).facts()
+    rig = parse_description({**FAST, "hold_stiffness": 3500.0, "hold_damping": 120.0, "hold_position": 0.01})
+    assert rig.hold() == HoldLoop(3500.0, 120.0, 0.01)
+    assert rig.facts()["hold_loop"] == {"stiffness": 3500.0, "damping": 120.0, "position": 0.01}
+    assert parse_description({**FAST, "hold_stiffness": 3500.0}).hold() == HoldLoop(3500.0, 0.0, 0.0)
 
 
 def test_model_at_another_rate_is_refused_in_one_line() -> None:

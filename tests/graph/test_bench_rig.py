@@ -59,6 +59,8 @@ def test_rig_file_fills_the_face_and_explicit_options_win(tmp_path: Path) -> Non
     ("/**:\n  ros__parameters:\n    rate: 250.0\n    stroke: 5.0\n    force_limit: 10.0\n"
      "    decision_period: 0.01\n", "not a whole number of rig samples"),
     (ROS2_CONTROL_RIG, "give --plant-ns /rig"),
+    ("/**:\n  ros__parameters:\n    rate: 500.0\n    stroke: 0.5\n    force_limit: 200.0\n"
+     "    decision_period: 0.01\n    hold_stiffness: 1000.0\n", "states a hold loop, which the rig's drive"),
 ])
 def test_bad_rig_is_one_line_and_writes_nothing(tmp_path: Path, text: str, needle: str,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
@@ -67,6 +69,34 @@ def test_bad_rig_is_one_line_and_writes_nothing(tmp_path: Path, text: str, needl
     err = capsys.readouterr().err
     assert needle in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_a_held_rig_on_the_ros2_control_face_is_one_line(tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    held = "/**:\n  ros__parameters:\n    rate: 500.0\n    stroke: 0.5\n    force_limit: 200.0\n" \
+           "    decision_period: 0.01\n    hold_stiffness: 1000.0\n"
+    out = tmp_path / "out"
+    assert bench_main.main(["--rig", str(_write(tmp_path, held)), "--plant-ns", "/rig", "--interface",
+                            "ros2_control", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "states a hold loop: only the msd face" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_a_held_rigs_identifier_is_told_the_loop(tmp_path: Path) -> None:
+    """The identifier's job carries the stated loop (it identifies the held system); a bare rig's none."""
+    from msd_bench.app.job import job_document
+    from msd_bench.graph.bench_report import rig_line
+
+    held = "/**:\n  ros__parameters:\n    rate: 500.0\n    stroke: 0.5\n    force_limit: 200.0\n" \
+           "    decision_period: 0.01\n    hold_stiffness: 1000.0\n    hold_damping: 50.0\n"
+    cfg = bench_main.config(bench_main.parse(["--plant-ns", "/rig", "--rig", str(_write(tmp_path, held)),
+                                              "--out", str(tmp_path / "out")]))
+    params = job_document("identifier", cfg.run, {})["params"]
+    assert (params["hold_stiffness"], params["hold_damping"], params["hold_position"]) == (1000.0, 50.0, 0.0)
+    assert cfg.rig is not None and "held by its drive's position loop (stiffness 1000" in rig_line(cfg.rig)
+    bare = bench_main.config(bench_main.parse(["--out", str(tmp_path / "b"), "--rig", str(DEFAULT_RIG)]))
+    assert "hold_stiffness" not in job_document("identifier", bare.run, {})["params"]
 
 
 def test_report_line_states_rate_stroke_and_force(tmp_path: Path) -> None:

@@ -209,6 +209,30 @@ def test_a_stage_is_served_with_its_offset_force_and_rate(ctx: Any, executor: An
     rig.destroy_node()
 
 
+def test_a_stages_drive_holds_it_under_its_loop_unless_told_to_run_bare(ctx: Any, executor: Any) -> None:
+    """A stage member's drive adds its stated loop's force to every command (the effort moves with no
+    command at all: the loop answers the offset force); stiffness and damping 0 run it bare (0 N)."""
+    from msd_bench.core.rigs.families import draw
+
+    member = draw("stage", 1000)
+    held = make_rig(ctx, executor, "/hold_a", family="stage", population_seed=1000)
+    assert held.hold == member.hold and held.served().hold == member.hold
+    assert "held by kp" in held._sensor_text()
+    bare = make_rig(ctx, executor, "/hold_b", family="stage", population_seed=1000, hold_stiffness=0.0,
+                    hold_damping=0.0)
+    assert bare.hold is None and "held by" not in bare._sensor_text()
+    rows: dict[str, list[JointState]] = {"/hold_a": [], "/hold_b": []}
+    probe = Node("probe", context=ctx)
+    for ns, got in rows.items():
+        probe.create_subscription(JointState, f"{ns}/{JOINT_STATES.name}", got.append, qos(JOINT_STATES))
+    executor.add_node(probe)
+    assert spin_until(executor, lambda: min(len(r) for r in rows.values()) >= 200, timeout=30.0)
+    assert any(r.effort[0] != 0.0 for r in rows["/hold_a"])
+    assert all(r.effort[0] == 0.0 for r in rows["/hold_b"])
+    for node in (held, bare, probe):
+        node.destroy_node()
+
+
 def test_the_default_rig_is_the_reserved_member(ctx, executor):
     from msd_bench.core.physics.plant import PRESETS
     from msd_bench.core.rigs.rig import RigImperfections

@@ -20,7 +20,7 @@ import difflib
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,6 +30,7 @@ from msd_bench.core.physics.model import StepModel, check_rate
 from msd_bench.core.physics.plant import DT, PlantParams
 
 if TYPE_CHECKING:
+    from msd_bench.core.rigs.hold import HoldLoop
     from msd_bench.core.rigs.scales import Scales
 
 FACES = ("msd", "ros2_control")
@@ -43,7 +44,8 @@ WHOLE_TOLERANCE = 1e-9
 
 KEYS = ("rate", "stroke", "position_min", "position_max", "force_limit", "position_unit",
         "force_unit", "interface", "plant_ns", "controller", "joint", "controller_joints",
-        "effort", "decision_period", "actuator_delay_samples", "actuator_delay", "lag")
+        "effort", "decision_period", "actuator_delay_samples", "actuator_delay", "lag",
+        "hold_stiffness", "hold_damping", "hold_position")
 """Every key a description may hold; any other is refused with a 'did you mean'."""
 
 
@@ -76,6 +78,15 @@ class RigDescription:
     """A measured actuator delay, samples (optional known fact)."""
     lag: float | None = None
     """A measured first-order lag, s (optional known fact)."""
+    hold_stiffness: float | None = None
+    """The stated position loop the rig's drive holds it under, force per position unit (None: the rig
+    runs bare). A rig with no equilibrium of its own (a springless stage) is recorded and run under it;
+    the commands the bench sends are the force beyond the loop's (docs/rig-families.md §stage)."""
+    hold_damping: float = 0.0
+    """The loop's damping, force per (position unit per second), on the velocity estimated from the
+    measured positions."""
+    hold_position: float = 0.0
+    """The position the loop holds, in ``position_unit``."""
 
     @property
     def dt(self) -> float:
@@ -103,7 +114,22 @@ class RigDescription:
                 "force_limit": self.force_limit, "position_unit": self.position_unit,
                 "force_unit": self.force_unit, "interface": self.interface,
                 "decision_period_s": self.decision_period,
-                "samples_per_decision": self.samples_per_decision}
+                "samples_per_decision": self.samples_per_decision, **self._hold_facts()}
+
+    def _hold_facts(self) -> dict[str, object]:
+        """The stated hold loop, when there is one (a bare rig's facts are unchanged)."""
+        if self.hold_stiffness is None:
+            return {}
+        return {"hold_loop": {"stiffness": self.hold_stiffness, "damping": self.hold_damping,
+                              "position": self.hold_position}}
+
+    def hold(self) -> HoldLoop | None:
+        """The stated hold loop (None: the rig runs bare)."""
+        if self.hold_stiffness is None:
+            return None
+        from msd_bench.core.rigs.hold import HoldLoop  # lazy, as scales: a bare rig never needs it
+
+        return HoldLoop(self.hold_stiffness, self.hold_damping, self.hold_position)
 
     def latency(self, default: float) -> float:
         """Seconds before a braking command fully acts on this rig, for the supervisor's braking bound:
@@ -228,9 +254,28 @@ def parse_description(params: Mapping[str, object], source: str = "") -> RigDesc
         decision_period=_optional_positive(params, "decision_period", source)
         or DEFAULT_DECISION_PERIOD,
         actuator_delay_samples=_delay(params, rate, source),
-        lag=_optional_positive(params, "lag", source))
+        lag=_optional_positive(params, "lag", source), **_hold(params, low, high, source))
     decision_samples(desc.decision_period, rate, "decision_period", source)
     return desc
+
+
+def _hold(params: Mapping[str, object], low: float, high: float, source: str) -> dict[str, Any]:
+    """The stated hold loop's fields: a stiffness > 0 names the loop; its damping (≥ 0) and held position
+    (inside the limits) belong to it and are refused without it."""
+    stiffness = _optional_positive(params, "hold_stiffness", source)
+    damping = _number(params, "hold_damping", source)
+    position = _number(params, "hold_position", source)
+    if stiffness is None:
+        given = "hold_damping" if damping is not None else "hold_position" if position is not None else ""
+        if given:
+            raise ConfigError(f"{given}{_at(source)} belongs to a hold loop: give hold_stiffness too")
+        return {}
+    if damping is not None and damping < 0:
+        raise ConfigError(f"hold_damping{_at(source)} must be >= 0, got {damping:g}")
+    if position is not None and not low < position < high:
+        raise ConfigError(f"hold_position{_at(source)} ({position:g}) must be inside the position limits "
+                          f"[{low:g}, {high:g}]")
+    return {"hold_stiffness": stiffness, "hold_damping": damping or 0.0, "hold_position": position or 0.0}
 
 
 def _at(source: str) -> str:

@@ -149,7 +149,22 @@ class RigSpec:
                 f"friction {i.friction:.3f} N, delay {i.delay_samples} samples, "
                 f"lag {i.actuator_tau * 1e3:.1f} ms, noise {i.sensor_noise * 1e3:.2f} mm, "
                 f"quantisation {i.sensor_quant * 1e3:g} mm, jitter {i.jitter * 1e3:g} ms"
-                + (f", offset {i.offset:.4g} N" if i.offset else ""))
+                + (f", offset {i.offset:.4g} N" if i.offset else "")
+                + (f"; held by kp {self.hold.stiffness:.4g} N/m, kd {self.hold.damping:.4g} N s/m"
+                   if self.hold is not None else ""))
+
+    def description(self) -> dict[str, float]:
+        """The rig description its owner would write (docs/rig-description.md): rate, stroke and force
+        limit, the decision period :meth:`decision_samples` gives, and the hold loop it is run under.
+        Why from what the owner states only: ``bench.py --rig`` must learn nothing a real rig's file
+        would not hold (never the drawn mass, friction or drive)."""
+        p = self.params
+        out = {"rate": 1.0 / p.dt, "stroke": p.L, "force_limit": p.F,
+               "decision_period": self.decision_samples() * p.dt}
+        if self.hold is not None:
+            out.update(hold_stiffness=self.hold.stiffness, hold_damping=self.hold.damping,
+                       hold_position=self.hold.held)
+        return out
 
 
 def check_seed(seed: object) -> int:

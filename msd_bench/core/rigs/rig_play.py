@@ -109,17 +109,19 @@ def rest(rig: Rig, config: RestConfig | None = None, hold: HoldLoop | None = Non
     timeout); the rig stays there."""
     detector = RestDetector(config)
     most = round(detector.config.timeout / rig.params.dt)
-    loop = _Held(rig, hold)
+    loop = HeldDrive(rig, hold)
     while detector.samples < most:
         if detector.push(loop.step(0.0).measured):
             return RestOutcome(detector.samples, True, detector.x0)
     return RestOutcome(detector.samples, False, detector.x0)
 
 
-class _Held:
+class HeldDrive:
     """A rig stepped with the ``hold`` loop's force added to each command (the command itself without
     one). The loop reads what a lab's loop reads: the measured position now and the velocity estimated
-    from the last two (0 at the first sample, as the rig's own estimate)."""
+    from the last two (0 at the first sample, as the rig's own estimate). The rig emulator's drive runs
+    the same class at every real-time sample (``nodes/rig_node.py``), so a bag of a held stage holds what
+    a played plan holds here."""
 
     def __init__(self, rig: Rig, hold: HoldLoop | None) -> None:
         self.rig, self.hold = rig, hold
@@ -151,7 +153,7 @@ def play(rig: Rig, signal: FloatArray,
     (command, effort, measured, velocity, truth) per sample."""
     n = len(signal)
     out = np.empty((5, n))
-    loop = _Held(rig, hold)
+    loop = HeldDrive(rig, hold)
     for k in range(n):
         out[0, k] = loop.command(float(signal[k]))
         row = rig.step(out[0, k])

@@ -27,6 +27,7 @@ from msd_bench.core.identification.excitation import (
 )
 from msd_bench.core.identification.operating_points import plm_biases
 from msd_bench.core.identification.records import Records
+from msd_bench.core.rigs.hold import HoldLoop, beyond_loop
 from msd_bench.core.rigs.scales import DEFAULT_FORCE_LIMIT, Scales
 from msd_bench.io.bags.bag_error import BagError
 from msd_bench.io.bags.bag_interface import ForceSource, read_interface_experiment
@@ -186,7 +187,8 @@ def explicit_roles(bias_bags: Sequence[str], broad_bag: str, val_bag: str, settl
 
 def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/msd",
                  dt: float = DEFAULT_DT, iface: PlantInterface = MSD_INTERFACE, force_limit: float = 10.0,
-                 sources: list[ForceSource] | None = None, force_input: str = "applied") -> Records:
+                 sources: list[ForceSource] | None = None, force_input: str = "applied",
+                 hold: HoldLoop | None = None) -> Records:
     """Read every bag once and assemble the paper's records (one-line BagError if incomplete).
 
     The sample period comes from each bag's header stamps and must be the run's
@@ -201,12 +203,14 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
 
     ``iface`` says how the bags' plant showed itself and ``force_input`` how a measured effort's
     input is rebuilt (docs/ros2-control.md §Force); the input each bag gave is appended to
-    ``sources`` when given.
+    ``sources`` when given. With the rig's stated ``hold`` loop, each record's input is the force
+    applied beyond the loop's (:func:`~msd_bench.core.rigs.hold.beyond_loop`, from the bag's effort and
+    measured positions): the records of the *held* system, as ``msd-bench rigs`` plays them.
     """
     data: dict[tuple[str, float | None], IOData] = {}
     timing = replace(IDENTIFY, dt=dt)
     for r in roles:
-        exp, src = _played_experiment(r, iface, namespace, timing, force_limit, force_input)
+        exp, src = _played_experiment(r, iface, namespace, timing, force_limit, force_input, hold)
         if sources is not None:
             sources.append(src)
         if r.settle >= len(exp) - 3:
@@ -227,13 +231,17 @@ def load_records(roles: Sequence[BagRole], need_plm: bool, namespace: str = "/ms
 
 
 def _played_experiment(r: BagRole, iface: PlantInterface, namespace: str, timing: TimingPolicy,
-                       force_limit: float, force_input: str) -> tuple[Experiment, ForceSource]:
-    """One bag's experiment over its played samples, and the force it gave as input."""
+                       force_limit: float, force_input: str,
+                       hold: HoldLoop | None = None) -> tuple[Experiment, ForceSource]:
+    """One bag's experiment over its played samples, and the force it gave as input (beyond the
+    ``hold`` loop's when there is one: the played signal, which the cut is confirmed against)."""
     played = _played(r, force_limit)
     cut = None if played is None else locate_from_bag(r.path, iface, namespace, played, force_limit)
     exp, _, src = read_interface_experiment(r.path, iface, namespace, timing=timing, force_limit=force_limit,
                                             force_input=force_input, samples=r.samples,
                                             played=None if cut is None else cut.rows)
+    if hold is not None:
+        exp = replace(exp, u=beyond_loop(exp.u, exp.y, hold, timing.dt))
     if cut is not None and iface.effort_is_commanded:  # a measured effort was checked when rebuilt
         confirmed = confirm_by_effort(r.path, cut, exp.u, timing.dt)
         src = replace(src, agreement=confirmed.agreement)  # the drive the bag shows, on either face
