@@ -273,9 +273,17 @@ def _refine_all(cfg: RigsConfig, rig: Rig, seed: int, made: Mapping[str, Policy 
 def rig_parameters(spec: population.RigSpec) -> dict[str, Any]:
     """Every drawn parameter by the report's names: the plant's multipliers, then the imperfections, in
     the units of the rig's default-family twin (so every family's figure reads alike), then (a rig in
-    other units) its unit factors."""
-    mult = spec.multipliers()
+    other units) its unit factors. A rig that is a plant of its own (its family states its pace: a
+    stage) in physical units instead, with its stroke, force limit, rate and offset force
+    (:data:`~msd_bench.io.rigs.rigs_report.OWN_PLANT`)."""
     imp, u = spec.imperfections, spec.units
+    if spec.pace is not None:  # a plant of its own (a stage): physical units, its stroke, force and rate
+        p = spec.params
+        return {"mass": p.m, "damping": p.c, "spring": p.k, "hardening": p.h, "friction": imp.friction,
+                "delay": imp.delay_samples, "lag": imp.actuator_tau, "noise": imp.sensor_noise,
+                "quant": imp.sensor_quant, "stroke": p.L, "force_limit": p.F, "rate": 1.0 / p.dt,
+                "offset": imp.offset}
+    mult = spec.multipliers()
     doc = {"mass": mult["m"], "damping": mult["c"], "spring": mult["k"], "hardening": mult["h"],
            "friction": imp.friction, "delay": imp.delay_samples, "lag": imp.actuator_tau,
            "noise": imp.sensor_noise, "quant": imp.sensor_quant}

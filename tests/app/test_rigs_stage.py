@@ -31,6 +31,12 @@ def test_a_stage_runs_in_process_under_its_hold_loop(tmp_path: Path) -> None:
     for o in rig["outcomes"]:
         assert o["identified"] and o["risk"]["contacts"] == 0
         assert abs(o["start_x"]) < 0.05 * spec.params.L  # every run starts where the hold loop rested it
+    # a plant of its own is reported in physical units, with its stroke, force limit, rate and offset
+    p = spec.params
+    assert (rig["parameters"]["mass"], rig["parameters"]["stroke"], rig["parameters"]["rate"]) == (
+        p.m, p.L, 1.0 / p.dt)
+    assert rig["parameters"]["offset"] == spec.imperfections.offset
+    assert "| rig | mass kg | stroke m | F N | rate Hz |" in (out / "rigs.md").read_text()
 
 
 @pytest.mark.parametrize("extra", [["--ceiling"], ["--refine", "1"], ["--supervisor", "on"]])

@@ -16,7 +16,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from msd_bench.io.rigs.rigs_report import PARAMETERS
+from msd_bench.io.rigs.rigs_report import OWN_PLANT, PARAMETERS
 from msd_bench.io.storage.run_dir import RunDirError
 from msd_bench.io.storage.safe_read import read_json_bounded
 
@@ -71,7 +71,7 @@ def check_part(path: Path, doc: Any, seed: int, kinds: Sequence[str],
     if part.get("rig") != seed or isinstance(part.get("rig"), bool):
         raise _fail(path, "rig", f"must be {seed}, the rig of this task")
     params = _mapping(path, "parameters", part.get("parameters"))
-    for name in PARAMETERS:
+    for name in (*PARAMETERS, *(OWN_PLANT if "stroke" in params else ())):
         _number(path, f"parameters.{name}", params.get(name))
     failed = _mapping(path, "identification_failed", part.get("identification_failed"))
     if not all(isinstance(v, str) for v in failed.values()):

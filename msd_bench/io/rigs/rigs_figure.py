@@ -18,21 +18,18 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from msd_bench.io.rigs.rigs_report import PARAMETERS
+from msd_bench.io.rigs.rigs_report import columns
 from msd_bench.io.storage.atomic import save_figure_atomic
-
-UNITS = {"mass": "×", "damping": "×", "spring": "×", "hardening": "×", "friction": "N", "delay": "samples",
-         "lag": "s", "noise": "m", "quant": "m"}
 
 
 def rigs_figure(path: Path, doc: Mapping[str, Any], root: Path | None = None) -> Path:
     """Success fraction per rig (over its seeds) against each parameter, a series per kind."""
-    cols = 3
-    rows = -(-len(PARAMETERS) // cols)
+    params, cols = columns(doc), 3
+    rows = -(-len(params) // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(11, 3.0 * rows), squeeze=False)
     jitter = np.random.default_rng(0)
-    for ax, name in zip(axes.flat, PARAMETERS, strict=False):
-        values = np.array([float(r["parameters"][name]) for r in doc["rigs"]])
+    for ax, column in zip(axes.flat, params, strict=False):
+        values = np.array([float(r["parameters"][column.key]) for r in doc["rigs"]])
         spread = np.ptp(values) if values.size else 0.0
         for i, kind in enumerate(doc["agents"]):
             frac = []
@@ -43,11 +40,11 @@ def rigs_figure(path: Path, doc: Mapping[str, Any], root: Path | None = None) ->
             shift = jitter.uniform(-0.01, 0.01, values.size) * (spread or 1.0) if few else 0.0
             ax.scatter(values + shift, 100 * np.array(frac) + 1.5 * (i - len(doc["agents"]) / 2), s=12,
                        alpha=0.7, label=kind)
-        ax.set_xlabel(f"{name} ({UNITS[name]})")
+        ax.set_xlabel(f"{column.key} ({column.unit})")
         ax.set_ylabel("success (%)")
         ax.set_ylim(-8, 108)
         ax.grid(True, alpha=0.3)
-    for ax in list(axes.flat)[len(PARAMETERS):]:
+    for ax in list(axes.flat)[len(params):]:
         ax.set_visible(False)
     axes[0, 0].legend(fontsize=7, loc="lower left")
     fig.suptitle(f"Success per rig against each parameter ({len(doc['rigs'])} {doc['rig_set']} rigs)")

@@ -8,17 +8,57 @@ escaped (:func:`msd_bench.io.reports.report.md_cell`).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from msd_bench.core.evaluation.risk_table import RISK_HEADERS, RISK_NOTE, compact
 from msd_bench.io.reports.report import md_cell
 from msd_bench.io.storage.atomic import write_text_atomic
 
 PARAMETERS = ("mass", "damping", "spring", "hardening", "friction", "delay", "lag", "noise", "quant")
-"""Rig parameters in column order (multipliers, then the imperfections)."""
+"""Rig parameters in column order (multipliers, then the imperfections): every rig records these."""
+OWN_PLANT = ("mass", "stroke", "force_limit", "rate", "damping", "friction", "offset", "delay", "lag",
+             "quant")
+"""The columns of a family whose rigs are plants of their own (a ``stage``), in physical units: a
+multiplier of the paper's plant would say nothing there. Such a rig records ``stroke`` (the marker)."""
 FIGURE = "rigs.png"
+
+
+class Column(NamedTuple):
+    """One parameter column: its key in a rig's ``parameters``, its header, its cell and its unit."""
+
+    key: str
+    header: str
+    cell: Callable[[float], str]
+    unit: str
+
+
+_MULTIPLIED_COLUMNS = (
+    *(Column(k, f"{k} ×", lambda v: f"{v:.3f}", "×") for k in ("mass", "damping", "spring", "hardening")),
+    Column("friction", "friction N", lambda v: f"{v:.3f}", "N"),
+    Column("delay", "delay", lambda v: str(int(v)), "samples"),
+    Column("lag", "lag ms", lambda v: f"{1e3 * v:.1f}", "s"),
+    Column("noise", "noise mm", lambda v: f"{1e3 * v:.2f}", "m"),
+    Column("quant", "quant mm", lambda v: f"{1e3 * v:.1f}", "m"))
+_OWN_COLUMNS = (
+    Column("mass", "mass kg", lambda v: f"{v:.3g}", "kg"),
+    Column("stroke", "stroke m", lambda v: f"{v:.3g}", "m"),
+    Column("force_limit", "F N", lambda v: f"{v:.3g}", "N"),
+    Column("rate", "rate Hz", lambda v: f"{v:.0f}", "Hz"),
+    Column("damping", "c N·s/m", lambda v: f"{v:.3g}", "N·s/m"),
+    Column("friction", "friction N", lambda v: f"{v:.3g}", "N"),
+    Column("offset", "offset N", lambda v: f"{v:.3g}", "N"),
+    Column("delay", "delay", lambda v: str(int(v)), "samples"),
+    Column("lag", "lag ms", lambda v: f"{1e3 * v:.2f}", "s"),
+    Column("quant", "encoder µm", lambda v: f"{1e6 * v:.1f}", "m"))
+
+
+def columns(doc: Mapping[str, Any]) -> tuple[Column, ...]:
+    """The parameter columns of a sweep's rigs: physical units for plants of their own, else multipliers."""
+    rigs = [r for r in (*(doc.get("worst") or ()), *(doc.get("rigs") or ())) if "parameters" in r]
+    own = bool(rigs) and "stroke" in rigs[0]["parameters"]
+    return _OWN_COLUMNS if own else _MULTIPLIED_COLUMNS
 
 
 def _pct(x: float | None) -> str:
@@ -30,16 +70,10 @@ def _interval(ci: Sequence[float | None]) -> str:
     return "–" if lo is None or hi is None else f"{100 * lo:.0f}–{100 * hi:.0f} %"
 
 
-def parameter_cells(params: Mapping[str, Any]) -> list[str]:
-    """A rig's parameters as cells: multipliers ×, friction N, delay samples, lag ms, noise/quant mm."""
-    cells = [f"{params[k]:.3f}" for k in ("mass", "damping", "spring", "hardening")]
-    cells += [f"{params['friction']:.3f}", str(params["delay"]), f"{1e3 * params['lag']:.1f}",
-              f"{1e3 * params['noise']:.2f}", f"{1e3 * params['quant']:.1f}"]
-    return cells
-
-
-PARAM_HEADER = ("mass ×", "damping ×", "spring ×", "hardening ×", "friction N", "delay", "lag ms", "noise mm",
-                "quant mm")
+def parameter_cells(params: Mapping[str, Any], cols: Sequence[Column] = _MULTIPLIED_COLUMNS) -> list[str]:
+    """A rig's parameters as cells (multipliers ×, friction N, delay samples, lag ms, noise/quant mm; or a
+    plant of its own in physical units)."""
+    return [c.cell(float(params[c.key])) for c in cols]
 
 
 def _row(cells: Sequence[str]) -> str:
@@ -73,25 +107,27 @@ def scenarios_table(doc: Mapping[str, Any]) -> list[str]:
 
 def worst_table(doc: Mapping[str, Any]) -> list[str]:
     """The worst rigs with every parameter and which model kinds could not be identified."""
-    lines = [_row(("rig", "successes / runs", *PARAM_HEADER, "not identified")), _row(("---",) * 12)]
+    cols = columns(doc)
+    lines = [_row(("rig", "successes / runs", *(c.header for c in cols), "not identified")),
+             _row(("---",) * (3 + len(cols)))]
     for w in doc["worst"]:
         lines.append(_row((str(w["rig"]), f"{w['successes']} / {w['runs']}",
-                           *parameter_cells(w["parameters"]),
+                           *parameter_cells(w["parameters"], cols),
                            md_cell(", ".join(w["identification_failed"]) or "–"))))
     return lines
 
 
 def per_rig_table(doc: Mapping[str, Any]) -> list[str]:
     """Per rig: its parameters, each kind's successes over its seeds, and its time."""
-    kinds = doc["agents"]
-    lines = [_row(("rig", *PARAM_HEADER, *(md_cell(k) for k in kinds), "s")),
-             _row(("---",) * (11 + len(kinds)))]
+    kinds, cols = doc["agents"], columns(doc)
+    lines = [_row(("rig", *(c.header for c in cols), *(md_cell(k) for k in kinds), "s")),
+             _row(("---",) * (2 + len(cols) + len(kinds)))]
     for r in doc["rigs"]:
         wins = []
         for kind in kinds:
             rows = [o for o in r["outcomes"] if o["kind"] == kind]
             wins.append(f"{sum(bool(o['success']) for o in rows)}/{len(rows)}")
-        lines.append(_row((str(r["rig"]), *parameter_cells(r["parameters"]), *wins,
+        lines.append(_row((str(r["rig"]), *parameter_cells(r["parameters"], cols), *wins,
                            f"{r['seconds']['total']:.0f}")))
     return lines
 
