@@ -841,11 +841,35 @@ RIGS_WALL_FLOOR_S = 30 * 60
 def view_rigs_floors(doc: dict[str, Any], name: str) -> str:
     """Issue 21's floors read off a held-out sweep's rigs.json: each floor's rate (both intervals) and
     whether it holds, the sweep's wall time, and the rigs on which every run of every kind failed."""
+    return _floors_view(doc, name, RIGS_FLOORS, RIGS_WALL_FLOOR_S, learned_only=False)
+
+
+STAGE_FLOORS = (("the best learned kind", None, 0.85),
+                ("NLARX improved form (robust agent)", "nlarx-improved+robust", 0.80))
+"""Issue 38's floors on the stage family's held-out sweep: (what, kind or None for the best learned
+kind, least rate); a baseline (``+pid``, ``+lqr``, ``+mpc``) is beside them, never the best learned."""
+
+
+def view_stage_floors(doc: dict[str, Any], name: str) -> str:
+    """Issue 38's floors read off the stage family's held-out sweep, its wall time against two hours."""
+    return _floors_view(doc, name, STAGE_FLOORS, FAMILY_WALL_FLOOR_S, learned_only=True)
+
+
+def _is_learned(kind: str) -> bool:
+    """A Q-learning kind (a surrogate, optionally ``+improved`` or ``+robust``), not a baseline."""
+    return kind.rpartition("+")[2] not in ("pid", "pid-continuous", "lqr", "mpc")
+
+
+def _floors_view(doc: dict[str, Any], name: str, floors: tuple[tuple[str, str | None, float], ...],
+                 wall_floor_s: int, learned_only: bool) -> str:
+    """Each floor's rate (both intervals) and whether it holds, the sweep's wall time against
+    ``wall_floor_s``, and the rigs on which every run of every kind failed."""
     kinds = {k["kind"]: k for k in doc["kinds"]}
-    best = max(doc["kinds"], key=lambda k: k["rate"])
+    eligible = [k for k in doc["kinds"] if not learned_only or _is_learned(k["kind"])]
+    best = max(eligible, key=lambda k: k["rate"])
     lines = ["| floor | kind | rate | Wilson 95 % | bootstrap over rigs 95 % | floor | holds |",
              "|---|---|---|---|---|---|---|"]
-    for what, kind, floor in RIGS_FLOORS:
+    for what, kind, floor in floors:
         k = best if kind is None else kinds.get(kind)
         if k is None:
             lines.append(f"| {what} | not run | | | | {100 * floor:.0f} % | no |")
@@ -855,10 +879,10 @@ def view_rigs_floors(doc: dict[str, Any], name: str) -> str:
                      f"{100 * floor:.0f} % | {'yes' if k['rate'] >= floor else '**no**'} |")
     sweep = doc.get("sweep")
     if sweep:
-        holds = "holds" if sweep["wall_seconds"] <= RIGS_WALL_FLOOR_S else "**does not hold**"
+        holds = "holds" if sweep["wall_seconds"] <= wall_floor_s else "**does not hold**"
         lines += ["", f"Wall time of the sweep: {sweep['wall_seconds'] / 60:.1f} min for "
                       f"{sweep['rigs_computed']} rigs on {sweep['workers']} {sweep['executor']} workers of a "
-                      f"{sweep['cpus']}-core machine (floor {RIGS_WALL_FLOOR_S // 60} min: {holds})."]
+                      f"{sweep['cpus']}-core machine (floor {wall_floor_s // 60} min: {holds})."]
     dead = [r["rig"] for r in doc["rigs"] if not any(o["success"] for o in r["outcomes"])]
     lines += ["", f"Rigs on which no run of any kind succeeded: {', '.join(map(str, dead)) or 'none'} "
                   f"({len(dead)} of {len(doc['rigs'])}).",
@@ -890,9 +914,13 @@ def view_rigs_worst(doc: dict[str, Any], name: str) -> str:
                       f"{sweep['rigs_computed']} rigs on {on} (a family's bar: "
                       f"{FAMILY_WALL_FLOOR_S // 3600} h; {holds})."]
     family = (doc.get("population") or {}).get("family", "default")
+    from msd_bench.io.rigs.rigs_report import OWN_PLANT, columns
+
+    own = [c.key for c in columns(doc)] == list(OWN_PLANT)
+    said = ("each rig a plant of its own, in physical units" if own
+            else "the multipliers are against the default plant in the rig's own units")
     lines += ["", f"_Generated from `docs/results/{name}.json` ({len(doc['rigs'])} {doc['rig_set']} rigs "
-                  f"of the `{family}` family × {len(doc['learning_seeds'])} learning seeds; the multipliers "
-                  "are against the default plant in the rig's own units)._"]
+                  f"of the `{family}` family × {len(doc['learning_seeds'])} learning seeds; {said})._"]
     return "\n".join(lines) + "\n"
 
 
@@ -1146,6 +1174,7 @@ VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "deeprl": view_deeprl, "deeprl_efficiency": view_deeprl_efficiency, "rig_realtime": view_rig_realtime,
     "greybox_rig_floors": view_greybox_rig_floors,
     "rigs_kinds": view_rigs_kinds, "rigs_worst": view_rigs_worst, "rigs_floors": view_rigs_floors,
+    "stage_floors": view_stage_floors,
     "rigs_beside": view_rigs_beside,
     "rigs_ceiling": view_rigs_ceiling, "rigs_refine": view_rigs_refine,
     "identification_speed": view_identification_speed, "silverbox": view_silverbox,

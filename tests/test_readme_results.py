@@ -189,6 +189,16 @@ def test_rigs_floors_view_judges_each_floor_the_wall_time_and_names_the_dead_rig
     assert "Wall time" not in readme_results.view_rigs_floors(_rigs_doc({"plm+robust": (1, 2)}, None), "r")
 
 
+def test_stage_floors_view_takes_the_best_learned_kind_never_a_baseline():
+    """Issue 38: the best *learned* kind against 85 %, the robust NLARX against 80 %, two hours of wall."""
+    doc = _rigs_doc({"glm+pid": (20, 20), "greybox+robust": (17, 20), "nlarx-improved+robust": (15, 20)},
+                    7300.0)
+    text = readme_results.view_stage_floors(doc, "r")
+    assert "| the best learned kind | greybox+robust | 85.0 % (17/20)" in text and "glm+pid" not in text
+    assert "| 75.0 % (15/20) |" in text and text.count("| yes |") == 1 and text.count("**no**") == 1
+    assert "floor 120 min: **does not hold**" in text
+
+
 def _worst(rig: int, units: bool) -> dict:
     params = {"mass": 1.0, "damping": 1.0, "spring": 1.0, "hardening": 1.0, "friction": 0.1, "delay": 2,
               "lag": 0.03, "noise": 0.001, "quant": 0.0}
