@@ -15,6 +15,7 @@ from pathlib import Path
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.rigs.description import RigDescription
 from msd_bench.io.rigs.rig_file import read_rig
+from msd_msgs_py.interface import from_cli
 
 FACE_OPTIONS = ("interface", "controller", "joint", "controller_joints", "effort")
 """Interface options a rig file may fill (argparse dests; the file's keys have the same names)."""
@@ -57,7 +58,8 @@ def _check_hold(args: argparse.Namespace, rig: RigDescription) -> None:
     if args.plant_ns is None:
         raise ConfigError(f"--rig {args.rig} states a hold loop, which the rig's drive runs; the bench's "
                           "own plant has none: give --plant-ns of the rig (rig.py serving it)")
-    if (getattr(args, "interface", None) or "msd") != "msd":
-        raise ConfigError(f"--rig {args.rig} states a hold loop: only the msd face's effort (the force the "
-                          "drive applied, the loop's included) is read under one; drop --interface "
-                          f"{args.interface}")
+    face = from_cli(args)
+    if not face.contract_rows:  # a measured effort would be rebuilt from commands without the loop's force
+        raise ConfigError(f"--rig {args.rig} states a hold loop: only a face whose rows carry the force the "
+                          f"drive applied (the loop's included), the msd face's, is read under one; the "
+                          f"{face.kind} face's are not")

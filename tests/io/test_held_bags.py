@@ -1,6 +1,6 @@
 """A held stage's bags read as bench.py reads them give the records ``msd-bench rigs`` plays.
 
-Under a rig description that states a hold loop (docs/rig-description.md §Hold loop), the rig's drive
+Under a rig description that states a hold loop (docs/rig-description.md §Format), the rig's drive
 adds the loop's force to every command, so a bag's effort is the loop's force plus the signal. The bag
 route takes the loop back out (:func:`msd_bench.io.bags.bag_records.load_records` with ``hold``): its
 records must be the in-process ones (:func:`msd_bench.core.rigs.rig_play.records_of` under the same
