@@ -28,11 +28,16 @@ def _collect(task_list: list[Task], options: ExecutorOptions) -> tuple[dict[str,
     return got, log
 
 
+ON_RAY = pytest.param("ray", marks=pytest.mark.cluster)
+"""The Ray half of a test run on both executors: the cluster tier's (docs/testing.md §Tiers)."""
+
+
 def test_local_pool_runs_every_task_single_threaded() -> None:
     got, _ = _collect([Task(f"t{i}", tasks.square, (i,)) for i in range(5)], ExecutorOptions(workers=2))
     assert got == {f"t{i}": {"x": i, "square": i * i, "omp": "1"} for i in range(5)}
 
 
+@pytest.mark.cluster  # Ray's start alone is tens of seconds on two cores: the cluster tier
 @pytest.mark.usefixtures("ray_cluster")
 def test_local_and_ray_give_the_same_results() -> None:
     jobs = [Task(f"t{i}", tasks.square, (i,)) for i in range(4)]
@@ -41,7 +46,7 @@ def test_local_and_ray_give_the_same_results() -> None:
     assert ray == local
 
 
-@pytest.mark.parametrize("kind", ["local", "ray"])
+@pytest.mark.parametrize("kind", ["local", ON_RAY])
 def test_a_task_whose_worker_dies_is_retried_and_said(kind: str, tmp_path: Path,
                                                        request: pytest.FixtureRequest) -> None:
     if kind == "ray":
@@ -58,7 +63,7 @@ def test_a_worker_that_always_dies_fails_the_sweep_in_one_line() -> None:
     assert "\n" not in str(err.value)
 
 
-@pytest.mark.parametrize("kind", ["local", "ray"])
+@pytest.mark.parametrize("kind", ["local", ON_RAY])
 def test_the_projects_error_in_a_task_fails_the_sweep_with_that_line(kind: str,
                                                                      request: pytest.FixtureRequest) -> None:
     if kind == "ray":
