@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import statistics
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -855,6 +856,25 @@ def view_stage_floors(doc: dict[str, Any], name: str) -> str:
     return _floors_view(doc, name, STAGE_FLOORS, FAMILY_WALL_FLOOR_S, learned_only=True)
 
 
+def view_stage_stalls(doc: dict[str, Any], name: str) -> str:
+    """How a sweep's nominal runs fail, per kind: the failed runs that never passed the set-point (their
+    overshoot 0: they stopped short, as friction holds a mass commanded from a coarse force alphabet)
+    and their steady-state error, against those that passed it."""
+    lines = ["| kind | failed runs | stopped short (never passed the set-point) | their median SSE | "
+             "passed it and failed |", "|---|---|---|---|---|"]
+    labels = {k["kind"]: k["label"] for k in doc["kinds"]}
+    for kind in doc["agents"]:
+        runs = [o for r in doc["rigs"] for o in r["outcomes"] if o["kind"] == kind and o.get("identified")]
+        failed = [o for o in runs if not o["success"] and o.get("sse") is not None]
+        short = [o for o in failed if o.get("po") == 0.0]
+        median = f"{statistics.median(o['sse'] for o in short):.1f} %" if short else "–"
+        lines.append(f"| {labels.get(kind, kind)} | {len(failed)} of {len(runs)} | {len(short)} | {median} | "
+                     f"{len(failed) - len(short)} |")
+    lines += ["", f"_Generated from `docs/results/{name}.json` (the nominal runs of {len(doc['rigs'])} "
+                  f"{doc['rig_set']} rigs; a run whose SSE is undefined is left out)._"]
+    return "\n".join(lines) + "\n"
+
+
 def _is_learned(kind: str) -> bool:
     """A Q-learning kind (a surrogate, optionally ``+improved`` or ``+robust``), not a baseline."""
     return kind.rpartition("+")[2] not in ("pid", "pid-continuous", "lqr", "mpc")
@@ -1174,7 +1194,7 @@ VIEWS: dict[str, Callable[[dict[str, Any], str], str]] = {
     "deeprl": view_deeprl, "deeprl_efficiency": view_deeprl_efficiency, "rig_realtime": view_rig_realtime,
     "greybox_rig_floors": view_greybox_rig_floors,
     "rigs_kinds": view_rigs_kinds, "rigs_worst": view_rigs_worst, "rigs_floors": view_rigs_floors,
-    "stage_floors": view_stage_floors,
+    "stage_floors": view_stage_floors, "stage_stalls": view_stage_stalls,
     "rigs_beside": view_rigs_beside,
     "rigs_ceiling": view_rigs_ceiling, "rigs_refine": view_rigs_refine,
     "identification_speed": view_identification_speed, "silverbox": view_silverbox,

@@ -199,6 +199,18 @@ def test_stage_floors_view_takes_the_best_learned_kind_never_a_baseline():
     assert "floor 120 min: **does not hold**" in text
 
 
+def test_stage_stalls_view_counts_the_failed_runs_that_stopped_short():
+    runs = [{"kind": "a", "identified": True, "success": False, "sse": 6.0, "po": 0.0},
+            {"kind": "a", "identified": True, "success": False, "sse": 10.0, "po": 0.0},
+            {"kind": "a", "identified": True, "success": False, "sse": 30.0, "po": 12.0},
+            {"kind": "a", "identified": True, "success": True, "sse": 1.0, "po": 3.0},
+            {"kind": "b", "identified": False, "success": False}]
+    doc = {"agents": ["a", "b"], "kinds": [{"kind": "a", "label": "A"}, {"kind": "b", "label": "B"}],
+           "rigs": [{"rig": 1000, "outcomes": runs}], "rig_set": "held-out"}
+    text = readme_results.view_stage_stalls(doc, "r")
+    assert "| A | 3 of 4 | 2 | 8.0 % | 1 |" in text and "| B | 0 of 0 | 0 | – | 0 |" in text
+
+
 def _worst(rig: int, units: bool) -> dict:
     params = {"mass": 1.0, "damping": 1.0, "spring": 1.0, "hardening": 1.0, "friction": 0.1, "delay": 2,
               "lag": 0.03, "noise": 0.001, "quant": 0.0}
