@@ -96,9 +96,7 @@ class IdentifierConfig:
 
     def hold(self) -> HoldLoop | None:
         """The stated hold loop, None when both gains are 0."""
-        if self.hold_stiffness == 0.0 and self.hold_damping == 0.0:
-            return None
-        return HoldLoop(self.hold_stiffness, self.hold_damping, self.hold_position)
+        return HoldLoop.from_gains(self.hold_stiffness, self.hold_damping, self.hold_position)
 
     def __post_init__(self) -> None:
         if not self.out_dir:

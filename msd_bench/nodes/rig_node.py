@@ -92,9 +92,7 @@ class DriveHold:
 
     def loop(self) -> HoldLoop | None:
         """The loop, or None on a bare rig."""
-        if self.hold_stiffness == 0.0 and self.hold_damping == 0.0:
-            return None
-        return HoldLoop(self.hold_stiffness, self.hold_damping, self.hold_position)
+        return HoldLoop.from_gains(self.hold_stiffness, self.hold_damping, self.hold_position)
 
     @classmethod
     def of(cls, loop: HoldLoop | None) -> DriveHold:

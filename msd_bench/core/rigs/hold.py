@@ -75,6 +75,14 @@ class HoldLoop:
         stiffness = STIFFNESS_PER_FORCE_AND_STROKE * force_limit / stroke
         return cls(stiffness, 2.0 * DAMPING_RATIO * math.sqrt(stiffness * nominal_mass))
 
+    @classmethod
+    def from_gains(cls, stiffness: float, damping: float, held: float = 0.0) -> HoldLoop | None:
+        """The loop parameters state (a node's, a job's), or None when both gains are 0: a rig run bare.
+        Why here: the rig node's drive and the identifier read the same three numbers the same way."""
+        if stiffness == 0.0 and damping == 0.0:
+            return None
+        return cls(stiffness, damping, held)
+
     def force(self, measured: Sample, velocity: Sample) -> Sample:
         """The loop's force (before the excitation is added and the drive saturates): for one sample, or
         elementwise over arrays of them — the one place the law is written in Python (the compiled
