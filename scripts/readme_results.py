@@ -861,17 +861,20 @@ def view_stage_stalls(doc: dict[str, Any], name: str) -> str:
     overshoot 0: they stopped short, as friction holds a mass commanded from a coarse force alphabet)
     and their steady-state error, against those that passed it."""
     lines = ["| kind | failed runs | stopped short (never passed the set-point) | their median SSE | "
-             "passed it and failed |", "|---|---|---|---|---|"]
+             "passed it and failed | rigs with no design (its rule found none) |",
+             "|---|---|---|---|---|---|"]
     labels = {k["kind"]: k["label"] for k in doc["kinds"]}
     for kind in doc["agents"]:
         runs = [o for r in doc["rigs"] for o in r["outcomes"] if o["kind"] == kind and o.get("identified")]
         failed = [o for o in runs if not o["success"] and o.get("sse") is not None]
         short = [o for o in failed if o.get("po") == 0.0]
         median = f"{statistics.median(o['sse'] for o in short):.1f} %" if short else "–"
+        undesigned = sum(kind in (r.get("design_failed") or {}) for r in doc["rigs"])
         lines.append(f"| {labels.get(kind, kind)} | {len(failed)} of {len(runs)} | {len(short)} | {median} | "
-                     f"{len(failed) - len(short)} |")
+                     f"{len(failed) - len(short)} | {undesigned} |")
     lines += ["", f"_Generated from `docs/results/{name}.json` (the nominal runs of {len(doc['rigs'])} "
-                  f"{doc['rig_set']} rigs; a run whose SSE is undefined is left out)._"]
+                  f"{doc['rig_set']} rigs; a run whose SSE is undefined, as on a rig with no design, is left "
+                  "out of the failed runs)._"]
     return "\n".join(lines) + "\n"
 
 

@@ -206,9 +206,10 @@ def test_stage_stalls_view_counts_the_failed_runs_that_stopped_short():
             {"kind": "a", "identified": True, "success": True, "sse": 1.0, "po": 3.0},
             {"kind": "b", "identified": False, "success": False}]
     doc = {"agents": ["a", "b"], "kinds": [{"kind": "a", "label": "A"}, {"kind": "b", "label": "B"}],
-           "rigs": [{"rig": 1000, "outcomes": runs}], "rig_set": "held-out"}
+           "rigs": [{"rig": 1000, "outcomes": runs, "design_failed": {"b": "no gains"}}],
+           "rig_set": "held-out"}
     text = readme_results.view_stage_stalls(doc, "r")
-    assert "| A | 3 of 4 | 2 | 8.0 % | 1 |" in text and "| B | 0 of 0 | 0 | – | 0 |" in text
+    assert "| A | 3 of 4 | 2 | 8.0 % | 1 | 0 |" in text and "| B | 0 of 0 | 0 | – | 0 | 1 |" in text
 
 
 def _worst(rig: int, units: bool) -> dict:
