@@ -130,8 +130,13 @@ def test_a_usage_mistake_is_one_line(argv: list[str], message: str,
     assert err.startswith("msd-bench check-rig: error: ") and message in err
 
 
+@pytest.mark.realtime
 def test_the_rig_emulator_passes_with_its_default_imperfections() -> None:
-    """2 mm noise, 0.1 mm quantisation, one sample of delay, a 20 ms lag, friction, jitter, no reset."""
+    """2 mm noise, 0.1 mm quantisation, one sample of delay, a 20 ms lag, friction, jitter, no reset.
+
+    The realtime tier's: its effort-step clause judges real time, and beside the default tier's three
+    workers under CI's 100-example fuzz load it once saw no effort move in 0.8 s (a 336 ms stall of
+    the rows' arrival); the ros2_control face's run of the same clauses stays in the default tier."""
     with launch.process_group() as procs:
         rig = procs.start("rig.py", ["-p", "duplicate_check:=0.0", "-r", "__ns:=/rig_check"], name="rig")
         rig.wait_for_line(r"ready \(", timeout=90.0)
