@@ -15,6 +15,7 @@ from msd_bench.core.errors import ConfigError
 from msd_bench.core.physics.plant import PlantParams, preset
 
 if TYPE_CHECKING:  # the supervisor is compiled: loaded only when a run is validated behind it
+    from msd_bench.core.rigs.hold import HoldLoop
     from msd_bench.core.safety.supervisor import Limits
 from msd_bench.core.evaluation.scenarios import Scenario, suite
 from msd_bench.core.physics.sensor import SensorModel
@@ -112,6 +113,11 @@ class RunConfig:
     def decision_samples(self) -> int:
         """Rig samples per decision (the command held over them): the rig's, 1 on the paper's plant."""
         return 1 if self.rig is None else self.rig.samples_per_decision
+
+    @property
+    def hold(self) -> HoldLoop | None:
+        """The hold loop the run's rig states (its drive adds it to every command), None on a bare rig."""
+        return None if self.rig is None else self.rig.hold()
 
     @property
     def scales(self) -> Scales:

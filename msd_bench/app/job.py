@@ -101,7 +101,7 @@ def rest_params(run: RunConfig) -> dict[str, Any]:
 
 def _identifier_params(run: RunConfig, seed: int) -> dict[str, Any]:
     p = run.plant
-    hold = None if run.rig is None else run.rig.hold()
+    hold = run.hold
     held = {} if hold is None else {"hold_stiffness": hold.stiffness, "hold_damping": hold.damping,
                                     "hold_position": hold.held}  # the held system is identified
     return {"models": list(run.surrogates_needed()), "nlarx_scale": float(run.nlarx_scale), "seed": seed,

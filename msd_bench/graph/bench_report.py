@@ -123,7 +123,7 @@ def figure_data(cfg: BenchConfig, results: list[AgentResult],
         records=load_records_of(roles_from_dir(cfg.excitation_dir, cfg.namespace, cfg.run.plant.dt),
                                 needs_bias_records(models), cfg.namespace, cfg.run.plant.dt,
                                 iface=cfg.interface, force_limit=cfg.run.plant.F,
-                                hold=None if cfg.run.rig is None else cfg.run.rig.hold()),
+                                hold=cfg.run.hold),
         policies=policies, responses=responses)
 
 

@@ -313,7 +313,7 @@ class Placement:
     @property
     def hold(self) -> HoldLoop | None:
         """The rig's stated hold loop, which its drive adds to every command (None: a bare plant)."""
-        return None if self.run.rig is None else self.run.rig.hold()
+        return self.run.hold
 
 
 def record_one(spec: ExperimentSpec, bag: Path, servers: RecordServers, where: Placement) -> Path:

@@ -83,9 +83,8 @@ def _layout(model: StepModel) -> tuple[int, float]:
     Why: a baseline deciding every few rig samples is designed on the surrogate held over them; its
     state is the inner model's, and an ARX-type state's last two positions are one *sample* apart.
     """
-    if model.kind != kernels.KIND_HELD:
-        return model.kind, model.dt
-    return int(model.params[1]), model.dt / float(model.params[0])
+    held = model.kind == kernels.KIND_HELD
+    return int(kernels.base_kind(model.kernel)), model.dt / float(model.params[0]) if held else model.dt
 
 
 def slots(model: StepModel) -> int:
