@@ -879,8 +879,11 @@ def view_stage_stalls(doc: dict[str, Any], name: str) -> str:
 
 
 def _is_learned(kind: str) -> bool:
-    """A Q-learning kind (a surrogate, optionally ``+improved`` or ``+robust``), not a baseline."""
-    return kind.rpartition("+")[2] not in ("pid", "pid-continuous", "lqr", "mpc")
+    """A learned kind, not a classical baseline: the design registry's own word (an unknown kind is one
+    ConfigError line)."""
+    from msd_bench.designs.registry import agent_kind
+
+    return not agent_kind(kind).design.baseline
 
 
 def _floors_view(doc: dict[str, Any], name: str, floors: tuple[tuple[str, str | None, float], ...],
