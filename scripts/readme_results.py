@@ -881,9 +881,9 @@ def view_stage_stalls(doc: dict[str, Any], name: str) -> str:
 def _is_learned(kind: str) -> bool:
     """A learned kind, not a classical baseline: the design registry's own word (an unknown kind is one
     ConfigError line)."""
-    from msd_bench.designs.registry import agent_kind
+    from msd_bench.designs.kinds import is_baseline
 
-    return not agent_kind(kind).design.baseline
+    return not is_baseline(kind)
 
 
 def _floors_view(doc: dict[str, Any], name: str, floors: tuple[tuple[str, str | None, float], ...],

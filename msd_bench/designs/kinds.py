@@ -81,6 +81,12 @@ def made_on_plant(kind: str) -> bool:
     return agent_kind(kind).on_plant
 
 
+def is_baseline(kind: str) -> bool:
+    """It is a baseline (classical or deep), not one of the paper's learned agents: reports compare the
+    learned kinds against these."""
+    return agent_kind(kind).design.baseline
+
+
 def split_by_model(agents: Sequence[str]) -> tuple[list[str], list[str]]:
     """``agents`` as (made on an identified model, made on the plant), each in the given order."""
     return ([a for a in agents if not made_on_plant(a)], [a for a in agents if made_on_plant(a)])
