@@ -21,25 +21,29 @@ if __name__ == "__main__":  # `python -m msd_bench.cli` with an interpreter lack
 
 from msd_bench.core.errors import MsdBenchError  # only after the re-exec above
 
+COMMANDS: dict[str, str] = {
+    "paper": "paper", "efficiency": "efficiency", "rigs": "rigs", "rig-file": "rig_file",
+    "identify": "identify", "bag": "bag", "echo": "topics", "hz": "topics", "check-rig": "check_rig",
+    "compare": "diagnose", "resid": "diagnose",
+}
+"""Each subcommand and the module of :mod:`msd_bench.commands` that registers it (in ``--help``'s order)."""
 
-def build_parser() -> argparse.ArgumentParser:
-    """The full parser with every subcommand registered."""
-    from msd_bench.commands import (
-        bag,
-        check_rig,
-        diagnose,
-        efficiency,
-        identify,
-        paper,
-        rig_file,
-        rigs,
-        topics,
-    )
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser with every subcommand registered, or only ``command``'s module if it names one.
+
+    Why only one: the modules import what their commands need (identification,
+    python-control, bag readers); ``msd-bench paper --seeds 0`` should answer
+    its one line in a fraction of a second, not after importing every other
+    command's science. Help and an unknown command still see them all.
+    """
+    from importlib import import_module
 
     parser = argparse.ArgumentParser(prog="msd-bench", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (paper, efficiency, rigs, rig_file, identify, bag, topics, check_rig, diagnose):
-        module.register(sub)
+    names = [COMMANDS[command]] if command in COMMANDS else list(dict.fromkeys(COMMANDS.values()))
+    for name in names:
+        import_module(f"msd_bench.commands.{name}").register(sub)
     return parser
 
 
@@ -55,7 +59,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         from msd_bench.dds import confine_process
 
         confine_process()
-    args = build_parser().parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser(words[0] if words else None).parse_args(words)
     try:
         return int(args.func(args) or 0)
     except MsdBenchError as exc:

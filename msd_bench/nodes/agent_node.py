@@ -128,6 +128,10 @@ class AgentNodeConfig:
     nothing; :attr:`msd_bench.designs.protocol.Request.drive`)."""
     drive_lag: float = field(default=0.0, metadata={"range": (0.0, 1e3)})
     """The drive's lag, s (with ``drive_delay``)."""
+    match_timeout: float = field(default=120.0, metadata={"range": (0.1, 3600.0)})
+    """Seconds an episode waits for its node to match before the run ends with one line. Why this
+    long: a node that is still starting on a loaded machine (imports, discovery beside other DDS
+    participants) took over 30 s to answer; a node that never comes is still one line."""
     pooled: bool = False
     """Lock-step only, in a served process: take the plant's (and surrogate's) endpoints from the
     process's pool, matched already by an earlier job (:mod:`msd_bench.nodes.endpoints`)."""
@@ -273,7 +277,8 @@ class AgentNode(Node):
         self._client = EpisodeClient(
             self, lockstep=self.config.lockstep, reset=self.config.reset,
             rest=RestConfig(self.config.rest_window, self.config.rest_threshold, self.config.rest_timeout),
-            interfaces={self.config.plant_ns: self.interface}, pooled=self.config.pooled)
+            interfaces={self.config.plant_ns: self.interface}, pooled=self.config.pooled,
+            match_timeout_s=self.config.match_timeout)
         self._client.log = self._warn
         self._client.on_error = self._fail
         self._reference = self.create_publisher(

@@ -32,10 +32,12 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
              "--out", str(root / "p")]
     bench = [sys.executable, "launch_scripts/bench.py", *BUDGET, "--out", str(root / "b"),
              "--domain-id", os.environ["ROS_DOMAIN_ID"]]
-    for argv in (paper, bench):
-        proc = subprocess.run(argv, cwd=REPO, capture_output=True, text=True, timeout=900)
-        assert proc.returncode == 0, proc.stderr[-3000:]
-        assert "Traceback" not in proc.stderr and "GLM (PID baseline)" in proc.stdout
+    procs = [subprocess.Popen(argv, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for argv in (paper, bench)]  # at once: bench.py waits on discovery and processes meanwhile
+    for proc in procs:
+        out, err = proc.communicate(timeout=900)
+        assert proc.returncode == 0, err[-3000:]
+        assert "Traceback" not in err and "GLM (PID baseline)" in out
     return root / "p", root / "b" / "report"
 
 

@@ -160,9 +160,9 @@ def test_a_user_error_in_a_callback_ends_the_agent_through_done(ctx, executor, t
     """No surrogate answers: the episode client's EpisodeError completes ``done`` (one line from the
     process) instead of escaping into the executor."""
     cfg = AgentNodeConfig(kind="glm", model_path=str(glm_path), seeds=(0,), episodes=1, steps=10,
-                          via_ros=True, surrogate_ns="/surrogate/nobody", out_dir=str(tmp_path))
+                          via_ros=True, surrogate_ns="/surrogate/nobody", out_dir=str(tmp_path),
+                          match_timeout=0.3)
     agent = AgentNode(cfg, context=ctx)
-    agent._client.match_timeout_s = 0.3
     executor.add_node(agent)
     assert spin_until(executor, agent.done.done, timeout=20.0)
     with pytest.raises(EpisodeError, match="no plant-like node answers under /surrogate/nobody"):

@@ -36,17 +36,19 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import control
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
-from scipy.signal import lfilter, lfiltic
 
 from msd_bench.core.errors import IdentificationError, InvalidInputError
 from msd_bench.core.identification.data import Experiment
 from msd_bench.core.physics.sensor import lowpass
+
+if TYPE_CHECKING:  # python-control and scipy.signal load when used: every process that identifies
+    import control  # imports this module, and they cost most of a command's start-up (0.8 s here)
 
 FloatArray = NDArray[np.float64]
 
@@ -104,6 +106,8 @@ class LinearFit:
 
     def to_transfer_function(self) -> control.TransferFunction:
         """Discrete ``G(z) = (n1 z + n2) / (z^2 + d1 z + d2)`` with ``dt`` (deviation input -> output)."""
+        import control
+
         return control.tf([self.n1, self.n2], [1.0, self.d1, self.d2], self.dt)
 
     def to_continuous(self) -> control.TransferFunction:
@@ -125,6 +129,8 @@ class LinearFit:
         ac = np.real(scipy.linalg.logm(a)) / self.dt
         bc = ac @ np.linalg.solve(a - np.eye(2), b)
         num, den = _ss_to_tf(ac, bc, c)
+        import control
+
         return control.tf(num, den)
 
 
@@ -160,6 +166,8 @@ def simulate_deviation(
     Outputs 0 and 1 are ``init = (y[0], y[1])`` (absolute), or the measured
     ones when ``init`` is None; the rest is simulated from them.
     """
+    from scipy.signal import lfilter, lfiltic
+
     n1, n2, d1, d2 = theta
     u = e.u - u0
     ya, yb = (float(e.y[0]), float(e.y[1])) if init is None else init
