@@ -204,7 +204,8 @@ def rig_task(cfg: RigsConfig, seed: int) -> dict[str, Any]:
                                        scales=scales), cfg.rest, drawn.hold)
     records = records_of(played, drawn.params.dt, drawn.hold)  # a held rig's: the held system's
     drive = measured_actuator(played, drawn.params.dt)
-    told = Drive(drive.delay_samples, drive.time_constant_s) if cfg.actuator == "measured" else None
+    told = Drive(drive.delay_samples, drive.time_constant_s, hold=drawn.hold) \
+        if cfg.actuator == "measured" else None
     t_play = time.perf_counter()
     models, fits, failed = _identify(records, run, drawn.params, seed, scales)
     t_id = time.perf_counter()

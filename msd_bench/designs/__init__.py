@@ -105,7 +105,7 @@ def at_decisions(kind: str, model: StepModel | None, settings: Settings,
     check_decisions(kind, n)
     from msd_bench.core.physics.model import held  # numba: loaded only when a model is held
 
-    told = None if drive is None else Drive(round(drive.delay_samples / n), drive.lag_s)
+    told = None if drive is None else replace(drive, delay_samples=round(drive.delay_samples / n))
     decided = replace(settings, dt=settings.dt * n, steps=max(1, settings.steps // n), decision_samples=1)
     return None if model is None else held(model, n), decided, told
 

@@ -29,6 +29,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from msd_bench.core.rigs.hold import HoldLoop
+
 if TYPE_CHECKING:  # numba-compiled modules load only when a policy is made or run
     from msd_bench.core.evaluation.closed_loop import Conditions
     from msd_bench.core.physics.kernels import Kernel
@@ -115,6 +117,9 @@ class Drive:
     """Dead time, samples."""
     lag_s: float
     """First-order lag's time constant, s."""
+    hold: HoldLoop | None = None
+    """The position loop the drive adds to every command (a stage's, docs/rig-families.md §stage;
+    None: a bare drive): the rig's owner states it, so a design may know it."""
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError, InvalidInputError
 from msd_bench.core.learning.qconfig import MAX_DELAY_SAMPLES, QConfig, improved_config
-from msd_bench.designs.protocol import Controller, Facts, KindSpec, Request, Settings
+from msd_bench.designs.protocol import Controller, Drive, Facts, KindSpec, Request, Settings
 from msd_bench.designs.registry import PLANT, plus_kinds
 
 if TYPE_CHECKING:  # numba-compiled modules load only when a policy is made or run
@@ -96,6 +96,30 @@ def for_actuator(lr: QConfig, delay_samples: int) -> QConfig:
         return lr
     d = min(int(delay_samples), MAX_DELAY_SAMPLES)
     return replace(lr, obs_delay=d, train_delay=min(lr.train_delay + d, MAX_DELAY_SAMPLES))
+
+
+def for_drive(lr: QConfig, drive: Drive) -> QConfig:
+    """``lr`` told what a rig's records and its owner say of the drive: the measured delay
+    (:func:`for_actuator`) and, when the drive adds a stated hold loop's force to every command (a
+    stage), that loop: a model observer's commands then carry the loop's force at the set-point and
+    leave out its force-bias estimate (``QConfig.hold_stiffness``, ``obs_bias_feedforward``). Any
+    other learner, or a bare drive, gets the delay only: the default and scaled families' learners are
+    unchanged, bit for bit.
+
+    Why: the surrogate of a stage is of the held system, whose rest position under a force depends on
+    the set-point; a table without a reference bin parks short of a set-point whose holding force it
+    cannot tell from another's, and a stage's Coulomb friction and offset (forces the surrogate does not
+    know) stall it short by that force over the loop's stiffness. With the loop's force at the set-point
+    carried, zero force holds every set-point; the observer's bias state measures the missing force, and
+    taking it out of the command is the classical disturbance-observer compensation. Only what the owner
+    states (the loop) and what the observer estimates enter: no constant tuned per rig (docs/rigs.md
+    §The robust agent on a held rig).
+    """
+    told = for_actuator(lr, drive.delay_samples)
+    if drive.hold is None or told.observer != "model" or told.obs_bias_gain == 0.0:
+        return told
+    return replace(told, obs_bias_feedforward=True, hold_stiffness=drive.hold.stiffness,
+                   hold_position=drive.hold.held)
 
 
 def learner_from_meta(meta: Mapping[str, Any]) -> QConfig:
@@ -226,11 +250,11 @@ class QDesign:
         return self.offers(surfaces)
 
     def config(self, req: Request) -> QConfig:
-        """The learner at this request's budget (Dyna-Q: the plant budget), told the drive's delay when
-        the request carries one (:func:`for_actuator`: only a model observer uses it)."""
+        """The learner at this request's budget (Dyna-Q: the plant budget), told the drive when the
+        request carries one (:func:`for_drive`: only a model observer uses it)."""
         s = req.settings
         qc = learner(req.spec, self.learner_name, s, s.plant_episodes if self.planning else s.episodes)
-        return qc if req.drive is None else for_actuator(qc, req.drive.delay_samples)
+        return qc if req.drive is None else for_drive(qc, req.drive)
 
     def budget_note(self, s: Settings) -> str:
         """What a reader must know about the row's budget ('' when it is the paper's)."""

@@ -45,7 +45,7 @@ from numba.extending import overload
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import InvalidInputError
-from msd_bench.core.learning.q_kernels import encode, greedy, observe, observer_state
+from msd_bench.core.learning.q_kernels import commanded, encode, greedy, observe, observer_state
 from msd_bench.core.learning.qconfig import Learner
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.kernels import RIG_STATE_SIZE, Kernel
@@ -218,7 +218,8 @@ def q_decide(c: QRun, j: int, k: int, y: float, target: float) -> float:
         m[0], m[1] = observe(c.lr, c.obs, c.ost, 0.0, y, 0.0, 0.0, True)
     else:
         m[0], m[1] = observe(c.lr, c.obs, c.ost, m[2], y, m[0], m[1], False)
-    u: float = c.lr.actions[greedy(c.q[j], encode(c.lr.enc, m[0] - target, m[1], target))]
+    chosen = c.lr.actions[greedy(c.q[j], encode(c.lr.enc, m[0] - target, m[1], target))]
+    u: float = commanded(c.lr, c.ost, chosen, target)
     m[2] = u
     return u
 

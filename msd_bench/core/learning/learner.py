@@ -92,7 +92,7 @@ class StepwiseLearner:
         if self._steps_left <= 0:
             raise InvalidInputError("episode is over: call start_episode first")
         self._a = int(qlearning.choose(self.q, self._s, self._lr.epsilon, self._stream, 0))
-        u = float(self._lr.actions[self._a])
+        u = float(qlearning.commanded(self._lr, self._ost, self._lr.actions[self._a], self._target))
         self._u = u  # what the observer believes acts (the agent cannot know the delay)
         if self._lr.observed and self._delay > 0:  # the actuator acts `delay` samples late
             self._queue[self._k % (self._delay + 1)] = u
@@ -190,7 +190,8 @@ class GreedyPolicy:
             dx = 0.0 if self._x is None else x - self._x
             self._x = x
             s = qlearning.encode(self._lr.enc, x - self.target, dx, self.target)
-        self._u = float(self._lr.actions[qlearning.greedy(self.q, s)])
+        chosen = self._lr.actions[qlearning.greedy(self.q, s)]
+        self._u = float(qlearning.commanded(self._lr, self._ost, chosen, self.target))
         return self._u
 
 

@@ -363,6 +363,20 @@ def assumed_force(lr: Learner, ost: FloatArray, u: float) -> float:
 
 
 @numba.njit(cache=True)
+def commanded(lr: Learner, ost: FloatArray, u: float, target: float) -> float:
+    """The force commanded for the chosen action's force ``u`` towards ``target``: ``u`` itself on a
+    bare rig. Under a stated hold loop (``hold_stiffness`` > 0) it also carries the loop's force at the
+    set-point, so the loop holds ``target``; with ``obs_bias_feedforward`` it is less the observer's
+    force-bias estimate (its last slot), so a force the surrogate does not know (friction, an offset)
+    is taken back out. The observer is told the commanded force; its predictor adds the bias back, so
+    it predicts the surrogate under the force the table chose plus the loop's."""
+    out = u + lr.hold_stiffness * (target - lr.hold_position)
+    if lr.obs_bias_feedforward:
+        out -= ost[ost.size - 1]
+    return out
+
+
+@numba.njit(cache=True)
 def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: float, dh: float,
             first: bool) -> tuple[float, float]:
     """The agent's (position, per-sample displacement) estimate after measurement ``y``.
@@ -450,9 +464,10 @@ def learn_observed(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, sn
         total = 0.0
         for k in range(budget.steps):
             a = choose(q, s, lr.epsilon, state, i)
-            x = kernels.advance(model, plant, actuate(drive, k, lr.actions[a], delay, 0.0))
+            u = commanded(lr, ost, lr.actions[a], target)
+            x = kernels.advance(model, plant, actuate(drive, k, u, delay, 0.0))
             y = x + sigma * normal(state, i) if sigma > 0.0 else x
-            xh, dh = observe(lr, model, ost, lr.actions[a], y, xh, dh, False)
+            xh, dh = observe(lr, model, ost, u, y, xh, dh, False)
             s2 = encode(lr.enc, xh - target, dh, target)
             e_new = abs(x - target)
             r = reward(lr, e_new, err)

@@ -158,6 +158,27 @@ class QConfig:
     """Rig samples per paper sample (:meth:`Scales.steps` of 1): a rehearsal's SSE window, stated in
     paper samples, lasts the same on the rig. Set by :meth:`QConfig.scaled`; exactly 1.0 on the paper's
     plant."""
+    obs_bias_feedforward: bool = False
+    """Model observer: command the chosen force less the force-bias estimate (disturbance-observer
+    compensation), in training and when acting. Why: on a rig held by a stiff position loop a force the
+    surrogate does not know (Coulomb friction, an offset) stalls the stage short of the set-point by that
+    force over the loop's stiffness, while the table, learnt on a surrogate without it, keeps choosing the
+    force that creeps there on the surrogate; the observer's bias state measures the missing force, so
+    taking it back out gives the table the plant it learnt on (docs/rigs.md §The robust agent on a held
+    rig). Off (bit for bit the agent before) unless the rig states a hold loop
+    (:func:`msd_bench.designs.qlearning.for_drive`)."""
+    hold_stiffness: float = 0.0
+    """The stiffness of the position loop the rig's drive adds to every command, N/m (a stage's stated
+    hold loop, docs/rig-families.md §stage; 0: a bare rig). The command then carries the loop's force at
+    the set-point, ``hold_stiffness (target - hold_position)``, beside the chosen force, in training and
+    when acting, so the loop holds the set-point instead of its own position. Why: the surrogate is of
+    the held system, whose rest position under a constant force depends on the set-point; one table, no
+    reference bin, cannot learn the set-point's holding force for every target (on design stages the
+    NLARX robust table parks at a bin edge short of the set-point on its own surrogate); with the loop's
+    force carried, zero force holds every set-point and the table only corrects
+    (:func:`msd_bench.designs.qlearning.for_drive`)."""
+    hold_position: float = 0.0
+    """The position the rig's stated hold loop holds, m (with ``hold_stiffness``)."""
     select_every: int = 0
     """Keep, instead of the final table, the best of the tables taken every ``select_every`` episodes over
     the second half of training, judged by greedy rehearsals on the model trained on
@@ -207,6 +228,11 @@ class QConfig:
                  and (self.obs_delay == 0 or self.observer == "model"),
                  f"obs_delay must be in 0..{MAX_DELAY_SAMPLES} samples, and only a model observer "
                  "assumes one")
+        _require(math.isfinite(self.hold_stiffness) and self.hold_stiffness >= 0.0
+                 and math.isfinite(self.hold_position),
+                 "hold_stiffness must be finite and >= 0, hold_position finite")
+        _require(not self.obs_bias_feedforward or self.obs_bias_gain > 0.0,
+                 "obs_bias_feedforward needs a force-bias state (obs_bias_gain > 0)")
         _require(self.state != "paper" or not self.observed,
                  "the observer and training perturbations need the improved state")
 
@@ -338,6 +364,12 @@ class Learner(NamedTuple):
     """Model observer's gain on its force-bias state, N per m of innovation (0 = no bias state)."""
     length_unit: float
     """Rig metres per paper metre: the closeness term counts E / length_unit."""
+    obs_bias_feedforward: bool
+    """Model observer: command the chosen force less the force-bias estimate."""
+    hold_stiffness: float
+    """The rig's stated hold loop's stiffness, N/m: the command carries its force at the set-point."""
+    hold_position: float
+    """The position the stated hold loop holds, m."""
 
 
 def encoding(cfg: QConfig) -> Encoding:
@@ -363,7 +395,8 @@ def packed(cfg: QConfig) -> Learner:
                    _phi_table(_error_side(cfg, enc), actions, cfg.shaping), actions, cfg.observed,
                    OBSERVERS.index(cfg.observer), cfg.obs_gain, cfg.obs_velocity_gain, cfg.train_noise,
                    cfg.train_delay, cfg.obs_velocity_share,
-                   cfg.obs_drift_gain, cfg.obs_delay, cfg.obs_bias_gain, cfg.length_unit)
+                   cfg.obs_drift_gain, cfg.obs_delay, cfg.obs_bias_gain, cfg.length_unit,
+                   cfg.obs_bias_feedforward, cfg.hold_stiffness, cfg.hold_position)
 
 
 def _error_side(cfg: QConfig, enc: Encoding) -> NDArray[np.int64]:
