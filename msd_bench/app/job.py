@@ -99,13 +99,19 @@ def rest_params(run: RunConfig) -> dict[str, Any]:
     return {"rest_window": rest.window, "rest_threshold": rest.threshold}
 
 
+def hold_params(run: RunConfig) -> dict[str, float]:
+    """The run's stated hold loop as a job's ``hold_*`` parameters (none on a bare rig): the
+    identifier's and the agent's read it alike."""
+    hold = run.hold
+    if hold is None:
+        return {}
+    return {"hold_stiffness": hold.stiffness, "hold_damping": hold.damping, "hold_position": hold.held}
+
+
 def _identifier_params(run: RunConfig, seed: int) -> dict[str, Any]:
     p = run.plant
-    hold = run.hold
-    held = {} if hold is None else {"hold_stiffness": hold.stiffness, "hold_damping": hold.damping,
-                                    "hold_position": hold.held}  # the held system is identified
     return {"models": list(run.surrogates_needed()), "nlarx_scale": float(run.nlarx_scale), "seed": seed,
-            "stroke": p.L, "force": p.F, "dt": p.dt, **held}
+            "stroke": p.L, "force": p.F, "dt": p.dt, **hold_params(run)}  # the held system is identified
 
 
 def _excitation_params(run: RunConfig) -> dict[str, Any]:

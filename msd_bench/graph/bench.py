@@ -39,7 +39,7 @@ from typing import Any
 
 from msd_bench.app.agents import agent_kind
 from msd_bench.app.config import RunConfig
-from msd_bench.app.job import job_document
+from msd_bench.app.job import hold_params, job_document
 from msd_bench.app.plant_ns import check_node_scenarios
 from msd_bench.app.serve_protocol import EventError
 from msd_bench.core.errors import ConfigError, MsdBenchError
@@ -281,8 +281,9 @@ def agent_placement(cfg: BenchConfig, kind: str) -> dict[str, Any]:
     if cfg.plant_ns is not None:
         place["reset"] = False
         drive = read_drive(cfg.run_dir / "models")  # what the node's own bags show (identifier_node)
-        if drive is not None:
+        if drive is not None:  # the hold loop is told with the drive, as msd-bench rigs tells it
             place["drive_delay"], place["drive_lag"] = drive
+            place.update(hold_params(cfg.run))
         if kind in cfg.scenario_kinds and cfg.node_scenarios:
             place["scenarios"] = ";".join(cfg.node_scenarios)
     model = kinds.model_file(kind)  # on-plant Q-learning: "plant", the plant's own model

@@ -49,6 +49,7 @@ from msd_bench.core.evaluation.results import per_seed_row
 from msd_bench.core.evaluation.robustness import cell
 from msd_bench.core.evaluation.scenarios import Scenario
 from msd_bench.core.physics.model import StepModel, check_rate
+from msd_bench.core.rigs.hold import HoldLoop
 from msd_bench.core.rigs.rest import RestConfig
 from msd_bench.core.rigs.scales import Scales
 from msd_bench.designs import Controller, Drive, Policy, Settings, Stepwise
@@ -128,6 +129,15 @@ class AgentNodeConfig:
     nothing; :attr:`msd_bench.designs.protocol.Request.drive`)."""
     drive_lag: float = field(default=0.0, metadata={"range": (0.0, 1e3)})
     """The drive's lag, s (with ``drive_delay``)."""
+    hold_stiffness: float = field(default=0.0, metadata={"range": (0.0, 1e9)})
+    """The rig's stated hold loop (docs/rig-families.md §stage), N/m; 0 with ``hold_damping`` 0: none.
+    Told to the design with the drive (``drive_delay`` >= 0), as ``msd-bench rigs`` tells it: the
+    robust agent's commands then carry the loop's force at the set-point (docs/rigs.md §The robust
+    agent on a held rig)."""
+    hold_damping: float = field(default=0.0, metadata={"range": (0.0, 1e9)})
+    """The hold loop's damping, N·s/m."""
+    hold_position: float = field(default=0.0, metadata={"range": (-1e6, 1e6)})
+    """The position the hold loop holds, m."""
     match_timeout: float = field(default=120.0, metadata={"range": (0.1, 3600.0)})
     """Seconds an episode waits for its node to match before the run ends with one line. Why this
     long: a node that is still starting on a loaded machine (imports, discovery beside other DDS
@@ -168,7 +178,10 @@ class AgentNodeConfig:
 
     def drive(self) -> Drive | None:
         """What the design is told of the drive (None: nothing)."""
-        return None if self.drive_delay < 0 else Drive(self.drive_delay, self.drive_lag)
+        if self.drive_delay < 0:
+            return None
+        hold = HoldLoop.from_gains(self.hold_stiffness, self.hold_damping, self.hold_position)
+        return Drive(self.drive_delay, self.drive_lag, hold=hold)
 
     def settings(self) -> Settings:
         """What the kind's design takes from this node's budgets (the fields its job set)."""

@@ -201,3 +201,31 @@ def test_a_described_drive_sets_the_latency_unless_a_part_is_unknown() -> None:
     only_delay = parse_description({**base, "actuator_delay_samples": 9})
     assert only_delay.latency(0.04) == pytest.approx(0.1)  # the lag unknown: never below the default
     assert parse_description({**base, "lag": 0.001}).latency(0.04) == 0.04
+
+
+def test_a_held_rigs_agent_is_told_the_loop_with_the_drive(tmp_path: Path) -> None:
+    """The agent's job carries the stated loop beside the drive its bags showed (as ``msd-bench rigs``
+    tells the robust agent both); with no drive file it is told neither. Its node's design is then
+    told a drive holding that loop."""
+    from msd_bench.core.rigs.hold import HoldLoop
+    from msd_bench.graph.bench import agent_placement
+    from msd_bench.io.bags.drive_file import DRIVE_FILE
+    from msd_bench.nodes.agent_node import AgentNodeConfig
+
+    held = "/**:\n  ros__parameters:\n    rate: 500.0\n    stroke: 0.5\n    force_limit: 200.0\n" \
+           "    decision_period: 0.01\n    hold_stiffness: 1000.0\n    hold_damping: 50.0\n"
+    cfg = bench_main.config(bench_main.parse(["--plant-ns", "/rig", "--rig", str(_write(tmp_path, held)),
+                                              "--out", str(tmp_path / "out")]))
+    assert "hold_stiffness" not in agent_placement(cfg, "greybox+robust")
+    models = cfg.run_dir / "models"
+    models.mkdir(parents=True)
+    (models / DRIVE_FILE).write_text(json.dumps({"drive": {"delay_samples": 2, "lag_s": 0.001,
+                                                            "fit_percent": 99.0}}))
+    place = agent_placement(cfg, "greybox+robust")
+    assert (place["drive_delay"], place["hold_stiffness"], place["hold_damping"]) == (2, 1000.0, 50.0)
+    made_on = {"kind": "greybox+robust", "out_dir": str(tmp_path / "a"), "model_path": "greybox.json"}
+    node = AgentNodeConfig(**made_on, drive_delay=2, hold_stiffness=1000.0, hold_damping=50.0)
+    drive = node.drive()
+    assert drive is not None and drive.hold == HoldLoop(1000.0, 50.0, 0.0)
+    bare = AgentNodeConfig(**made_on, drive_delay=2).drive()
+    assert bare is not None and bare.hold is None
