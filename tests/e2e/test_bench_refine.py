@@ -73,11 +73,11 @@ def test_every_try_and_the_fresh_run_went_through_the_supervisor(run: Run) -> No
     out, _ = run
     (row,) = _doc(out)["kinds"]["greybox+robust"]
     events = [r["supervisor"] for r in row["rounds"]] + [row["fresh"]["supervisor"]]
-    # each run is the supervisor's whole 600-sample run; the commands it filtered in it are its samples,
-    # give or take one at each edge (races of the node's threads, seen idle too): the command answering
-    # the run's last sample can reach it after the run has ended (599), and one answering the sample
-    # before the run's reference can reach it after the run began (601, seen in CI)
-    assert all(e is not None and e["samples"] == 600 and e["complete"] and 599 <= e["steps"] <= 601
+    # each run is the supervisor's whole 600-sample run, every sample answered by a filtered command
+    # (599: the command answering the run's last sample can reach it after the run has ended). More may
+    # be filtered: the rest's zero-force commands still in flight when the run begins are filtered too,
+    # one idle, 48 seen beside a rigs sweep. Fewer than two runs' worth: no run counts another's.
+    assert all(e is not None and e["samples"] == 600 and e["complete"] and 599 <= e["steps"] < 2 * 600
                for e in events), events
     assert [e["run"] for e in events] == [1, 2, 3]  # the refinement's supervisor saw these three runs only
 
