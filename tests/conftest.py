@@ -45,12 +45,26 @@ def _reads_realtime_runs(item: pytest.Item) -> bool:
     return REALTIME in getattr(item, "fixturenames", ())
 
 
+LONG_FIRST = ("e2e", "browser", "rig", "faults")
+"""The folders whose files run long (node processes, whole bench runs, check-rig's real-time protocol):
+their files are handed to pytest-xdist's workers first. Why: ``--dist loadfile`` hands out files in
+collection order, and a minute-long file handed out last (``tests/rig/test_fakes.py`` is alphabetically
+near the end) keeps one worker busy after the others have finished; long jobs first is the classic
+remedy (longest-processing-time-first). Only the order changes, never what runs."""
+
+
+def _folder_rank(item: pytest.Item) -> int:
+    parts = item.nodeid.split("/")
+    return LONG_FIRST.index(parts[1]) if len(parts) > 2 and parts[1] in LONG_FIRST else len(LONG_FIRST)
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """The tests that read the real-time runs go last (stable otherwise): the runs start with the
-    session and take about 320 s of real time (three runs, the PLM route among them), which the
-    rest of the selected tests spend working. They are the realtime tier (docs/testing.md §Tiers),
-    not in the default ``make test``."""
-    items.sort(key=_reads_realtime_runs)
+    """The tests that read the real-time runs go last: the runs start with the session and take about
+    320 s of real time (three runs, the PLM route among them), which the rest of the selected tests
+    spend working. They are the realtime tier (docs/testing.md §Tiers), not in the default
+    ``make test``. Before them, the long folders' files go first (:data:`LONG_FIRST`); the sort is
+    stable, so a file's tests keep their order."""
+    items.sort(key=lambda item: (_reads_realtime_runs(item), _folder_rank(item)))
 
 
 class OnDemandPair:
