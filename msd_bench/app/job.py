@@ -103,9 +103,7 @@ def hold_params(run: RunConfig) -> dict[str, float]:
     """The run's stated hold loop as a job's ``hold_*`` parameters (none on a bare rig): the
     identifier's and the agent's read it alike."""
     hold = run.hold
-    if hold is None:
-        return {}
-    return {"hold_stiffness": hold.stiffness, "hold_damping": hold.damping, "hold_position": hold.held}
+    return {} if hold is None else hold.params()
 
 
 def _identifier_params(run: RunConfig, seed: int) -> dict[str, Any]:

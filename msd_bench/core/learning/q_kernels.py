@@ -363,6 +363,13 @@ def assumed_force(lr: Learner, ost: FloatArray, u: float) -> float:
 
 
 @numba.njit(cache=True)
+def bias_slot(ost: FloatArray) -> int:
+    """Where a model observer's state keeps its force-bias estimate: the last slot (read by the
+    observer that updates it and by :func:`commanded`, which takes it out of the command)."""
+    return ost.size - 1
+
+
+@numba.njit(cache=True)
 def commanded(lr: Learner, ost: FloatArray, u: float, target: float) -> float:
     """The force commanded for the chosen action's force ``u`` towards ``target``: ``u`` itself on a
     bare rig. Under a stated hold loop (``hold_stiffness`` > 0) it also carries the loop's force at the
@@ -372,7 +379,7 @@ def commanded(lr: Learner, ost: FloatArray, u: float, target: float) -> float:
     it predicts the surrogate under the force the table chose plus the loop's."""
     out = u + lr.hold_stiffness * (target - lr.hold_position)
     if lr.obs_bias_feedforward:
-        out -= ost[ost.size - 1]
+        out -= ost[bias_slot(ost)]
     return out
 
 
@@ -405,7 +412,7 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
     # ost[OBS_DRIFT] holds the drift estimate: added to each prediction, it integrates the
     # innovation, so a steady model mismatch leaves no steady bias.
     acting = assumed_force(lr, ost, u)
-    bias = ost.size - 1
+    bias = bias_slot(ost)
     ms = model_state(ost)
     if lr.obs_bias_gain > 0.0:
         # The force-bias state: a constant force the model does not know, driving the predictor

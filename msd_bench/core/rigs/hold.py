@@ -83,6 +83,10 @@ class HoldLoop:
             return None
         return cls(stiffness, damping, held)
 
+    def params(self) -> dict[str, float]:
+        """The loop as the three ``hold_*`` parameters :meth:`from_gains` reads (a job's, a rig file's)."""
+        return {"hold_stiffness": self.stiffness, "hold_damping": self.damping, "hold_position": self.held}
+
     def force(self, measured: Sample, velocity: Sample) -> Sample:
         """The loop's force (before the excitation is added and the drive saturates): for one sample, or
         elementwise over arrays of them — the one place the law is written in Python (the compiled

@@ -162,8 +162,7 @@ class RigSpec:
         out = {"rate": 1.0 / p.dt, "stroke": p.L, "force_limit": p.F,
                "decision_period": self.decision_samples() * p.dt}
         if self.hold is not None:
-            out.update(hold_stiffness=self.hold.stiffness, hold_damping=self.hold.damping,
-                       hold_position=self.hold.held)
+            out.update(self.hold.params())
         return out
 
 
