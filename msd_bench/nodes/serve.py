@@ -34,7 +34,6 @@ from __future__ import annotations
 import json
 import os
 import queue
-import signal
 import sys
 import threading
 from collections.abc import Callable, Sequence
@@ -57,6 +56,7 @@ from msd_bench.nodes.params import (
 from msd_bench.nodes.spin_loop import (
     EXIT_USAGE,
     close_node,
+    install_stop_handler,
     make_executor,
     stops_requested,
     wants_events_executor,
@@ -105,8 +105,7 @@ class _Inbox:
 
 def serve(build: Callable[..., Node], argv: Sequence[str]) -> int:
     """Run nodes from stdin lines in this process until the input ends (module docstring)."""
-    for sig in (signal.SIGINT, signal.SIGTERM):  # a stop from here on is KeyboardInterrupt
-        signal.signal(sig, signal.default_int_handler)
+    install_stop_handler()  # a stop from here on is KeyboardInterrupt (a deferred one too)
     try:
         rclpy.init(args=[a for a in argv if a != SERVE_FLAG])
     except (RCLError, UnknownROSArgsError) as exc:

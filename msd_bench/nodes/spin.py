@@ -46,8 +46,10 @@ from msd_bench.nodes.spin_loop import (
     EVENTS_SPIN_S,
     EXIT_USAGE,
     close_node,
+    install_stop_handler,
     make_executor,
     spin_node,
+    stops_deferred,
     stops_requested,
     wants_events_executor,
 )
@@ -199,21 +201,6 @@ class DeadlineThread:
 
 
 @contextmanager
-def stops_deferred() -> Iterator[None]:
-    """Hold SIGINT/SIGTERM while native code runs (numba compiling), deliver them after.
-
-    Why: a KeyboardInterrupt raised inside llvmlite leaves a half-built object
-    whose destructor prints a traceback at exit, though the stop itself is clean.
-    """
-    held = {signal.SIGINT, signal.SIGTERM}
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
-
-
-@contextmanager
 def ros_session(args: Sequence[str] | None = None) -> Iterator[None]:
     """``rclpy.init`` on the default context, ``rclpy.try_shutdown`` on the way out.
 
@@ -244,8 +231,7 @@ def main(build: Callable[[], Node], args: Sequence[str] | None = None) -> int:
     except MsdBenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_USAGE
-    for sig in (signal.SIGINT, signal.SIGTERM):  # replace a launch script's start-up handler:
-        signal.signal(sig, signal.default_int_handler)  # a stop from here on is KeyboardInterrupt
+    install_stop_handler()  # a stop from here on is KeyboardInterrupt (a deferred one too)
     try:
         # no `with rclpy.init(...)`: only Kilted's rclpy returns a context manager there, Jazzy's None
         rclpy.init(args=argv)

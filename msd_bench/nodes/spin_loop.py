@@ -13,6 +13,7 @@ from __future__ import annotations
 import signal
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from types import FrameType
 
 import rclpy
 from rclpy.executors import Executor, SingleThreadedExecutor
@@ -96,6 +97,54 @@ def stops_requested() -> Iterator[Callable[[], bool]]:
     finally:
         for sig, handler in old.items():
             signal.signal(sig, handler)
+
+
+class _Deferral:
+    """The stops a :func:`stops_deferred` block is holding (``held`` is None outside any block)."""
+
+    held: list[int] | None = None
+
+
+def stop_handler(signum: int, frame: FrameType | None) -> None:
+    """The SIGINT/SIGTERM handler of node processes, installed before ``rclpy.init`` (whose own
+    handlers chain to it): a stop is a KeyboardInterrupt, unless a :func:`stops_deferred` block
+    runs, which remembers it and raises it when the block ends."""
+    if _Deferral.held is not None:
+        _Deferral.held.append(signum)
+        return
+    raise KeyboardInterrupt
+
+
+def install_stop_handler() -> None:
+    """A stop from here on is a KeyboardInterrupt (:func:`stop_handler`), also replacing a
+    launch script's start-up handler."""
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, stop_handler)
+
+
+@contextmanager
+def stops_deferred() -> Iterator[None]:
+    """Hold SIGINT/SIGTERM while native code runs (numba compiling), deliver them after.
+
+    Why: a KeyboardInterrupt raised inside llvmlite (its object-cache callback, called from
+    native code) is lost there and prints an "Exception ignored" traceback, though the stop
+    itself is clean. Masking the signals on this thread alone does not keep it out: the kernel
+    delivers a signal to any thread that does not block it (the DDS threads started earlier),
+    and Python runs the handler on the main thread at its next bytecode, inside the compiler.
+    So :func:`stop_handler` only remembers a stop during the block. Why not swap the handler
+    with ``signal.signal``: that would replace rclpy's own handlers, which chain to ours.
+    """
+    blocked = (signal.SIGINT, signal.SIGTERM)
+    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
+    outer = _Deferral.held
+    _Deferral.held = [] if outer is None else outer
+    try:
+        yield
+    finally:
+        stops, _Deferral.held = _Deferral.held, outer
+        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
+        if stops and outer is None:
+            raise KeyboardInterrupt
 
 
 def _is_events(executor: Executor) -> bool:

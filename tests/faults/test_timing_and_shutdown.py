@@ -60,27 +60,11 @@ def test_bench_bags_with_a_killed_recording_points_at_recover(tmp_path: Path) ->
     assert (tmp_path / "run").is_dir() and not (REPO / "run").exists()  # relative to the caller
 
 
-@pytest.fixture(scope="module")
-def compiled_plant() -> None:
-    """The plant's kernels compiled into numba's cache before the random stops.
-
-    Why: on a fresh clone the first start compiles them, and a stop delivered to one of the DDS
-    threads while the main thread compiles interrupts llvmlite (``stops_deferred`` masks the signal
-    on the compiling thread only), which prints an "Exception ignored" traceback though the exit is
-    clean. Seen once, with cold caches on parallel workers; a known issue of the first start
-    (docs/faults.md), not what these stops test."""
-    for mode in ("true", "false"):
-        proc = launch.start("plant.py", ["-p", "duplicate_check:=0.0", "-p", f"lockstep:={mode}"])
-        try:
-            proc.wait_for_line(r"ready \(", 180.0)
-        finally:
-            launch.stop(proc)
-
-
-@pytest.mark.usefixtures("compiled_plant")
 @pytest.mark.parametrize(("seed", "lockstep"), [(1, False), (2, False), (3, True)])
 def test_sigint_at_a_random_moment_exits_0(seed: int, lockstep: bool) -> None:
-    """Real-time (rclpy's default executor) and lock-step (the events executor) alike."""
+    """Real-time (rclpy's default executor) and lock-step (the events executor) alike. On a fresh
+    clone the first start compiles the plant's kernels, so a stop may land in the compiler: it waits
+    for the compile-before-the-first-tick block and exits as cleanly (tests/nodes/test_stops_deferred.py)."""
     delay = random.Random(seed).uniform(0.0, 3.0)
     mode = "true" if lockstep else "false"
     proc = launch.start("plant.py", ["-p", "duplicate_check:=0.0", "-p", f"lockstep:={mode}"])
