@@ -26,12 +26,12 @@ import math
 from typing import NamedTuple
 
 import control
-import numba
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
 
 from msd_bench.core.errors import ConfigError, InvalidInputError
+from msd_bench.core.kernel_cache import kernel
 from msd_bench.core.learning.qconfig import QConfig
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.kernels import KIND_GREYBOX_RIG, MOTION, POS, Kernel
@@ -241,19 +241,19 @@ def observer_gain(op: OperatingPoint, noise: ObserverNoise) -> FloatArray:
     return np.ascontiguousarray(m[:, 0])
 
 
-@numba.njit(cache=True)
+@kernel
 def observer_state(ob: Observer) -> FloatArray:
     """A zeroed observer state: the model's state (its own length), then the force-bias estimate."""
     return np.zeros(ob.size + 1)
 
 
-@numba.njit(cache=True)
+@kernel
 def model_state(ob: Observer, ost: FloatArray) -> FloatArray:
     """The model's state inside the observer's (a view: the predictor advances it in place)."""
     return ost[:ob.size]
 
 
-@numba.njit(cache=True)
+@kernel
 def observe_first(ob: Observer, ost: FloatArray, y: float) -> None:
     """Start the estimate at rest at the first measurement, with no bias (as the Q-learners' observer)."""
     ost[:] = 0.0
@@ -262,7 +262,7 @@ def observe_first(ob: Observer, ost: FloatArray, y: float) -> None:
         ost[MOTION] = y
 
 
-@numba.njit(cache=True)
+@kernel
 def observe(ob: Observer, ost: FloatArray, u: float, y: float) -> None:
     """Predict one sample under the commanded ``u`` plus the bias estimate, then correct toward ``y``."""
     pred = kernels.advance_loaded(ob.model, model_state(ob, ost), u, ost[ob.size])
@@ -279,7 +279,7 @@ def make_observer(model: StepModel, op: OperatingPoint, noise: ObserverNoise) ->
                     float(model.force_limit))
 
 
-@numba.njit(cache=True)
+@kernel
 def nearest(forces: FloatArray, u: float) -> float:
     """The alphabet force nearest ``u`` (ties to the lower one): the 5-force actuator."""
     best: float = forces[0]

@@ -28,7 +28,6 @@ from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import control
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -37,6 +36,7 @@ from msd_bench.core.baselines.base import Observer, ObserverNoise
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation import closed_loop
 from msd_bench.core.evaluation.closed_loop import Conditions
+from msd_bench.core.kernel_cache import kernel
 from msd_bench.core.physics.kernels import POS, Kernel
 from msd_bench.core.physics.model import StepModel
 
@@ -146,7 +146,7 @@ def design(model: StepModel, target: float, force: float, dt: float,
     return LqrDesign(law, base.make_observer(model, op, opt.noise), facts, model.name)
 
 
-@numba.njit(cache=True)
+@kernel
 def act(w: LqrLaw, ob: Observer, ost: FloatArray, cs: FloatArray, y: float, first: bool) -> float:
     """The force for measurement ``y``; ``ost`` is the observer's state, ``cs`` = [integral, last u]."""
     if first:
@@ -180,7 +180,7 @@ class LqrRun(NamedTuple):
 
 
 @closed_loop.decision(LqrRun)
-@numba.njit(cache=True)
+@kernel
 def decide(c: LqrRun, j: int, k: int, y: float, target: float) -> float:
     """The LQR's force for ``y`` (its set-point is the one it was designed at; the first sample resets it)."""
     return act(c.law, c.observer, c.ost, c.memory, y, k == 0)

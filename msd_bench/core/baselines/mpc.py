@@ -40,7 +40,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -49,6 +48,7 @@ from msd_bench.core.baselines.base import Observer, ObserverNoise
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation import closed_loop
 from msd_bench.core.evaluation.closed_loop import Conditions
+from msd_bench.core.kernel_cache import kernel
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.kernels import POS, Kernel
 from msd_bench.core.physics.model import StepModel
@@ -183,7 +183,7 @@ def workspace(law: MpcLaw) -> Workspace:
                      np.full(depth, -1, dtype=np.int64))
 
 
-@numba.njit(cache=True)
+@kernel
 def _hold_tail(w: MpcLaw, s: FloatArray, bias: float, ref: float, c: float, best: float) -> float:
     """``c`` plus the tracking cost of the tail in hold mode (stops adding once it reaches ``best``).
 
@@ -204,7 +204,7 @@ def _hold_tail(w: MpcLaw, s: FloatArray, bias: float, ref: float, c: float, best
     return c
 
 
-@numba.njit(cache=True)
+@kernel
 def plan(w: MpcLaw, ws: Workspace, s0: FloatArray, bias: float, u_last: float, ref: float) -> float:
     """The first force of the cheapest plan tracking ``ref`` from ``s0`` (exact minimum, branch and bound).
 
@@ -260,7 +260,7 @@ def plan(w: MpcLaw, ws: Workspace, s0: FloatArray, bias: float, u_last: float, r
     return first
 
 
-@numba.njit(cache=True)
+@kernel
 def act(w: MpcLaw, ob: Observer, ws: Workspace, ost: FloatArray, cs: FloatArray, y: float,
         first: bool) -> float:
     """The force for measurement ``y``; ``ost`` is the observer's state, ``cs`` = [last u, integral]."""
@@ -295,7 +295,7 @@ class MpcRun(NamedTuple):
 
 
 @closed_loop.decision(MpcRun)
-@numba.njit(cache=True)
+@kernel
 def decide(c: MpcRun, j: int, k: int, y: float, target: float) -> float:
     """The MPC's force for ``y`` (its set-point is the one it was designed at; the first sample resets it)."""
     return act(c.law, c.observer, c.ws, c.ost, c.memory, y, k == 0)

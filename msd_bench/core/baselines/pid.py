@@ -40,7 +40,6 @@ from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import control
-import numba
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import brentq
@@ -49,6 +48,7 @@ from msd_bench.core.baselines import base
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation import closed_loop
 from msd_bench.core.evaluation.closed_loop import Conditions
+from msd_bench.core.kernel_cache import kernel
 from msd_bench.core.physics.kernels import Kernel
 from msd_bench.core.physics.model import StepModel
 
@@ -194,7 +194,7 @@ def controller_state() -> FloatArray:
     return np.zeros(3)
 
 
-@numba.njit(cache=True)
+@kernel
 def act(g: PidGains, cs: FloatArray, y: float, first: bool) -> float:
     """The force for measurement ``y``; updates the memory ``cs`` (integral, D filter, last y)."""
     if first:
@@ -223,7 +223,7 @@ class PidRun(NamedTuple):
 
 
 @closed_loop.decision(PidRun)
-@numba.njit(cache=True)
+@kernel
 def decide(c: PidRun, j: int, k: int, y: float, target: float) -> float:
     """The PID's force for ``y`` (its set-point is the one it was tuned at; the first sample resets it)."""
     return act(c.gains, c.memory, y, k == 0)

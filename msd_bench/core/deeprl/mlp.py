@@ -18,11 +18,11 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.kernel_cache import kernel
 
 FloatArray = NDArray[np.float64]
 
@@ -106,7 +106,7 @@ def select(net: Net, j: int) -> Net:
     return from_arrays([a[j:j + 1] for a in net[:6]], net.activation)
 
 
-@numba.njit(cache=True)
+@kernel
 def features(y: float, dy: float, target: float, u_prev: float, out: FloatArray) -> None:
     """The network's input from the observation ``[y, dy, target, u_prev]`` (into ``out``)."""
     out[0] = (y - target) / POS_SCALE
@@ -115,14 +115,14 @@ def features(y: float, dy: float, target: float, u_prev: float, out: FloatArray)
     out[3] = u_prev / FORCE_SCALE
 
 
-@numba.njit(cache=True)
+@kernel
 def _act(z: float, activation: int) -> float:
     if activation == RELU:
         return z if z > 0.0 else 0.0
     return math.tanh(z)
 
 
-@numba.njit(cache=True)
+@kernel
 def _layer(w: FloatArray, b: FloatArray, x: FloatArray, out: FloatArray, activation: int) -> None:
     """``out = act(w @ x + b)`` for one policy's layer; ``activation`` < 0 is linear."""
     for i in range(w.shape[0]):
@@ -132,7 +132,7 @@ def _layer(w: FloatArray, b: FloatArray, x: FloatArray, out: FloatArray, activat
         out[i] = _act(z, activation) if activation >= 0 else z
 
 
-@numba.njit(cache=True)
+@kernel
 def head(net: Net, j: int, feat: FloatArray) -> FloatArray:
     """Policy ``j``'s head outputs (Q-values or logits) on the features ``feat``."""
     h1 = np.empty(net.w1.shape[1])
@@ -144,7 +144,7 @@ def head(net: Net, j: int, feat: FloatArray) -> FloatArray:
     return out
 
 
-@numba.njit(cache=True)
+@kernel
 def greedy(net: Net, j: int, y: float, dy: float, target: float, u_prev: float) -> int:
     """Policy ``j``'s greedy action index on one observation (first maximum on ties)."""
     feat = np.empty(N_FEATURES)

@@ -16,7 +16,6 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -24,19 +23,20 @@ from msd_bench.core.deeprl.mlp import Net, check_net, greedy
 from msd_bench.core.errors import InvalidInputError
 from msd_bench.core.evaluation import closed_loop
 from msd_bench.core.evaluation.closed_loop import Conditions
+from msd_bench.core.kernel_cache import kernel
 from msd_bench.core.physics.kernels import Kernel
 
 FloatArray = NDArray[np.float64]
 
 
-@numba.njit(cache=True)
+@kernel
 def measure(x: float, noise: float, quant: float, bound: float) -> float:
     """What the agent reads for true position ``x``: noise, quantisation, then the ADC's range."""
     y = closed_loop.quantise(x + noise, quant)
     return min(max(y, -bound), bound)
 
 
-@numba.njit(cache=True)
+@kernel
 def decide(net: Net, j: int, forces: FloatArray, y: float, y_prev: float, target: float,
            u_prev: float, first: bool) -> float:
     """Policy ``j``'s force for measurement ``y`` (the first of an episode has no difference)."""
@@ -60,7 +60,7 @@ class NetRun(NamedTuple):
 
 
 @closed_loop.decision(NetRun)
-@numba.njit(cache=True)
+@kernel
 def net_decide(c: NetRun, j: int, k: int, y: float, target: float) -> float:
     """Policy j's force for ``y`` clipped to the ADC's range, as the environment observes it."""
     yc = min(max(y, -c.bound), c.bound)

@@ -38,13 +38,13 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple, Protocol, TypeVar
 
-import numba
 import numpy as np
 from numba.core import types
 from numba.extending import overload
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.kernel_cache import kernel
 from msd_bench.core.learning.q_kernels import commanded, encode, greedy, observe, observer_state
 from msd_bench.core.learning.qconfig import Learner
 from msd_bench.core.physics import kernels
@@ -71,7 +71,7 @@ def nominal(target: float) -> Conditions:
     return Conditions(float(target), 0.0, 0, 0.0, 0, 0.0, 0.0)
 
 
-@numba.njit(cache=True)
+@kernel
 def quantise(y: float, step: float) -> float:
     """``y`` rounded to the nearest multiple of ``step`` (halves to even); identity for 0.
 
@@ -139,7 +139,7 @@ class Trace(NamedTuple):
     """True (x, v) after the run and its drain."""
 
 
-@numba.njit(cache=True)
+@kernel
 def run(plant: Kernel, ctl: Any, cond: Conditions, noise: FloatArray, start: FloatArray, lim: Limits,
         supervised: bool, clip: bool, drain: int) -> Trace:
     """Every row of ``noise`` one run of ``ctl`` on the plant under test (``plant`` under ``cond``).
@@ -210,7 +210,7 @@ def q_run(lr: Learner, q: FloatArray, obs: Kernel) -> QRun:
 
 
 @decision(QRun)
-@numba.njit(cache=True)
+@kernel
 def q_decide(c: QRun, j: int, k: int, y: float, target: float) -> float:
     """Table j's greedy force on the observer's estimate after ``y`` (the first sample starts it)."""
     m = c.memory

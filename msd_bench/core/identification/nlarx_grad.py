@@ -19,20 +19,21 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from msd_bench.core.kernel_cache import kernel
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 
-@numba.njit(cache=True)
+@kernel
 def _sigmoid(z: float) -> float:
     return 1.0 / (1.0 + math.exp(-z))
 
 
-@numba.njit(cache=True)
+@kernel
 def rollout_loss_grad(
     c0: float, w: FloatArray, alpha: FloatArray, beta: FloatArray, beta0: FloatArray,
     x: FloatArray, xf: FloatArray, u: FloatArray, starts: IntArray, horizon: int, lim: float,
@@ -96,7 +97,7 @@ def rollout_loss_grad(
     return loss / (n_b * horizon), gc0, gw, ga, gb, gb0
 
 
-@numba.njit(cache=True)
+@kernel
 def one_step_loss_grad(
     c0: float, w: FloatArray, alpha: FloatArray, beta: FloatArray, beta0: FloatArray,
     phi: FloatArray, target: FloatArray, scale: float,

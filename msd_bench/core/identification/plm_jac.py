@@ -19,10 +19,10 @@ projected on the stroke. ``tests/test_plm_jac.py`` pins the free run to
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from msd_bench.core.kernel_cache import kernel
 from msd_bench.core.physics import kernels
 
 FloatArray = NDArray[np.float64]
@@ -37,7 +37,7 @@ N_FREE = N_LOCAL * REFINED.size
 """Model parameters the refinement moves (before each record's two initial outputs)."""
 
 
-@numba.njit(cache=True)
+@kernel
 def _bracket(c: FloatArray, x: float) -> tuple[int, int, float, float]:
     """Local models ``(lo, hi)``, weight ``t`` of ``hi`` and ``dt/dx`` at position ``x``."""
     if x <= c[0]:
@@ -51,7 +51,7 @@ def _bracket(c: FloatArray, x: float) -> tuple[int, int, float, float]:
     return j, j + 1, (x - c[j]) / width, 1.0 / width
 
 
-@numba.njit(cache=True)
+@kernel
 def _local(p: FloatArray, i: int, yk: float, yp: float, up: float, u: float) -> float:
     """Local model ``i`` of packed ``p`` in deviation form (the kernel's formula, same order)."""
     o = 1 + kernels.PLM_LOCAL_SIZE * i
@@ -60,7 +60,7 @@ def _local(p: FloatArray, i: int, yk: float, yp: float, up: float, u: float) -> 
     return y
 
 
-@numba.njit(cache=True)
+@kernel
 def _add_direct(p: FloatArray, i: int, w: float, yk: float, yp: float, up: float, u: float,
                 out: FloatArray) -> None:
     """Add ``w`` times local model ``i``'s derivative in its own refined slots to ``out``."""
@@ -74,7 +74,7 @@ def _add_direct(p: FloatArray, i: int, w: float, yk: float, yp: float, up: float
     out[col + 4] += w * (1.0 + d1 + d2)
 
 
-@numba.njit(cache=True)
+@kernel
 def free_run_jac(p: FloatArray, u: FloatArray, y0: float, y1: float, u_first: float,
                  force_limit: float, with_jac: bool) -> tuple[FloatArray, FloatArray]:
     """Free run from outputs ``(y0, y1)`` over ``u[1:]`` and, if asked, its Jacobian.

@@ -3,8 +3,8 @@
 Why compiled: one paper-sized run is 900,000 strictly sequential steps, each a
 model step, a state encoding, an ε-greedy choice and a TD update; plain Python
 manages 0.05–0.25 M steps/s (benchmarks/bench_training.py). Every function
-here is ``numba.njit(cache=True)``, reads the learner's settings by name from
-the :class:`~msd_bench.core.learning.qconfig.Learner` of
+here is a :func:`~msd_bench.core.kernel_cache.kernel` (numba, cached), reads the
+learner's settings by name from the :class:`~msd_bench.core.learning.qconfig.Learner` of
 :func:`msd_bench.core.learning.qconfig.packed`, and steps the model (a
 :class:`~msd_bench.core.physics.kernels.Kernel`) through
 :func:`msd_bench.core.physics.kernels.advance`, so the learner trains on any plant-like
@@ -22,10 +22,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from msd_bench.core.kernel_cache import kernel
 from msd_bench.core.learning import rng
 from msd_bench.core.learning.qconfig import MODE_PAPER, N_ACTIONS, OBS_ALPHA_BETA, OBS_NONE, Encoding, Learner
 from msd_bench.core.physics import kernels
@@ -37,14 +37,14 @@ IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
 
-@numba.njit(cache=True)
+@kernel
 def paper_bin(n_states: int, emax: float, e: float) -> int:
     """The paper's state (eq. 18): bin of ``e`` clipped to ±emax on a uniform grid of ``n_states``."""
     ec = min(max(e, -emax), emax)
     return math.floor((n_states - 1) * (ec + emax) / (2.0 * emax) + 0.5)
 
 
-@numba.njit(cache=True)
+@kernel
 def encode(enc: Encoding, e: float, dx: float, target: float) -> int:
     """State index of error ``e`` (paper), or of (lead error, sign of ``dx``, target bin) (improved)."""
     if enc.mode == MODE_PAPER:
@@ -61,7 +61,7 @@ def encode(enc: Encoding, e: float, dx: float, target: float) -> int:
     return int((eb * enc.n_directions + db) * (enc.ref_edges.size + 1) + rb)
 
 
-@numba.njit(cache=True)
+@kernel
 def reward(lr: Learner, err: float, err_prev: float) -> float:
     """``g / (1 + E_k) - ζ (E_k - E_{k-1}) / E_max`` with ``E = |e|`` (paper eq. 19).
 
@@ -71,14 +71,14 @@ def reward(lr: Learner, err: float, err_prev: float) -> float:
     return lr.g / (1.0 + err / lr.length_unit) - lr.zeta * (err - err_prev) / lr.e_max
 
 
-@numba.njit(cache=True)
+@kernel
 def choose(q: FloatArray, s: int, eps: float, state: rng.U64Array, i: int) -> int:
     """ε-greedy action; ties among equal maxima are broken uniformly at random."""
     a, state[i] = pick(q, s, eps, state[i])
     return a
 
 
-@numba.njit(cache=True, inline="always")
+@kernel(inline="always")
 def pick(q: FloatArray, s: int, eps: float, z: np.uint64) -> tuple[int, np.uint64]:
     """:func:`choose` on a stream word held in a local: (action, the advanced word).
 
@@ -113,7 +113,7 @@ def pick(q: FloatArray, s: int, eps: float, z: np.uint64) -> tuple[int, np.uint6
     return 0, z  # unreachable: best is one of the row's values
 
 
-@numba.njit(cache=True)
+@kernel
 def greedy(q: FloatArray, s: int) -> int:
     """Deterministic greedy action: the lowest index among equal maxima (like np.argmax)."""
     best = 0
@@ -123,13 +123,13 @@ def greedy(q: FloatArray, s: int) -> int:
     return best
 
 
-@numba.njit(cache=True)
+@kernel
 def td_update(q: FloatArray, s: int, a: int, r: float, s2: int, lr: Learner) -> None:
     """``Q[s,a] += α(A r + γ max Q[s'] − Q[s,a]) − η φ(s,a)`` (shaping as a penalty)."""
     q_update(q, s, a, r, s2, lr.alpha, lr.gamma, lr.reward_gain, lr.eta * lr.phi[s, a])
 
 
-@numba.njit(cache=True)
+@kernel
 def q_update(q: FloatArray, s: int, a: int, r: float, s2: int, alpha: float, gamma: float,
              gain: float, shaping: float) -> None:
     """:func:`td_update` with its weights spelled out; ``shaping`` is η φ(s, a)."""
@@ -140,13 +140,13 @@ def q_update(q: FloatArray, s: int, a: int, r: float, s2: int, alpha: float, gam
     q[s, a] += alpha * td - shaping
 
 
-@numba.njit(cache=True)
+@kernel
 def draw_target(lr: Learner, state: rng.U64Array, i: int) -> float:
     """Episode target, uniform in [target_low, target_high]."""
     return lr.target_low + (lr.target_high - lr.target_low) * rng.uniform(state, i)
 
 
-@numba.njit(cache=True)
+@kernel
 def transition(model: Kernel, lr: Learner, q: FloatArray, plant: FloatArray, s: int, x: float,
                err: float, target: float, state: rng.U64Array,
                i: int) -> tuple[int, float, float, int, float]:
@@ -180,7 +180,7 @@ class Memory(NamedTuple):
     """One element: how many pairs were visited."""
 
 
-@numba.njit(cache=True)
+@kernel
 def new_memory(n_pairs: int) -> Memory:
     """An empty Dyna-Q memory for ``n_pairs`` state-action pairs (0 for plain Q-learning)."""
     return Memory(np.zeros(n_pairs), np.zeros(n_pairs, dtype=np.int64),
@@ -188,7 +188,7 @@ def new_memory(n_pairs: int) -> Memory:
                   np.zeros(1, dtype=np.int64))
 
 
-@numba.njit(cache=True)
+@kernel
 def remember(mem: Memory, j: int, r: float, s2: int) -> None:
     """Store the outcome (r, s') of pair ``j``."""
     if not mem.seen[j]:
@@ -199,7 +199,7 @@ def remember(mem: Memory, j: int, r: float, s2: int) -> None:
     mem.next_state[j] = s2
 
 
-@numba.njit(cache=True)
+@kernel
 def plan(q: FloatArray, n_plan: int, mem: Memory, lr: Learner, state: rng.U64Array,
          i: int) -> None:
     """Dyna-Q: replay ``n_plan`` remembered transitions of uniformly drawn visited pairs.
@@ -232,7 +232,7 @@ class Budget(NamedTuple):
     """Episode counts (1-based, increasing) after which the Q-table is copied."""
 
 
-@numba.njit(cache=True)
+@kernel
 def q_episode(model: Kernel, lr: Learner, q: FloatArray, plant: FloatArray, s: int, x: float,
               target: float, steps: int, state: rng.U64Array, i: int) -> float:
     """``steps`` plain Q-learning steps from state ``s`` at ``x``; returns the sum of rewards.
@@ -276,7 +276,7 @@ def q_episode(model: Kernel, lr: Learner, q: FloatArray, plant: FloatArray, s: i
     return total
 
 
-@numba.njit(cache=True)
+@kernel
 def learn_one(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, snaps: FloatArray,
               returns: FloatArray, counts: IntArray, state: rng.U64Array, i: int) -> None:
     """All episodes of agent ``i``; with ``budget.planning > 0`` it is Dyna-Q.
@@ -313,7 +313,7 @@ def learn_one(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, snaps: 
             k_snap += 1
 
 
-@numba.njit(cache=True)
+@kernel
 def normal(state: rng.U64Array, i: int) -> float:
     """A standard normal draw from stream ``i`` (Box–Muller on two uniforms)."""
     u1 = rng.uniform(state, i)
@@ -328,7 +328,7 @@ OBS_HISTORY = OBS_DRIFT + 1
 """First observer state slot of the ``obs_delay`` last commanded forces (newest first)."""
 
 
-@numba.njit(cache=True)
+@kernel
 def observer_state(lr: Learner) -> FloatArray:
     """A zeroed observer state: a model state of any kind, the drift estimate, the ``obs_delay``
     last commanded forces, then the force-bias estimate (last slot).
@@ -340,13 +340,13 @@ def observer_state(lr: Learner) -> FloatArray:
     return np.zeros(OBS_HISTORY + lr.obs_delay + 1)
 
 
-@numba.njit(cache=True)
+@kernel
 def model_state(ost: FloatArray) -> FloatArray:
     """The model's state inside the observer's (a view: the predictor advances it in place)."""
     return ost[:kernels.STATE_MAX]
 
 
-@numba.njit(cache=True)
+@kernel
 def assumed_force(lr: Learner, ost: FloatArray, u: float) -> float:
     """The force the observer assumes acts now: ``u`` commanded ``obs_delay`` samples ago (0 before).
 
@@ -362,14 +362,14 @@ def assumed_force(lr: Learner, ost: FloatArray, u: float) -> float:
     return acting
 
 
-@numba.njit(cache=True)
+@kernel
 def bias_slot(ost: FloatArray) -> int:
     """Where a model observer's state keeps its force-bias estimate: the last slot (read by the
     observer that updates it and by :func:`commanded`, which takes it out of the command)."""
     return ost.size - 1
 
 
-@numba.njit(cache=True)
+@kernel
 def commanded(lr: Learner, ost: FloatArray, u: float, target: float) -> float:
     """The force commanded for the chosen action's force ``u`` towards ``target``: ``u`` itself on a
     bare rig. Under a stated hold loop (``hold_stiffness`` > 0) it also carries the loop's force at the
@@ -383,7 +383,7 @@ def commanded(lr: Learner, ost: FloatArray, u: float, target: float) -> float:
     return out
 
 
-@numba.njit(cache=True)
+@kernel
 def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: float, dh: float,
             first: bool) -> tuple[float, float]:
     """The agent's (position, per-sample displacement) estimate after measurement ``y``.
@@ -442,7 +442,7 @@ def observe(lr: Learner, obs: Kernel, ost: FloatArray, u: float, y: float, xh: f
     return ost[x], ost[x] - ost[motion]
 
 
-@numba.njit(cache=True)
+@kernel
 def learn_observed(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, snaps: FloatArray,
                    returns: FloatArray, counts: IntArray, state: rng.U64Array, i: int) -> None:
     """Q-learning through an observer, under per-episode sensor noise and actuator delay.
@@ -489,7 +489,7 @@ def learn_observed(model: Kernel, lr: Learner, budget: Budget, q: FloatArray, sn
             k_snap += 1
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def train_batch(model: Kernel, lr: Learner, budget: Budget,
                 state: rng.U64Array) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
     """One independent agent per stream word; returns (Q, snapshots, returns, counts).

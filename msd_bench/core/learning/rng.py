@@ -12,11 +12,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.kernel_cache import kernel
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -42,7 +42,7 @@ def seed_states(seeds: Sequence[int]) -> U64Array:
     return out
 
 
-@numba.njit(cache=True)
+@kernel
 def split(z: np.uint64) -> tuple[np.uint64, np.uint64]:
     """One splitmix64 step of a stream word held in a local: (the next word, 64 random bits).
 
@@ -57,13 +57,13 @@ def split(z: np.uint64) -> tuple[np.uint64, np.uint64]:
     return z, bits
 
 
-@numba.njit(cache=True)
+@kernel
 def uniform_of(bits: np.uint64) -> float:
     """The float in [0, 1) that 64 random bits stand for (their top 53 bits)."""
     return float(bits >> _S11) * _INV_2_53
 
 
-@numba.njit(cache=True)
+@kernel
 def below_of(u: float, n: int) -> int:
     """The integer in {0, ..., n-1} that uniform ``u`` stands for (bias < n / 2^53)."""
     k = int(u * n)
@@ -72,7 +72,7 @@ def below_of(u: float, n: int) -> int:
     return k
 
 
-@numba.njit(cache=True)
+@kernel
 def next_u64(state: U64Array, i: int) -> np.uint64:
     """Advance stream ``i`` (the word ``state[i]``) and return 64 random bits."""
     z, bits = split(state[i])
@@ -80,13 +80,13 @@ def next_u64(state: U64Array, i: int) -> np.uint64:
     return bits
 
 
-@numba.njit(cache=True)
+@kernel
 def uniform(state: U64Array, i: int) -> float:
     """A float uniform in [0, 1) with 53 random bits, from stream ``i``."""
     return uniform_of(next_u64(state, i))
 
 
-@numba.njit(cache=True)
+@kernel
 def below(state: U64Array, i: int, n: int) -> int:
     """An integer uniform in {0, ..., n-1} from stream ``i``."""
     return below_of(uniform(state, i), n)

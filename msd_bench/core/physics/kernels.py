@@ -85,11 +85,11 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import InvalidInputError
+from msd_bench.core.kernel_cache import kernel
 
 FloatArray = NDArray[np.float64]
 
@@ -168,7 +168,7 @@ class Kernel(NamedTuple):
     """Forces saturate to ±force_limit before they act (the plant's F, for every kind)."""
 
 
-@numba.njit(cache=True)
+@kernel
 def state_size(kind: int) -> int:
     """Length of a model state of kernel ``kind`` (module docstring): what a caller allocates.
 
@@ -183,19 +183,19 @@ def state_size(kind: int) -> int:
     return ARX_STATE_SIZE
 
 
-@numba.njit(cache=True)
+@kernel
 def held_inner(model: Kernel) -> Kernel:
     """The model a held model steps (``params[HELD_HEAD:]`` under its inner kind)."""
     return Kernel(int(model.params[1]), model.params[HELD_HEAD:], model.force_limit)
 
 
-@numba.njit(cache=True)
+@kernel
 def base_kind(model: Kernel) -> int:
     """The kind whose state layout ``model``'s state has: a held model's inner kind, else its own."""
     return int(model.params[1]) if model.kind == KIND_HELD else model.kind
 
 
-@numba.njit(cache=True)
+@kernel
 def step_period(model: Kernel) -> float:
     """Seconds one :func:`advance` of a velocity-holding ``model`` spans: its plant's sample time, times
     ``n`` for a model held over ``n`` samples (one decision). Why: an observer converting a velocity to
@@ -206,13 +206,13 @@ def step_period(model: Kernel) -> float:
     return plant_of(model.params).dt
 
 
-@numba.njit(cache=True)
+@kernel
 def holds_velocity(kind: int) -> bool:
     """Slot :data:`MOTION` is the velocity (plant, greybox-rig, rk4), not the previous position (ARX)."""
     return kind in (KIND_PLANT, KIND_GREYBOX_RIG, KIND_RK4)
 
 
-@numba.njit(cache=True)
+@kernel
 def used_slots(model: Kernel) -> int:
     """How many leading slots of ``model``'s state evolve: plant ``[x, v]``, ARX-type
     ``[x_k, x_{k-1}, u_{k-1}]``, greybox-rig ``[x, v, f]`` and the ``delay`` slots of its line; a held
@@ -226,13 +226,13 @@ def used_slots(model: Kernel) -> int:
     return ARX_INPUT + 1  # ARX-type [x_k, x_{k-1}, u_{k-1}] and rk4 [x, v, u_{k-1}]
 
 
-@numba.njit(cache=True)
+@kernel
 def plant_of(p: FloatArray) -> Plant:
     """The plant's packed parameters as a :class:`Plant` (the one place that knows the slots)."""
     return Plant(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
 
 
-@numba.njit(cache=True)
+@kernel
 def saturate(u: float, limit: float) -> float:
     """The force that acts: ``u`` clipped to ±limit; a non-finite ``u`` is refused."""
     if not math.isfinite(u):
@@ -244,7 +244,7 @@ def saturate(u: float, limit: float) -> float:
     return u
 
 
-@numba.njit(cache=True)
+@kernel
 def on_stroke(x: float, half_stroke: float) -> float:
     """``x`` projected on [-half_stroke, half_stroke]; NaN (a non-finite state) is refused."""
     if x > half_stroke:
@@ -256,7 +256,7 @@ def on_stroke(x: float, half_stroke: float) -> float:
     return x
 
 
-@numba.njit(cache=True)
+@kernel
 def membership(i: int, x: float) -> float:
     """Triangular membership f_{i+1}(x) exactly as printed in the paper (eq. 13).
 
@@ -300,7 +300,7 @@ def membership(i: int, x: float) -> float:
     return 1.0
 
 
-@numba.njit(cache=True)
+@kernel
 def plant_step(plant: Plant, x: float, v: float, u: float) -> tuple[float, float]:
     """One Euler step of ``m x'' = u - c x' - k sin(g x) - h x^3`` from (x, v); the new (x, v).
 
@@ -319,7 +319,7 @@ def plant_step(plant: Plant, x: float, v: float, u: float) -> tuple[float, float
     return x_new, v_new
 
 
-@numba.njit(cache=True)
+@kernel
 def plant_step_loaded(plant: Plant, x: float, v: float, u: float, load: float,
                       friction: float) -> tuple[float, float]:
     """:func:`plant_step` with an external ``load`` force (N, added after the actuator saturates)
@@ -351,7 +351,7 @@ def plant_step_loaded(plant: Plant, x: float, v: float, u: float, load: float,
     return x_new, v_new
 
 
-@numba.njit(cache=True)
+@kernel
 def plant_step_batch(plant: Plant, x: FloatArray, v: FloatArray,
                      u: FloatArray) -> tuple[FloatArray, FloatArray]:
     """:func:`plant_step` of independent plants, element by element (equal to the scalar step)."""
@@ -363,7 +363,7 @@ def plant_step_batch(plant: Plant, x: FloatArray, v: FloatArray,
     return x_new, v_new
 
 
-@numba.njit(cache=True)
+@kernel
 def _local(p: FloatArray, o: int, s: FloatArray, u: float) -> float:
     """Local linear model at offset ``o`` of ``p`` in deviation form (linear and PLM kinds)."""
     n1, n2, d1, d2, u0, y0 = p[o], p[o + 1], p[o + 2], p[o + 3], p[o + 4], p[o + 5]
@@ -371,7 +371,7 @@ def _local(p: FloatArray, o: int, s: FloatArray, u: float) -> float:
     return y
 
 
-@numba.njit(cache=True)
+@kernel
 def _plm_scheduled(p: FloatArray, s: FloatArray, u: float) -> float:
     """Linear interpolation between the two local models whose centres bracket the position.
 
@@ -395,7 +395,7 @@ def _plm_scheduled(p: FloatArray, s: FloatArray, u: float) -> float:
     return y
 
 
-@numba.njit(cache=True)
+@kernel
 def _plm(p: FloatArray, s: FloatArray, u: float) -> float:
     """Membership-weighted blend of the five local models at the current position."""
     if p.shape[0] == PLM_SCHEDULED_SIZE:
@@ -417,7 +417,7 @@ def _plm(p: FloatArray, s: FloatArray, u: float) -> float:
     return num / den
 
 
-@numba.njit(cache=True)
+@kernel
 def _nlarx(p: FloatArray, s: FloatArray, u: float) -> float:
     """Linear term plus sigmoid units on the scaled regressors (layout in the module doc)."""
     n_units = int(p[1])
@@ -434,7 +434,7 @@ def _nlarx(p: FloatArray, s: FloatArray, u: float) -> float:
     return y
 
 
-@numba.njit(cache=True)
+@kernel
 def advance(model: Kernel, s: FloatArray, u: float) -> float:
     """Apply force ``u`` for one sample; update ``s`` in place; return the new position.
 
@@ -452,7 +452,7 @@ def advance(model: Kernel, s: FloatArray, u: float) -> float:
     return _advance_one(model, s, u)
 
 
-@numba.njit(cache=True)
+@kernel
 def _advance_one(model: Kernel, s: FloatArray, u: float) -> float:
     """:func:`advance` of every kind but a held one."""
     u = saturate(u, model.force_limit)
@@ -468,7 +468,7 @@ def _advance_one(model: Kernel, s: FloatArray, u: float) -> float:
     return _arx_step(model, s, u)
 
 
-@numba.njit(cache=True)
+@kernel
 def advance_loaded(model: Kernel, s: FloatArray, u: float, load: float) -> float:
     """:func:`advance` with an external ``load`` force (N) added after the actuator saturates.
 
@@ -488,7 +488,7 @@ def advance_loaded(model: Kernel, s: FloatArray, u: float, load: float) -> float
     return _advance_loaded_one(model, s, u, load)
 
 
-@numba.njit(cache=True)
+@kernel
 def _advance_loaded_one(model: Kernel, s: FloatArray, u: float, load: float) -> float:
     """:func:`advance_loaded` of every kind but a held one."""
     if model.kind == KIND_PLANT:
@@ -503,7 +503,7 @@ def _advance_loaded_one(model: Kernel, s: FloatArray, u: float, load: float) -> 
     return _arx_step(model, s, saturate(u, model.force_limit) + load)
 
 
-@numba.njit(cache=True)
+@kernel
 def rig_actuator(p: FloatArray, s: FloatArray, u: float) -> float:
     """The greybox-rig actuator: queue the saturated command ``u``; the force acting over this sample.
 
@@ -519,7 +519,7 @@ def rig_actuator(p: FloatArray, s: FloatArray, u: float) -> float:
     return _rig_actuator_lagged(p, s, u, decay, (tau / p[7]) * (1.0 - decay))
 
 
-@numba.njit(cache=True)
+@kernel
 def _rig_actuator_lagged(p: FloatArray, s: FloatArray, u: float, decay: float, gain: float) -> float:
     """:func:`rig_actuator` with the lag's per-sample ``decay = exp(-dt/tau)`` and ``gain =
     (tau/dt)(1 - decay)`` given (no lag when ``p[9] <= 0``): a rollout computes them once, not per
@@ -543,7 +543,7 @@ def _rig_actuator_lagged(p: FloatArray, s: FloatArray, u: float, decay: float, g
     return force
 
 
-@numba.njit(cache=True)
+@kernel
 def _rig_step(p: FloatArray, s: FloatArray, u: float, load: float) -> float:
     """One greybox-rig step: the actuator, then the rig's frictional plant (:func:`plant_step_loaded`)."""
     force = rig_actuator(p, s, u)
@@ -553,7 +553,7 @@ def _rig_step(p: FloatArray, s: FloatArray, u: float, load: float) -> float:
     return x
 
 
-@numba.njit(cache=True)
+@kernel
 def rk4_accel(p: FloatArray, x: float, v: float, f: float) -> float:
     """The rk4 model's acceleration at (x, v) under the acting force ``f`` (layout: module docstring)."""
     restoring = p[2] * x + p[3] * x * x + p[4] * x * x * x + p[8] * math.sin(p[9] * x)
@@ -562,7 +562,7 @@ def rk4_accel(p: FloatArray, x: float, v: float, f: float) -> float:
     return a
 
 
-@numba.njit(cache=True)
+@kernel
 def rk4_motion(p: FloatArray, x: float, v: float, f0: float, f1: float) -> tuple[float, float]:
     """(x, v) one sample on, by ``p[13]`` RK4 substeps under a force ramping from ``f0`` to ``f1``.
 
@@ -587,7 +587,7 @@ def rk4_motion(p: FloatArray, x: float, v: float, f0: float, f1: float) -> tuple
     return x, v
 
 
-@numba.njit(cache=True)
+@kernel
 def rk4_advance(p: FloatArray, s: FloatArray, u: float, load: float) -> float:
     """One rk4-model sample under the saturated command ``u`` (and an external ``load``, held).
 
@@ -605,7 +605,7 @@ def rk4_advance(p: FloatArray, s: FloatArray, u: float, load: float) -> float:
     return x_new
 
 
-@numba.njit(cache=True)
+@kernel
 def rk4_simulate(p: FloatArray, u: FloatArray, x0: float, v0: float, u_prev: float) -> FloatArray:
     """Free run of an rk4 model without stroke (the fitter's): ``x[k]`` before ``u[k]`` acts.
 
@@ -625,7 +625,7 @@ def rk4_simulate(p: FloatArray, u: FloatArray, x0: float, v0: float, u_prev: flo
     return out
 
 
-@numba.njit(cache=True)
+@kernel
 def _arx_step(model: Kernel, s: FloatArray, u: float) -> float:
     """One step of an ARX-type model (linear, PLM, NLARX) under the acting force ``u``."""
     kind, p = model.kind, model.params
@@ -644,7 +644,7 @@ def _arx_step(model: Kernel, s: FloatArray, u: float) -> float:
     return y
 
 
-@numba.njit(cache=True)
+@kernel
 def rollout(model: Kernel, u: FloatArray, state: FloatArray) -> FloatArray:
     """Free-run simulation: ``x[k]`` is the position before ``u[k]`` acts (``x[0]`` = state)."""
     if model.kind == KIND_GREYBOX_RIG:
@@ -657,7 +657,7 @@ def rollout(model: Kernel, u: FloatArray, state: FloatArray) -> FloatArray:
     return x
 
 
-@numba.njit(cache=True)
+@kernel
 def _rig_rollout(model: Kernel, u: FloatArray, state: FloatArray) -> FloatArray:
     """:func:`rollout` of a greybox-rig model: each step is :func:`advance`'s, bit for bit.
 
@@ -701,7 +701,7 @@ def _rig_rollout(model: Kernel, u: FloatArray, state: FloatArray) -> FloatArray:
     return out
 
 
-@numba.njit(cache=True)
+@kernel
 def simulate_plant(plant: Plant, u: FloatArray, x0: float,
                    v0: float) -> tuple[FloatArray, FloatArray]:
     """Plant trajectory (x, v) sampled before each force acts."""
@@ -716,7 +716,7 @@ def simulate_plant(plant: Plant, u: FloatArray, x0: float,
     return x, v
 
 
-@numba.njit(cache=True)
+@kernel
 def one_step(model: Kernel, x: FloatArray, u: FloatArray) -> FloatArray:
     """One-step-ahead prediction from measured history (ARX-type kinds only).
 
@@ -734,7 +734,7 @@ def one_step(model: Kernel, x: FloatArray, u: FloatArray) -> FloatArray:
     return yhat
 
 
-@numba.njit(cache=True)
+@kernel
 def rig_one_step(model: Kernel, y: FloatArray, u: FloatArray) -> FloatArray:
     """One-step-ahead prediction of a greybox-rig model from measured positions and commands.
 
@@ -757,7 +757,7 @@ def rig_one_step(model: Kernel, y: FloatArray, u: FloatArray) -> FloatArray:
     return yhat
 
 
-@numba.njit(cache=True)
+@kernel
 def rig_forces(model: Kernel, u: FloatArray) -> FloatArray:
     """The force a greybox-rig model's actuator applies per sample for commands ``u``, from idle."""
     s = np.zeros(RIG_STATE_SIZE)

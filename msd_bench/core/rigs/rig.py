@@ -35,11 +35,11 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
+from msd_bench.core.kernel_cache import kernel
 from msd_bench.core.physics import kernels
 from msd_bench.core.physics.kernels import KIND_PLANT, Kernel
 from msd_bench.core.physics.plant import PlantParams
@@ -169,7 +169,7 @@ class Conditions(NamedTuple):
     """The position the hold loop holds, m."""
 
 
-@numba.njit(cache=True)
+@kernel
 def actuate(act: FloatArray, k: int, u: float, delay: int, lag: float) -> float:
     """The force over sample ``k`` for the command ``u`` held at ``k``; ``act`` is the drive's state.
 
@@ -206,7 +206,7 @@ def actuator_state(delay: int) -> FloatArray:
     return np.zeros(int(delay) + 2)
 
 
-@numba.njit(cache=True)
+@kernel
 def sense(x: float, noise: float, quant: float) -> float:
     """The measured position of true position ``x``: ``noise`` (m, already drawn) added, then the
     encoder rounds to the nearest multiple of ``quant`` (halves to even, as
@@ -217,7 +217,7 @@ def sense(x: float, noise: float, quant: float) -> float:
     return y
 
 
-@numba.njit(cache=True)
+@kernel
 def advance_rig(model: Kernel, state: FloatArray, force: float, load: float, friction: float) -> float:
     """One step of the loop's plant: a load acts on every kind, friction on the plant kind only.
 
@@ -235,7 +235,7 @@ def advance_rig(model: Kernel, state: FloatArray, force: float, load: float, fri
     return kernels.advance(model, state, force)
 
 
-@numba.njit(cache=True)
+@kernel
 def with_hold(cond: Conditions, u: float, y: float, y_last: float) -> float:
     """The command ``u`` with the hold loop's force added (``u`` itself, bit for bit, with no loop):
     the loop reads the measured position ``y`` and its change since the last sample ``y_last``, as
@@ -245,7 +245,7 @@ def with_hold(cond: Conditions, u: float, y: float, y_last: float) -> float:
     return u + (-cond.hold_kp * (y - cond.held) - cond.hold_kd * (y - y_last))
 
 
-@numba.njit(cache=True)
+@kernel
 def transition(model: Kernel, state: FloatArray, act: FloatArray, k: int, u: float, noise: float,
                delay: int, lag: float, load: float, friction: float,
                quant: float) -> tuple[float, float, float]:

@@ -24,12 +24,12 @@ import math
 from collections.abc import Callable
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
 from msd_bench.core.evaluation import closed_loop
+from msd_bench.core.kernel_cache import kernel
 from msd_bench.core.physics.model import plant_model
 from msd_bench.core.physics.plant import PlantParams
 from msd_bench.core.physics.sensor import sensor_rng
@@ -59,14 +59,14 @@ class Adversary(NamedTuple):
     """Turncoat: first sample it pushes outward."""
 
 
-@numba.njit(cache=True)
+@kernel
 def _nearest_action(u: float, F: float) -> float:
     """``u`` rounded to the nearest force of the alphabet."""
     half = 0.5 * F
     return max(-F, min(F, half * math.floor(u / half + 0.5)))
 
 
-@numba.njit(cache=True)
+@kernel
 def command(adv: Adversary, run: int, k: int, y: float, y_prev: float, reference: float,
             dt: float) -> float:
     """The adversary's force at sample ``k`` of run ``run`` from the measured ``y`` (and the one before)."""
@@ -162,7 +162,7 @@ class AdversaryRun(NamedTuple):
 
 
 @closed_loop.decision(AdversaryRun)
-@numba.njit(cache=True)
+@kernel
 def decide(c: AdversaryRun, j: int, k: int, y: float, target: float) -> float:
     """The adversarial force of run ``first + j`` at sample ``k`` (:func:`command`, towards ``target``)."""
     y_prev = 0.0 if k == 0 else c.memory[0]

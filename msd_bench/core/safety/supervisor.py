@@ -50,11 +50,11 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields, replace
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from msd_bench.core.errors import ConfigError
+from msd_bench.core.kernel_cache import kernel
 from msd_bench.core.physics.plant import PlantParams
 
 if TYPE_CHECKING:
@@ -248,7 +248,7 @@ class Limits(NamedTuple):
                 f"{'off' if self.div_time <= 0 else f'{self.div_tol:.3g} m for {self.div_time:.3g} s'}")
 
 
-@numba.njit(cache=True)
+@kernel
 def stop_position(lim: Limits, p: float, w: float, u_out: float) -> float:
     """Bound on how far towards one stop the mass gets (module docstring): position ``p`` and
     outward speed ``w`` on that side, ``u_out`` the candidate's outward force."""
@@ -261,7 +261,7 @@ def stop_position(lim: Limits, p: float, w: float, u_out: float) -> float:
     return p1 + braking_distance(lim.brake + max(spring, 0.0), lim.damping, w1)
 
 
-@numba.njit(cache=True)
+@kernel
 def braking_distance(b: float, beta: float, w: float) -> float:
     """How far a mass moving at ``w`` (>= 0) goes under the deceleration ``b + beta * v`` (``b`` > 0):
     the integral of v dv / (b + beta v), in the closed form of the module docstring."""
@@ -271,7 +271,7 @@ def braking_distance(b: float, beta: float, w: float) -> float:
     return w / beta - b / (beta * beta) * math.log1p(r)
 
 
-@numba.njit(cache=True)
+@kernel
 def _filter(lim: Limits, y: float, v: float, u: float) -> tuple[float, int]:
     """The envelope and velocity checks on a candidate ``u``: (force, reason)."""
     for side in (1.0, -1.0):
@@ -284,7 +284,7 @@ def _filter(lim: Limits, y: float, v: float, u: float) -> tuple[float, int]:
     return u, NONE
 
 
-@numba.njit(cache=True)
+@kernel
 def _diverging(lim: Limits, st: FloatArray, error: float) -> bool:
     """Update the divergence timer with this sample's tracking error; True once it ran out."""
     if lim.div_time <= 0.0:
@@ -297,7 +297,7 @@ def _diverging(lim: Limits, st: FloatArray, error: float) -> bool:
     return bool(st[S_DIV] >= lim.div_time - 0.5 * lim.dt)
 
 
-@numba.njit(cache=True)
+@kernel
 def filter_step(lim: Limits, st: FloatArray, y: float, reference: float, u: float) -> tuple[float, int]:
     """One sample: the measured position ``y``, the set-point and the controller's ``u`` in;
     the force to apply and the reason it was chosen (``NONE``: ``u`` itself) out.
@@ -327,7 +327,7 @@ def filter_step(lim: Limits, st: FloatArray, y: float, reference: float, u: floa
     return _filter(lim, y, v, u)
 
 
-@numba.njit(cache=True)
+@kernel
 def mark_abort(st: FloatArray, reason: int) -> None:
     """End the run as aborted for ``reason`` (a stale state, an e-stop); an e-stop outranks all."""
     if st[S_ABORT] == NONE or reason == ESTOP:
