@@ -164,3 +164,21 @@ def console_errors(browser: Browser) -> list[str]:
         elif method == "Log.entryAdded" and params.get("entry", {}).get("level") == "error":
             out.append(f"log: {params['entry'].get('text')} {params['entry'].get('url', '')}")
     return out
+
+
+def drawn_images(browser: Browser, path: Path) -> int:
+    """Open ``path`` and check what every run page must do: draw every image it holds, show at least one
+    table, ask the network for nothing, log no console error. Returns the number of images."""
+    open_page(browser, path)
+    assert browser.evaluate("document.querySelectorAll('table').length") >= 1
+    images = browser.evaluate("[...document.images].map(i => i.complete && i.naturalWidth > 0)")
+    assert all(images)
+    assert network_requests(browser) == []
+    assert console_errors(browser) == []
+    return len(images)
+
+
+def table1_rows(browser: Browser) -> int:
+    """Rows of the open page's Table 1 section."""
+    return int(browser.evaluate("[...document.querySelectorAll('section')].find(s => s.querySelector('h2')"
+                                ".textContent == 'Table 1').querySelectorAll('tbody tr').length"))

@@ -20,6 +20,7 @@ from msd_bench.core.physics.model import plant_model
 from msd_bench.core.physics.plant import PlantParams
 from msd_bench.io.bags.reader import bag_info, read_experiment
 from msd_bench.io.storage import artifacts
+from tests.browser.cdp import CHROMIUM, Browser, drawn_images, table1_rows
 
 pytestmark = pytest.mark.e2e
 REPO = Path(__file__).resolve().parents[2]
@@ -172,3 +173,18 @@ def test_the_run_is_on_one_self_contained_page(run):
     assert figures and page.count('src="data:image/png;base64,') == len(figures)
     assert "<script" not in page and "http://" not in page.replace("http://www.w3.org", "")
     assert "https://" not in page and "default-src 'none'" in page
+
+
+@pytest.mark.browser
+def test_the_page_draws_in_chromium(run):
+    """The browser tier's check of bench.py's page, on this module's run (one run, not two): every
+    figure drawn, a Table 1 row per agent kind, nothing fetched, no console error."""
+    if not CHROMIUM.exists():
+        pytest.skip(f"browser tier skipped: {CHROMIUM} not found; apt-get install -y chromium")
+    out, proc = run
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    with Browser() as browser:
+        images = drawn_images(browser, out / "report" / "index.html")
+        rows = table1_rows(browser)
+    assert rows == len(json.loads((out / "report" / "table1.json").read_text())["agents"]) == len(AGENTS)
+    assert images == len(list((out / "report" / "figures").glob("*.png"))) > 0
