@@ -11,6 +11,7 @@ their imports.
 from __future__ import annotations
 
 import signal
+import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import FrameType
@@ -136,6 +137,12 @@ def stops_deferred() -> Iterator[None]:
     """
     blocked = (signal.SIGINT, signal.SIGTERM)
     old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
+    if threading.current_thread() is not threading.main_thread():
+        try:  # only the main thread runs handlers: a stop must not wait for another thread's block
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
+        return
     outer = _Deferral.held
     _Deferral.held = [] if outer is None else outer
     try:

@@ -78,3 +78,25 @@ def test_no_stop_no_interrupt_and_a_stop_outside_a_block_is_immediate(other_thre
         signal.pthread_kill(other_thread.ident, signal.SIGINT)
         _bytecodes()
         pytest.fail("the stop outside a block was not raised at once")
+
+
+def test_a_block_on_another_thread_does_not_hold_a_stop(other_thread: threading.Thread) -> None:
+    """Only the main thread runs handlers: a stop must reach it even while a worker thread compiles."""
+    entered, release = threading.Event(), threading.Event()
+
+    def compile_elsewhere() -> None:
+        with stops_deferred():
+            entered.set()
+            release.wait(10.0)
+
+    worker = threading.Thread(target=compile_elsewhere)
+    worker.start()
+    try:
+        assert entered.wait(10.0) and other_thread.ident is not None
+        with pytest.raises(KeyboardInterrupt):
+            signal.pthread_kill(other_thread.ident, signal.SIGINT)
+            _bytecodes()
+            pytest.fail("the stop waited for another thread's block")
+    finally:
+        release.set()
+        worker.join()
