@@ -45,12 +45,13 @@ def _reads_realtime_runs(item: pytest.Item) -> bool:
     return REALTIME in getattr(item, "fixturenames", ())
 
 
-LONG_FIRST = ("e2e", "browser", "rig", "faults")
-"""The folders whose files run long (node processes, whole bench runs, check-rig's real-time protocol):
-their files are handed to pytest-xdist's workers first. Why: ``--dist loadfile`` hands out files in
-collection order, and a minute-long file handed out last (``tests/rig/test_fakes.py`` is alphabetically
-near the end) keeps one worker busy after the others have finished; long jobs first is the classic
-remedy (longest-processing-time-first). Only the order changes, never what runs."""
+LONG_FIRST = ("e2e", "browser", "rig", "faults", "nodes", "app", "deeprl", "fuzz")
+"""The folders whose files run long (node processes, whole bench runs, check-rig's real-time protocol,
+whole sweeps, Hypothesis over bags; files of 10-40 s): their files are handed to pytest-xdist's workers
+first, and the folders of many short files (core, io, graph, gym, designs, msgs, the top level) last.
+Why: ``--dist loadfile`` hands out files in collection order, and a long file handed out last keeps
+one worker busy after the others have finished; long jobs first is the classic remedy
+(longest-processing-time-first). Only the order changes, never what runs."""
 
 
 def _folder_rank(item: pytest.Item) -> int:
